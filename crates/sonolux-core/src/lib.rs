@@ -1,0 +1,29 @@
+//! sonolux-core: the engine of sonolux, free of Python.
+//!
+//! It owns what is the craft of the project: triangle geometry and its checks ([`mesh`]),
+//! the watertight ray–triangle test ([`geometry`]), the bounding-volume hierarchy that both tracers
+//! share ([`bvh`]), the samplers that emit rays and choose bounces ([`sampling`]) and the random
+//! streams that make every ray replayable from (seed, source, ray) alone ([`rng`]).
+//!
+//! Conventions, the same in every module and in the Python package:
+//! - lengths in metres, z up; azimuth 0° is +x and grows counter-clockwise seen from above;
+//! - geometry is stored in `f32` (a 100 m room keeps sub-0.01 mm resolution); anything that
+//!   accumulates (path length, time, energy) is `f64`.
+
+pub mod bvh;
+pub mod error;
+pub mod geometry;
+pub mod mesh;
+pub mod rng;
+pub mod sampling;
+
+pub use bvh::Bvh;
+pub use error::CoreError;
+pub use geometry::{Aabb, Hit, Ray};
+pub use mesh::{Mesh, MeshReport};
+
+/// The version of the engine, shared with the Python package.
+pub use glam as glam_export;
+
+/// The version of the engine, shared with the Python package.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

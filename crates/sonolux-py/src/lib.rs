@@ -1,0 +1,160 @@
+//! The PyO3 layer: numpy arrays in, numpy arrays out, the GIL released while the core works,
+//! and one Python exception class per kind of core error. No physics lives here.
+
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use sonolux_core::glam_export::Vec3;
+use sonolux_core::{Bvh, CoreError, Mesh, Ray};
+
+create_exception!(_core, InvalidInputError, PyValueError, "An array or value handed to the core is malformed.");
+create_exception!(_core, GeometryError, PyValueError, "The geometry cannot be used as it is.");
+
+fn to_py(e: CoreError) -> PyErr {
+    match e {
+        CoreError::InvalidInput { .. } => InvalidInputError::new_err(e.to_string()),
+        CoreError::Geometry(_) => GeometryError::new_err(e.to_string()),
+    }
+}
+
+/// Reads an (n, 3) float64 array into points, naming the argument in errors.
+fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vec3>> {
+    let a = a.as_array();
+    if a.ncols() != 3 {
+        return Err(InvalidInputError::new_err(format!("{name}: expected shape (n, 3), got {:?}", a.shape())));
+    }
+    Ok(a.rows().into_iter().map(|r| Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32)).collect())
+}
+
+/// Runs `f` on a rayon pool of `threads` workers (0: all cores) with the GIL released.
+fn on_pool<T: Send>(py: Python<'_>, threads: usize, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| InvalidInputError::new_err(format!("threads: {e}")))?;
+    Ok(py.detach(|| pool.install(f)))
+}
+
+/// A triangle mesh with its acceleration structure.
+///
+/// Geometry(vertices: float64[n, 3] metres, triangles: uint32[m, 3], material_ids: uint32[m])
+#[pyclass(module = "sonolux._core", frozen)]
+struct Geometry {
+    mesh: Mesh,
+    bvh: Bvh,
+    build_time_s: f64,
+}
+
+#[pymethods]
+impl Geometry {
+    #[new]
+    fn new(
+        py: Python<'_>,
+        vertices: PyReadonlyArray2<'_, f64>,
+        triangles: PyReadonlyArray2<'_, u32>,
+        material_ids: PyReadonlyArray1<'_, u32>,
+    ) -> PyResult<Geometry> {
+        let v = points("vertices", &vertices)?;
+        let t = triangles.as_array();
+        if t.ncols() != 3 {
+            return Err(InvalidInputError::new_err(format!("triangles: expected shape (m, 3), got {:?}", t.shape())));
+        }
+        let t: Vec<[u32; 3]> = t.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+        let m = material_ids.as_array().to_vec();
+        py.detach(|| {
+            let mesh = Mesh::new(v, t, m)?;
+            let start = std::time::Instant::now();
+            let bvh = Bvh::build(&mesh)?;
+            Ok(Geometry { mesh, bvh, build_time_s: start.elapsed().as_secs_f64() })
+        })
+        .map_err(to_py)
+    }
+
+    #[getter]
+    fn n_triangles(&self) -> usize {
+        self.mesh.triangles.len()
+    }
+
+    /// Seconds spent building the BVH.
+    #[getter]
+    fn build_time_s(&self) -> f64 {
+        self.build_time_s
+    }
+
+    #[getter]
+    fn bvh_nodes(&self) -> usize {
+        self.bvh.node_count()
+    }
+
+    /// Topology and measures: see `sonolux_core::MeshReport`.
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let r = py.detach(|| self.mesh.report());
+        let d = PyDict::new(py);
+        d.set_item("n_triangles", r.n_triangles)?;
+        d.set_item("n_degenerate", r.degenerate.len())?;
+        d.set_item("degenerate", r.degenerate.iter().map(|&i| i as i64).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item("n_open_edges", r.n_open_edges)?;
+        d.set_item("open_edge_midpoints", vec3s_to_array(py, &r.open_edge_midpoints))?;
+        d.set_item("n_nonmanifold_edges", r.n_nonmanifold_edges)?;
+        d.set_item("n_inconsistent_edges", r.n_inconsistent_edges)?;
+        d.set_item("signed_volume_m3", r.signed_volume)?;
+        d.set_item("area_m2", r.area_by_material.into_pyarray(py))?;
+        d.set_item("bbox_min", r.bounds.min.as_dvec3().to_array().to_vec().into_pyarray(py))?;
+        d.set_item("bbox_max", r.bounds.max.as_dvec3().to_array().to_vec().into_pyarray(py))?;
+        Ok(d)
+    }
+
+    /// Generalised winding number of each point: float64[k].
+    #[pyo3(signature = (points, threads = 0))]
+    fn winding_numbers<'py>(&self, py: Python<'py>, points: PyReadonlyArray2<'py, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = self::points("points", &points)?;
+        Ok(on_pool(py, threads, || self.mesh.winding_numbers(&p))?.into_pyarray(py))
+    }
+
+    /// Distance from each point to the nearest surface: float64[k].
+    #[pyo3(signature = (points, threads = 0))]
+    fn distance_to_surface<'py>(&self, py: Python<'py>, points: PyReadonlyArray2<'py, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = self::points("points", &points)?;
+        Ok(on_pool(py, threads, || self.mesh.distance_to_surface(&p))?.into_pyarray(py))
+    }
+
+    /// Closest hit of each ray: (t float64[k], inf on a miss; triangle int64[k], −1 on a miss).
+    /// Directions need not be unit length; t is in units of the direction.
+    #[pyo3(signature = (origins, directions, t_max = f64::INFINITY, threads = 0))]
+    fn closest_hit<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f64>,
+        directions: PyReadonlyArray2<'py, f64>,
+        t_max: f64,
+        threads: usize,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+        let o = points("origins", &origins)?;
+        let d = points("directions", &directions)?;
+        if o.len() != d.len() {
+            return Err(InvalidInputError::new_err(format!("{} origins but {} directions", o.len(), d.len())));
+        }
+        let rays: Vec<Ray> = o.iter().zip(&d).map(|(&o, &d)| Ray::new(o, d)).collect();
+        let hits = on_pool(py, threads, || self.bvh.closest_hits(&rays, t_max as f32))?;
+        let t: Vec<f64> = hits.iter().map(|h| h.map_or(f64::INFINITY, |h| h.t as f64)).collect();
+        let tri: Vec<i64> = hits.iter().map(|h| h.map_or(-1, |h| h.triangle as i64)).collect();
+        Ok((t.into_pyarray(py), tri.into_pyarray(py)))
+    }
+}
+
+fn vec3s_to_array<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = v.iter().flat_map(|p| [p.x as f64, p.y as f64, p.z as f64]).collect();
+    flat.into_pyarray(py).reshape([v.len(), 3]).expect("3 values per point")
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", sonolux_core::VERSION)?;
+    m.add_class::<Geometry>()?;
+    m.add("InvalidInputError", m.py().get_type::<InvalidInputError>())?;
+    m.add("GeometryError", m.py().get_type::<GeometryError>())?;
+    Ok(())
+}
