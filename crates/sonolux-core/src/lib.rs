@@ -10,12 +10,17 @@
 //! - geometry is stored in `f32` (a 100 m room keeps sub-0.01 mm resolution); anything that
 //!   accumulates (path length, time, energy) is `f64`.
 
+// Band loops index several arrays at once, and `!(x > 0.0)` is how NaN is rejected on purpose.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod bvh;
 pub mod error;
 pub mod geometry;
 pub mod mesh;
+pub mod parallel;
 pub mod rng;
 pub mod sampling;
+pub mod sound;
 
 pub use bvh::Bvh;
 pub use error::CoreError;

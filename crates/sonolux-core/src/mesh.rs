@@ -176,6 +176,29 @@ impl Mesh {
             .collect()
     }
 
+    /// True when the mesh is closed and bounds one convex volume: every vertex lies on the inner
+    /// side of every face's plane. Then no surface can block a line between two interior points,
+    /// and tracers may skip visibility tests. Large meshes (over 10⁸ vertex–plane pairs) are
+    /// reported non-convex without checking.
+    pub fn is_closed_convex(&self) -> bool {
+        let live: Vec<usize> = (0..self.triangles.len()).filter(|&i| !self.degenerate[i]).collect();
+        if live.is_empty() || live.len() as u64 * self.vertices.len() as u64 > 100_000_000 {
+            return false;
+        }
+        let r = self.report();
+        if r.n_open_edges > 0 || r.n_nonmanifold_edges > 0 || r.n_inconsistent_edges > 0 {
+            return false;
+        }
+        let scale = r.bounds.extent().length() as f64;
+        let inward = if r.signed_volume > 0.0 { -1.0 } else { 1.0 };
+        live.iter().all(|&i| {
+            let [a, b, c] = self.corners(i);
+            let n = triangle_cross(a, b, c).as_dvec3().normalize() * inward;
+            let a = a.as_dvec3();
+            self.vertices.iter().all(|v| n.dot(v.as_dvec3() - a) >= -1e-6 * scale)
+        })
+    }
+
     /// Distance from each point to the nearest non-degenerate triangle.
     pub fn distance_to_surface(&self, points: &[Vec3]) -> Vec<f64> {
         points
@@ -305,6 +328,14 @@ mod tests {
         let d = cube().distance_to_surface(&[Vec3::new(0.5, 0.5, 0.2), Vec3::new(2.0, 0.5, 0.5), Vec3::new(2.0, 2.0, 0.5)]);
         assert!((d[0] - 0.2).abs() < 1e-6 && (d[1] - 1.0).abs() < 1e-6);
         assert!((d[2] - 2f64.sqrt()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_cube_is_convex_and_a_cube_with_a_dent_is_not() {
+        assert!(cube().is_closed_convex());
+        let mut m = cube();
+        m.vertices[7] = Vec3::splat(0.6); // push one corner inwards
+        assert!(!m.is_closed_convex());
     }
 
     #[test]

@@ -10,10 +10,12 @@ use pyo3::types::PyDict;
 use sonolux_core::glam_export::Vec3;
 use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
+mod sound;
+
 create_exception!(_core, InvalidInputError, PyValueError, "An array or value handed to the core is malformed.");
 create_exception!(_core, GeometryError, PyValueError, "The geometry cannot be used as it is.");
 
-fn to_py(e: CoreError) -> PyErr {
+pub(crate) fn to_py(e: CoreError) -> PyErr {
     match e {
         CoreError::InvalidInput { .. } => InvalidInputError::new_err(e.to_string()),
         CoreError::Geometry(_) => GeometryError::new_err(e.to_string()),
@@ -21,7 +23,7 @@ fn to_py(e: CoreError) -> PyErr {
 }
 
 /// Reads an (n, 3) float64 array into points, naming the argument in errors.
-fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vec3>> {
+pub(crate) fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vec3>> {
     let a = a.as_array();
     if a.ncols() != 3 {
         return Err(InvalidInputError::new_err(format!("{name}: expected shape (n, 3), got {:?}", a.shape())));
@@ -38,13 +40,16 @@ fn on_pool<T: Send>(py: Python<'_>, threads: usize, f: impl FnOnce() -> T + Send
     Ok(py.detach(|| pool.install(f)))
 }
 
+/// (distance, triangle) per ray.
+type HitArrays<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
+
 /// A triangle mesh with its acceleration structure.
 ///
 /// Geometry(vertices: float64[n, 3] metres, triangles: uint32[m, 3], material_ids: uint32[m])
 #[pyclass(module = "sonolux._core", frozen)]
-struct Geometry {
-    mesh: Mesh,
-    bvh: Bvh,
+pub(crate) struct Geometry {
+    pub(crate) mesh: Mesh,
+    pub(crate) bvh: Bvh,
     build_time_s: f64,
 }
 
@@ -131,7 +136,7 @@ impl Geometry {
         directions: PyReadonlyArray2<'py, f64>,
         t_max: f64,
         threads: usize,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>)> {
+    ) -> PyResult<HitArrays<'py>> {
         let o = points("origins", &origins)?;
         let d = points("directions", &directions)?;
         if o.len() != d.len() {
@@ -154,6 +159,7 @@ fn vec3s_to_array<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>>
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", sonolux_core::VERSION)?;
     m.add_class::<Geometry>()?;
+    m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
     m.add("InvalidInputError", m.py().get_type::<InvalidInputError>())?;
     m.add("GeometryError", m.py().get_type::<GeometryError>())?;
     Ok(())

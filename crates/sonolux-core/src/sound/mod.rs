@@ -1,0 +1,242 @@
+//! The sound tracer: an impulse leaves each source as many rays, which travel in straight lines,
+//! lose energy to the air (ISO 9613-1 coefficients, handed in per band) and to surfaces
+//! (absorption per band), reflect specularly or diffusely (Lambert) by the surface's scattering,
+//! and end when every band has dropped by the set amount or at the maximum time.
+//!
+//! Two estimators fill the field (see [`trace`]):
+//! - `Paper`: the method of Pope and Chalmers, literally: receivers are spheres and a ray that
+//!   crosses one deposits its energy × chord / sphere volume at its arrival time.
+//! - `Rain`: the direct sound is computed exactly, and at each reflection the diffusely
+//!   scattered energy is sent to every visible receiver at once ("diffuse rain", next-event
+//!   estimation); the spheres then only collect energy whose last reflection was specular.
+//!   Both estimate the same mean over each receiver's sphere.
+
+pub mod field;
+pub mod receivers;
+pub mod stats;
+mod trace;
+
+use glam::DVec3;
+
+use crate::bvh::Bvh;
+use crate::error::CoreError;
+use crate::mesh::Mesh;
+use crate::parallel::{run_chunks, Progress};
+pub use field::{Accumulator, Layout};
+pub use receivers::Receivers;
+pub use stats::SoundStats;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Estimator {
+    Paper,
+    Rain,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Directivity {
+    Omni,
+    /// Rays uniformly within `cos_half_angle` of the unit `axis`, as the paper's directional source.
+    Cone { axis: DVec3, cos_half_angle: f64 },
+}
+
+#[derive(Clone, Debug)]
+pub struct SoundSource {
+    pub position: DVec3,
+    /// Energy of the impulse in joules (a source of power W for one second: W).
+    pub power_w: f64,
+    pub directivity: Directivity,
+}
+
+/// Absorption and scattering of each material: `[material][band]`, flattened.
+#[derive(Clone, Debug)]
+pub struct Acoustics {
+    pub n_bands: usize,
+    pub absorption: Vec<f64>,
+    pub scattering: Vec<f64>,
+}
+
+/// Everything a sound bake needs besides the scene.
+#[derive(Clone, Debug)]
+pub struct SoundSettings {
+    /// Rays per source in the whole bake, and the range of them this run traces.
+    pub rays: u64,
+    pub first_ray: u64,
+    pub end_ray: u64,
+    pub seed: u64,
+    /// Worker threads, 0 = all cores. Does not change the result.
+    pub threads: usize,
+    pub estimator: Estimator,
+    pub speed_of_sound: f64,
+    /// Energy attenuation of the air per metre, per band (1/m).
+    pub air_attenuation: Vec<f64>,
+    pub energy_drop_db: f64,
+    pub max_time_s: f64,
+    pub sample_rate: f64,
+    pub early_s: f64,
+    pub late_bin_s: f64,
+    pub n_azimuth: usize,
+    pub n_elevation: usize,
+}
+
+impl SoundSettings {
+    pub fn validate(&self, n_bands: usize) -> Result<(), CoreError> {
+        let bad = |what: &str, problem: String| Err(CoreError::invalid(what, problem));
+        if self.rays == 0 {
+            return bad("rays", "must be at least 1".into());
+        }
+        if !(self.first_ray < self.end_ray && self.end_ray <= self.rays) {
+            return bad("ray range", format!("{}..{} is not a non-empty part of 0..{}", self.first_ray, self.end_ray, self.rays));
+        }
+        if !(self.speed_of_sound > 0.0) || !(self.sample_rate > 0.0) || !(self.late_bin_s > 0.0) || !(self.early_s >= 0.0) {
+            return bad("settings", "speed of sound, sample rate and bin widths must be positive".into());
+        }
+        if !(self.max_time_s > 0.0 && self.max_time_s.is_finite()) {
+            return bad("max_time_s", format!("{} is not a positive time", self.max_time_s));
+        }
+        if !(self.energy_drop_db > 0.0) {
+            return bad("energy_drop_db", format!("{} must be positive", self.energy_drop_db));
+        }
+        if self.air_attenuation.len() != n_bands || self.air_attenuation.iter().any(|m| !(*m >= 0.0)) {
+            return bad("air_attenuation", format!("needs {n_bands} values ≥ 0"));
+        }
+        if self.n_azimuth == 0 || self.n_elevation == 0 {
+            return bad("directions", "at least one azimuth and one elevation band".into());
+        }
+        Ok(())
+    }
+
+    pub fn layout(&self, n_receivers: usize, n_bands: usize) -> Layout {
+        let early_bins = (self.early_s * self.sample_rate).round() as usize;
+        let early = early_bins as f64 / self.sample_rate;
+        let late_bins = ((self.max_time_s - early).max(0.0) / self.late_bin_s).ceil() as usize;
+        Layout {
+            n_receivers,
+            n_azimuth: self.n_azimuth,
+            n_elevation: self.n_elevation,
+            n_bands,
+            sample_rate: self.sample_rate,
+            early_bins,
+            late_bin_s: self.late_bin_s,
+            late_bins,
+        }
+    }
+}
+
+/// The result of a bake (or of one range of it).
+#[derive(Clone, Debug)]
+pub struct SoundResult {
+    pub layout: Layout,
+    /// Fixed-point energies, `[receiver][time][direction][band]`.
+    pub field: Accumulator,
+    pub stats: SoundStats,
+    pub cancelled: bool,
+}
+
+impl SoundResult {
+    /// Adds the result of another range of the same bake: exact, so ranges merge to the bits of
+    /// one bake.
+    pub fn merge(&mut self, other: &SoundResult) -> Result<(), CoreError> {
+        if self.layout != other.layout || self.field.quantum != other.field.quantum {
+            return Err(CoreError::invalid("merge", "the two results come from different bakes"));
+        }
+        self.field.merge(&other.field);
+        self.stats.merge(&other.stats);
+        self.cancelled |= other.cancelled;
+        Ok(())
+    }
+}
+
+/// Everything the ray kernel reads, bundled.
+pub(crate) struct Scene<'a> {
+    pub mesh: &'a Mesh,
+    pub bvh: &'a Bvh,
+    pub acoustics: &'a Acoustics,
+    pub sources: &'a [SoundSource],
+    pub receivers: &'a Receivers,
+    pub settings: &'a SoundSettings,
+    pub layout: Layout,
+    /// Whether the room is one closed convex volume: then nothing can block a rain connection.
+    pub convex: bool,
+    /// Offset from a surface for the next ray's origin.
+    pub epsilon: f64,
+}
+
+/// Rays traced per work item; small for the rain estimator, whose rays cost more.
+fn chunk_size(estimator: Estimator, receivers: usize) -> u64 {
+    match estimator {
+        Estimator::Paper => 1024,
+        Estimator::Rain => (65_536 / (receivers as u64 + 1)).clamp(8, 1024),
+    }
+}
+
+/// Traces a bake (or the range of it the settings name) into a sound field.
+#[allow(clippy::too_many_arguments)]
+pub fn trace_sound(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    acoustics: &Acoustics,
+    sources: &[SoundSource],
+    receivers: &Receivers,
+    settings: &SoundSettings,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<SoundResult, CoreError> {
+    let nb = acoustics.n_bands;
+    settings.validate(nb)?;
+    let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+    if acoustics.absorption.len() != n_mat * nb || acoustics.scattering.len() != n_mat * nb {
+        return Err(CoreError::invalid("materials", format!("need {n_mat} materials × {nb} bands of absorption and scattering")));
+    }
+    if acoustics.absorption.iter().chain(&acoustics.scattering).any(|a| !(0.0..=1.0).contains(a)) {
+        return Err(CoreError::invalid("materials", "absorption and scattering must lie in [0, 1]"));
+    }
+    if sources.is_empty() {
+        return Err(CoreError::invalid("sources", "a sound bake needs at least one source"));
+    }
+    for (i, s) in sources.iter().enumerate() {
+        if !s.position.is_finite() || !(s.power_w > 0.0) {
+            return Err(CoreError::invalid("sources", format!("source {i}: position must be finite and power positive")));
+        }
+    }
+    if !(receivers.radius > 0.0) {
+        return Err(CoreError::invalid("receivers", "radius must be positive"));
+    }
+    let layout = settings.layout(receivers.len(), nb);
+    let scene = Scene {
+        mesh,
+        bvh,
+        acoustics,
+        sources,
+        receivers,
+        settings,
+        layout: layout.clone(),
+        convex: mesh.is_closed_convex(),
+        epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
+    };
+    let quantum = trace::quantum(sources, receivers.radius);
+    let n = settings.end_ray - settings.first_ray;
+    let (accs, cancelled) = run_chunks(
+        n,
+        chunk_size(settings.estimator, receivers.len()),
+        settings.threads,
+        || (Accumulator::new(layout.len(), quantum), SoundStats::new(nb), vec![0u64; receivers.len()]),
+        |(acc, stats, stamp), range| {
+            for s in 0..sources.len() {
+                for i in range.clone() {
+                    trace::trace_ray(&scene, s, settings.first_ray + i, acc, stats, stamp);
+                }
+            }
+        },
+        progress,
+    );
+    let mut it = accs.into_iter();
+    let (mut field, mut stats, _) = it.next().expect("at least one worker");
+    for (f, s, _) in it {
+        field.merge(&f);
+        stats.merge(&s);
+    }
+    if settings.estimator == Estimator::Rain && settings.first_ray == 0 {
+        trace::direct_sound(&scene, &mut field);
+    }
+    stats.finish();
+    Ok(SoundResult { layout, field, stats, cancelled })
+}

@@ -1,0 +1,245 @@
+//! Receivers: spheres at the cell centres of the grid (or at any listed points), with a uniform
+//! grid over them so that a ray segment finds the spheres it crosses by walking the cells it
+//! passes through (3D-DDA), whatever the number of receivers.
+
+use glam::DVec3;
+
+/// The receiver spheres and the cell grid that finds them.
+#[derive(Clone, Debug)]
+pub struct Receivers {
+    pub centres: Vec<DVec3>,
+    pub radius: f64,
+    lo: DVec3,
+    cell: f64,
+    dims: [usize; 3],
+    /// Receivers whose sphere overlaps each cell: `cells[i]..cells[i+1]` indexes `items`.
+    cells: Vec<u32>,
+    items: Vec<u32>,
+}
+
+/// A sphere crossed by a segment.
+#[derive(Clone, Copy, Debug)]
+pub struct Crossing {
+    pub receiver: u32,
+    /// Length of the chord inside the sphere, clipped to the segment.
+    pub chord: f64,
+    /// Distance along the segment of the point nearest the centre (may lie outside the segment).
+    pub t_nearest: f64,
+    /// Squared distance between the line and the centre.
+    pub miss2: f64,
+}
+
+impl Receivers {
+    pub fn new(centres: Vec<DVec3>, radius: f64) -> Receivers {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for c in &centres {
+            lo = lo.min(*c - radius);
+            hi = hi.max(*c + radius);
+        }
+        if centres.is_empty() {
+            lo = DVec3::ZERO;
+            hi = DVec3::ONE;
+        }
+        let extent = (hi - lo).max(DVec3::splat(1e-9));
+        // About one receiver a cell, never cells smaller than a sphere.
+        let volume = extent.x * extent.y * extent.z;
+        let cell = (volume / centres.len().max(1) as f64).cbrt().max(2.0 * radius);
+        let dims = [
+            ((extent.x / cell).ceil() as usize).clamp(1, 1024),
+            ((extent.y / cell).ceil() as usize).clamp(1, 1024),
+            ((extent.z / cell).ceil() as usize).clamp(1, 1024),
+        ];
+        let cell = (extent.x / dims[0] as f64).max(extent.y / dims[1] as f64).max(extent.z / dims[2] as f64);
+        let n_cells = dims[0] * dims[1] * dims[2];
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_cells];
+        for (k, c) in centres.iter().enumerate() {
+            let a = ((*c - radius - lo) / cell).floor().max(DVec3::ZERO);
+            let b = ((*c + radius - lo) / cell).floor();
+            for z in a.z as usize..=(b.z as usize).min(dims[2] - 1) {
+                for y in a.y as usize..=(b.y as usize).min(dims[1] - 1) {
+                    for x in a.x as usize..=(b.x as usize).min(dims[0] - 1) {
+                        lists[(z * dims[1] + y) * dims[0] + x].push(k as u32);
+                    }
+                }
+            }
+        }
+        let mut cells = Vec::with_capacity(n_cells + 1);
+        let mut items = Vec::new();
+        cells.push(0);
+        for l in lists {
+            items.extend(l);
+            cells.push(items.len() as u32);
+        }
+        Receivers { centres, radius, lo, cell, dims, cells, items }
+    }
+
+    pub fn len(&self) -> usize {
+        self.centres.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.centres.is_empty()
+    }
+
+    /// Calls `f` once for every sphere that the segment origin + t·dir, t in [0, length],
+    /// crosses (dir is a unit vector). `stamp` is scratch of one u64 per receiver and
+    /// `segment_id` must differ between calls: together they keep a sphere that spans several
+    /// cells from being counted twice.
+    pub fn crossings(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
+        if self.centres.is_empty() {
+            return;
+        }
+        // Clip the segment to the grid's box.
+        let hi = self.lo + DVec3::new(self.dims[0] as f64, self.dims[1] as f64, self.dims[2] as f64) * self.cell;
+        let inv = dir.map(|d| if d == 0.0 { 1e300f64.copysign(d) } else { 1.0 / d });
+        let t0 = (self.lo - origin) * inv;
+        let t1 = (hi - origin) * inv;
+        let (near, far) = (t0.min(t1), t0.max(t1));
+        let t_enter = near.max_element().max(0.0);
+        let t_exit = far.min_element().min(length);
+        if t_enter > t_exit {
+            return;
+        }
+        // Walk the cells (Amanatides and Woo 1987).
+        let p = (origin + dir * t_enter - self.lo) / self.cell;
+        let mut idx = [0i64; 3];
+        let mut step = [0i64; 3];
+        let mut t_next = [f64::INFINITY; 3];
+        let mut t_delta = [f64::INFINITY; 3];
+        for a in 0..3 {
+            idx[a] = (p[a].floor() as i64).clamp(0, self.dims[a] as i64 - 1);
+            if dir[a] > 0.0 {
+                step[a] = 1;
+                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * self.cell / dir[a];
+                t_delta[a] = self.cell / dir[a];
+            } else if dir[a] < 0.0 {
+                step[a] = -1;
+                t_next[a] = t_enter + (idx[a] as f64 - p[a]) * self.cell / dir[a];
+                t_delta[a] = -self.cell / dir[a];
+            }
+        }
+        let r2 = self.radius * self.radius;
+        loop {
+            let c = ((idx[2] as usize * self.dims[1]) + idx[1] as usize) * self.dims[0] + idx[0] as usize;
+            for &k in &self.items[self.cells[c] as usize..self.cells[c + 1] as usize] {
+                if stamp[k as usize] == segment_id {
+                    continue;
+                }
+                stamp[k as usize] = segment_id;
+                // Chord of the line through the sphere, clipped to [0, length].
+                let oc = self.centres[k as usize] - origin;
+                let tc = oc.dot(dir);
+                let d2 = oc.length_squared() - tc * tc;
+                if d2 >= r2 {
+                    continue;
+                }
+                let half = (r2 - d2).sqrt();
+                let (a, b) = ((tc - half).max(0.0), (tc + half).min(length));
+                if b > a {
+                    f(Crossing { receiver: k, chord: b - a, t_nearest: tc, miss2: d2 });
+                }
+            }
+            // Step to the next cell along the axis whose boundary comes first.
+            let a = if t_next[0] < t_next[1] { if t_next[0] < t_next[2] { 0 } else { 2 } } else if t_next[1] < t_next[2] { 1 } else { 2 };
+            if t_next[a] > t_exit {
+                return;
+            }
+            idx[a] += step[a];
+            if idx[a] < 0 || idx[a] >= self.dims[a] as i64 {
+                return;
+            }
+            t_next[a] += t_delta[a];
+        }
+    }
+}
+
+/// Mean of 1 / (4π |x − s|²) over a ball of radius r whose centre is at distance d from s.
+///
+/// This is what a sphere receiver measures of a point source's direct sound (the expectation of
+/// the chord-length estimator), so the deterministic direct sound and diffuse-rain connections
+/// agree with the spheres in expectation, including a source inside the sphere (d < r), where
+/// it is finite: 3 / (4π r²) at d = 0. For d ≫ r it tends to 1 / (4π d²).
+///
+/// Integrating the shells of the ball: mean = 3 H / (8π r³ d), with
+/// H = ((r² − d²)/2) ln((d + r)/|d − r|) + d r.
+pub fn ball_mean_inverse_square(d: f64, r: f64) -> f64 {
+    if d < 1e-9 * r {
+        return 3.0 / (4.0 * std::f64::consts::PI * r * r);
+    }
+    let log = if (d - r).abs() < 1e-12 * r { 0.0 } else { ((d + r) / (d - r).abs()).ln() };
+    let h = 0.5 * (r * r - d * d) * log + d * r;
+    3.0 * h / (8.0 * std::f64::consts::PI * r * r * r * d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ball_mean_limits() {
+        let r = 0.3;
+        let at_centre = ball_mean_inverse_square(0.0, r);
+        assert!((ball_mean_inverse_square(1e-6, r) / at_centre - 1.0).abs() < 1e-6);
+        let d = 50.0;
+        let far = ball_mean_inverse_square(d, r) * 4.0 * std::f64::consts::PI * d * d;
+        assert!((far - 1.0).abs() < 1e-4, "{far}");
+        // Continuous through the surface of the ball.
+        let (a, b) = (ball_mean_inverse_square(r * (1.0 - 1e-7), r), ball_mean_inverse_square(r * (1.0 + 1e-7), r));
+        assert!((a / b - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn ball_mean_matches_monte_carlo() {
+        // Average of 1/(4π|x−s|²) over points x uniform in the ball, for s outside and inside.
+        let mut s = crate::rng::Stream::new(11, 0, 0);
+        for d in [0.1, 0.45, 1.0] {
+            let r = 0.5;
+            let n = 2_000_000;
+            let mut sum = 0.0;
+            for _ in 0..n {
+                let dir = crate::sampling::uniform_sphere(s.uniform(), s.uniform());
+                let x = dir * r * s.uniform().cbrt();
+                sum += 1.0 / (4.0 * std::f64::consts::PI * (x - DVec3::new(d, 0.0, 0.0)).length_squared());
+            }
+            let mc = sum / n as f64;
+            let exact = ball_mean_inverse_square(d, r);
+            // The integrand is unbounded near s for d < r: allow 3%.
+            assert!((mc / exact - 1.0).abs() < 0.03, "d = {d}: mc {mc} exact {exact}");
+        }
+    }
+
+    #[test]
+    fn grid_finds_the_same_spheres_as_testing_all() {
+        let centres: Vec<DVec3> = (0..60).map(|i| DVec3::new((i % 10) as f64, (i / 10) as f64 * 0.7, 1.5)).collect();
+        let rc = Receivers::new(centres.clone(), 0.4);
+        let mut stamp = vec![0u64; centres.len()];
+        let mut s = crate::rng::Stream::new(5, 0, 0);
+        for seg in 1..20_000u64 {
+            let o = DVec3::new(s.uniform() * 12.0 - 1.0, s.uniform() * 6.0 - 1.0, s.uniform() * 3.0);
+            let d = crate::sampling::uniform_sphere(s.uniform(), s.uniform());
+            let len = s.uniform() * 8.0;
+            let mut found = Vec::new();
+            rc.crossings(o, d, len, &mut stamp, seg, |c| found.push((c.receiver, c.chord)));
+            found.sort_by_key(|f| f.0);
+            let mut expect = Vec::new();
+            for (k, c) in centres.iter().enumerate() {
+                let oc = *c - o;
+                let tc = oc.dot(d);
+                let d2 = oc.length_squared() - tc * tc;
+                if d2 < 0.16 {
+                    let h = (0.16 - d2).sqrt();
+                    let (a, b) = ((tc - h).max(0.0), (tc + h).min(len));
+                    if b > a {
+                        expect.push((k as u32, b - a));
+                    }
+                }
+            }
+            assert_eq!(found.len(), expect.len(), "segment {seg}");
+            for (f, e) in found.iter().zip(&expect) {
+                assert_eq!(f.0, e.0);
+                assert!((f.1 - e.1).abs() < 1e-12);
+            }
+        }
+    }
+}

@@ -1,0 +1,245 @@
+//! The ray kernel of the sound tracer, and the exact direct sound of the rain estimator.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+use super::field::Accumulator;
+use super::receivers::ball_mean_inverse_square;
+use super::stats::{self, Escape, SoundStats};
+use super::{Directivity, Estimator, Scene, SoundSource};
+use crate::geometry::Ray;
+use crate::rng::Stream;
+use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
+
+/// Bands a ray can carry without allocating.
+const MAX_BANDS: usize = 16;
+/// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
+const MAX_REFLECTIONS: u64 = 1_000_000;
+
+/// The energy of one count of the field: small enough that a single ray's deposits keep their
+/// precision (stochastic rounding keeps even smaller ones exact in expectation), large enough
+/// that no bin can overflow: a bin's total never exceeds the total emitted energy times 16× the
+/// largest geometric weight of a deposit, 4 · 3 / (4π r²).
+pub(crate) fn quantum(sources: &[SoundSource], radius: f64) -> f64 {
+    let total: f64 = sources.iter().map(|s| s.power_w).sum();
+    let largest_weight = 4.0 * 3.0 / (4.0 * PI * radius * radius);
+    total * largest_weight * 16.0 / 2f64.powi(63)
+}
+
+/// The first direction of ray `index`, and the ray's share of the source's energy.
+fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
+    let dir = match source.directivity {
+        Directivity::Omni => uniform_sphere(rng.uniform(), rng.uniform()),
+        Directivity::Cone { axis, cos_half_angle } => uniform_cone(&Frame::from_normal(axis), cos_half_angle, rng.uniform(), rng.uniform()),
+    };
+    (dir, source.power_w / rays as f64)
+}
+
+/// Traces ray `index` of source `s` to its end, depositing into `acc` and tallying `st`.
+/// `stamp` is the worker's scratch for [`super::Receivers::crossings`], one entry a receiver.
+pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulator, st: &mut SoundStats, stamp: &mut [u64]) {
+    let set = scene.settings;
+    let lay = &scene.layout;
+    let nb = scene.acoustics.n_bands;
+    let mut rng = Stream::new(set.seed, s as u64, index);
+    let (mut dir, share) = emit(&scene.sources[s], set.rays, &mut rng);
+    let mut pos = scene.sources[s].position;
+    // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
+    let mut e = [1.0f64; MAX_BANDS];
+    let floor = 10f64.powf(-set.energy_drop_db / 10.0);
+    let mut path = 0.0f64;
+    // Distance travelled since the last diffuse reflection (or the source): the radius of the
+    // wavefront the ray belongs to, whose centre is the (image) source it comes from.
+    let mut wave_radius = 0.0f64;
+    let mut reflections = 0u64;
+    // Whether the spheres collect this segment: always in paper mode; in rain mode only after a
+    // specular reflection (direct sound and diffuse reflections are handled exactly).
+    let mut spheres = set.estimator == Estimator::Paper;
+    let radius = scene.receivers.radius;
+    let sphere_volume = 4.0 / 3.0 * PI * radius.powi(3);
+    let mut deposit = [0.0f64; MAX_BANDS];
+    for b in 0..nb {
+        st.add_energy(stats::EMITTED, b, share);
+    }
+    st.rays += 1;
+
+    loop {
+        // Find the nearest surface along the ray.
+        let ray = Ray::new(pos.as_vec3(), dir.as_vec3());
+        let hit = scene.bvh.closest_hit(&ray, 0.0, f32::INFINITY);
+        let length = hit.map_or(f64::INFINITY, |h| h.t as f64);
+        st.segments += 1;
+
+        // Deposit into the receiver spheres this segment crosses.
+        if spheres {
+            let seg_id = st.segments;
+            scene.receivers.crossings(pos, dir, length, stamp, seg_id, |c| {
+                // The wavefront reaches the sphere's centre at its distance from the image
+                // source, not where this ray passes nearest: exact times for specular paths.
+                let to_centre = ((wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - wave_radius;
+                let Some(tb) = lay.time_bin((path + to_centre) / set.speed_of_sound) else { return };
+                let weight = share * c.chord / sphere_volume;
+                for b in 0..nb {
+                    deposit[b] = e[b] * weight * (-set.air_attenuation[b] * to_centre).exp();
+                }
+                let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
+                acc.deposit(base, &deposit[..nb], &mut rng);
+                st.deposits += 1;
+            });
+        }
+
+        let Some(hit) = hit else {
+            // The ray left the scene: a leak, unless the scene is open on purpose.
+            for b in 0..nb {
+                st.add_energy(stats::ESCAPED, b, e[b] * share);
+            }
+            st.add_escape(Escape { source: s as u32, ray: index, from: pos.to_array(), dir: dir.to_array() });
+            break;
+        };
+
+        // Air absorption over the segment.
+        for b in 0..nb {
+            let kept = e[b] * (-set.air_attenuation[b] * length).exp();
+            st.add_energy(stats::ABSORBED_AIR, b, (e[b] - kept) * share);
+            e[b] = kept;
+        }
+        if reflections > 0 {
+            st.add_free_path(length);
+        }
+        path += length;
+        wave_radius += length;
+        if path / set.speed_of_sound > set.max_time_s || reflections >= MAX_REFLECTIONS {
+            for b in 0..nb {
+                st.add_energy(stats::REMAINING, b, e[b] * share);
+            }
+            break;
+        }
+
+        // Surface: absorb, then reflect from the side the ray came from.
+        reflections += 1;
+        st.surface_hits += 1;
+        let tri = hit.triangle as usize;
+        let mut normal = scene.mesh.normal(tri).as_dvec3();
+        if normal.dot(dir) > 0.0 {
+            normal = -normal;
+        }
+        let point = pos + dir * length;
+        let m = scene.mesh.material[tri] as usize * nb;
+        let alpha = &scene.acoustics.absorption[m..m + nb];
+        let scat = &scene.acoustics.scattering[m..m + nb];
+        for b in 0..nb {
+            st.add_energy(stats::ABSORBED_SURFACES, b, e[b] * alpha[b] * share);
+            e[b] *= 1.0 - alpha[b];
+        }
+
+        // Rain: send the diffusely reflected energy to every receiver that sees this point.
+        if set.estimator == Estimator::Rain {
+            rain(scene, point, normal, path, &e[..nb], scat, share, acc, st, &mut rng);
+        }
+
+        // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
+        let p_diffuse = scat.iter().sum::<f64>() / nb as f64;
+        let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
+        for b in 0..nb {
+            let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
+            let before = e[b];
+            e[b] *= w;
+            st.add_energy(stats::REWEIGHTED, b, (e[b] - before) * share);
+        }
+        if diffuse {
+            dir = cosine_hemisphere(&Frame::from_normal(normal), rng.uniform(), rng.uniform());
+            wave_radius = 0.0;
+            spheres = set.estimator == Estimator::Paper;
+        } else {
+            dir = dir - 2.0 * dir.dot(normal) * normal;
+            spheres = true;
+        }
+        pos = point + normal * scene.epsilon;
+
+        if e[..nb].iter().all(|&x| x < floor) {
+            for b in 0..nb {
+                st.add_energy(stats::REMAINING, b, e[b] * share);
+            }
+            break;
+        }
+    }
+    st.max_reflections = st.max_reflections.max(reflections);
+}
+
+/// Next-event estimation at a reflection: the diffusely scattered part s·E leaves the point as
+/// a Lambert source, so a receiver at distance d and angle θ from the normal receives
+/// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
+/// [`ball_mean_inverse_square`], and attenuated by the air on the way.
+#[allow(clippy::too_many_arguments)]
+fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &mut Accumulator, st: &mut SoundStats, rng: &mut Stream) {
+    let set = scene.settings;
+    let lay = &scene.layout;
+    let nb = e.len();
+    let mut deposit = [0.0f64; MAX_BANDS];
+    let from = point + normal * scene.epsilon;
+    for (r, c) in scene.receivers.centres.iter().enumerate() {
+        let to = *c - point;
+        let d = to.length();
+        let cos = normal.dot(to) / d;
+        if !(cos > 0.0) {
+            continue;
+        }
+        let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound) else { continue };
+        if !scene.convex {
+            let ray = Ray::new(from.as_vec3(), (*c - from).as_vec3());
+            if scene.bvh.occluded(&ray, 0.0, 1.0) {
+                continue;
+            }
+        }
+        let weight = share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius);
+        for b in 0..nb {
+            deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation[b] * d).exp();
+        }
+        acc.deposit(lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], rng);
+        st.deposits += 1;
+    }
+}
+
+/// The direct sound of every source at every receiver it can see, computed exactly: power ×
+/// directivity × the sphere mean of 1/(4π d²) × air attenuation, at d / c, from the source's
+/// direction. A source inside a receiver's sphere is heard from all directions equally.
+pub(crate) fn direct_sound(scene: &Scene, acc: &mut Accumulator) {
+    let set = scene.settings;
+    let lay = &scene.layout;
+    let nb = scene.acoustics.n_bands;
+    let radius = scene.receivers.radius;
+    let mut deposit = [0.0f64; MAX_BANDS];
+    for (s, src) in scene.sources.iter().enumerate() {
+        for (r, c) in scene.receivers.centres.iter().enumerate() {
+            let mut rng = Stream::new(set.seed, s as u64, u64::MAX - r as u64);
+            let to = *c - src.position;
+            let d = to.length();
+            let gain = match src.directivity {
+                Directivity::Omni => 1.0,
+                Directivity::Cone { axis, cos_half_angle } => {
+                    if d > 0.0 && axis.dot(to / d) < cos_half_angle {
+                        continue;
+                    }
+                    2.0 / (1.0 - cos_half_angle)
+                }
+            };
+            if d > radius {
+                let ray = Ray::new(src.position.as_vec3(), to.as_vec3());
+                if scene.bvh.occluded(&ray, 0.0, 1.0) {
+                    continue;
+                }
+            }
+            let Some(tb) = lay.time_bin(d / set.speed_of_sound) else { continue };
+            let energy = src.power_w * gain * ball_mean_inverse_square(d, radius);
+            let directions: Vec<usize> = if d > radius { vec![lay.direction_bin(-to / d)] } else { (0..lay.n_directions()).collect() };
+            let split = directions.len() as f64;
+            for b in 0..nb {
+                deposit[b] = energy * (-set.air_attenuation[b] * d).exp() / split;
+            }
+            for dir in directions {
+                acc.deposit(lay.index(r, tb, dir), &deposit[..nb], &mut rng);
+            }
+        }
+    }
+}

@@ -1,0 +1,140 @@
+"""``sonolux check``: what a scene contains and what theory expects of it, before any tracing.
+
+:func:`summarize` turns a loaded :class:`~sonolux.scene.Scene` into a plain dict (the
+``--json`` output); :func:`format_summary` renders that dict for people. Reverberation times
+are Sabine's and Eyring's, per simulated band, including the absorption of the scene's air
+(ISO 9613-1 at the scene's temperature, humidity and pressure). A time that is infinite
+(nothing absorbs) is ``None`` in the dict (``null`` in JSON).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from sonolux.acoustics.theory import air_energy_attenuation_per_m, eyring_t60, sabine_t60
+from sonolux.scene.schema import Scene
+
+
+def _finite_or_none(values: np.ndarray) -> list[float | None]:
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(values, dtype=float)]
+
+
+def _round(v: np.ndarray | float, digits: int = 9) -> Any:
+    if isinstance(v, np.ndarray):
+        return [round(float(x), digits) for x in v]
+    return round(float(v), digits)
+
+
+def summarize(scene: Scene) -> dict[str, Any]:
+    """The check's content as a JSON-ready dict (see the module docstring)."""
+    settings, air = scene.settings, scene.settings.air
+    volume_m3, area_m2 = scene.volume_m3, scene.area_m2
+    by_material = scene.area_by_material_m2()
+    bands = np.asarray(settings.band_indices, dtype=np.int64)
+    freq_hz = np.asarray(settings.bands_hz, dtype=np.float64)
+    # Absorption area per band: sum over materials of area x absorption coefficient.
+    absorption_area = np.zeros(bands.shape[0])
+    for m in scene.materials:
+        absorption_area += by_material[m.name] * m.absorption[bands]
+    mean_absorption = absorption_area / area_m2 if area_m2 > 0 else np.zeros_like(absorption_area)
+    m_air = np.asarray(air_energy_attenuation_per_m(freq_hz, air.temperature_c,
+                                                    air.humidity_percent, air.pressure_kpa))
+    c = settings.speed_of_sound_m_s
+    sabine = sabine_t60(volume_m3, absorption_area, m_air, c)
+    eyring = eyring_t60(volume_m3, area_m2, mean_absorption, m_air, c)
+    r = scene.receivers
+    report = scene.mesh_report
+    return {
+        "name": scene.name,
+        "origin": scene.origin,
+        "triangles": int(scene.triangles.shape[0]),
+        "volume_m3": volume_m3,
+        "area_m2": area_m2,
+        "area_by_material_m2": by_material,
+        "mean_free_path_m": 4.0 * volume_m3 / area_m2 if area_m2 > 0 else None,
+        "bbox_min_m": report["bbox_min"].tolist(),
+        "bbox_max_m": report["bbox_max"].tolist(),
+        "bands_hz": list(settings.bands_hz),
+        "mean_absorption": _round(mean_absorption),
+        "sabine_t60_s": _finite_or_none(sabine),
+        "eyring_t60_s": _finite_or_none(eyring),
+        "air": {"temperature_c": air.temperature_c, "humidity_percent": air.humidity_percent,
+                "pressure_kpa": air.pressure_kpa, "speed_of_sound_m_s": c,
+                "attenuation_per_m": _round(m_air, 12),
+                "included_in_t60": True},
+        "receivers": {"kind": r.kind, "kept": r.count, "candidates": r.candidates,
+                      "dropped_outside": r.dropped_outside,
+                      "dropped_inside_obstacle": r.dropped_inside_obstacle,
+                      "dropped_near_surface": r.dropped_near_surface, "radius_m": r.radius_m,
+                      "height_m": r.height_m, "spacing_m": r.spacing_m},
+        "sources": [{"name": s.name, "position_m": s.position_m.tolist(), "power_w": s.power_w,
+                     "directivity": s.directivity,
+                     **({"cone_half_angle_deg": s.cone_half_angle_deg,
+                         "axis": s.axis.tolist()} if s.directivity == "cone" else {})}
+                    for s in scene.sources],
+        "lights": [{"name": li.name, "type": li.kind, "power_w": li.power_w,
+                    "area_m2": li.area_m2, "triangles": int(li.triangles_m.shape[0]),
+                    "color_rgb": li.color_rgb.tolist()} for li in scene.lights],
+        "warnings": list(scene.warnings),
+    }
+
+
+def _xyz(v: list[float]) -> str:
+    return "(" + ", ".join(f"{x:g}" for x in v) + ")"
+
+
+def _seconds(v: float | None) -> str:
+    return "inf" if v is None else f"{v:.2f}"
+
+
+def format_summary(s: dict[str, Any]) -> str:
+    """The summary for a terminal: one topic per block, numbers with their units."""
+    out = [f"scene {s['name']}  ({s['origin']})"]
+    mfp = s["mean_free_path_m"]
+    out.append(f"  geometry    {s['triangles']} triangles, volume {s['volume_m3']:.4g} m³, "
+               f"surface {s['area_m2']:.4g} m², mean free path 4V/S = "
+               f"{'-' if mfp is None else f'{mfp:.3g} m'}")
+    out.append(f"              bounding box {_xyz(s['bbox_min_m'])} to {_xyz(s['bbox_max_m'])} m")
+    width = max(len(n) for n in s["area_by_material_m2"])
+    for i, (name, area) in enumerate(s["area_by_material_m2"].items()):
+        out.append(f"  {'materials' if i == 0 else '':<10}  {name:<{width}}  {area:9.4g} m²")
+    if not s["sources"]:
+        out.append("  sources     none")
+    for i, src in enumerate(s["sources"]):
+        kind = (f"cone {src['cone_half_angle_deg']:g}° around {_xyz(src['axis'])}"
+                if src["directivity"] == "cone" else src["directivity"])
+        out.append(f"  {'sources' if i == 0 else '':<10}  {src['name']}: {kind}, "
+                   f"{src['power_w']:g} W at {_xyz(src['position_m'])} m")
+    if not s["lights"]:
+        out.append("  lights      none")
+    for i, li in enumerate(s["lights"]):
+        out.append(f"  {'lights' if i == 0 else '':<10}  {li['name']}: {li['type']}, "
+                   f"{li['power_w']:g} W over {li['area_m2']:.4g} m² ({li['triangles']} "
+                   "triangles)")
+    r = s["receivers"]
+    layout = (f"grid every {r['spacing_m']:g} m at {r['height_m']:g} m" if r["kind"] == "grid"
+              else "points")
+    out.append(f"  receivers   {layout}, radius {r['radius_m']:g} m: {r['kept']} kept of "
+               f"{r['candidates']}; dropped {r['dropped_outside']} outside the room, "
+               f"{r['dropped_inside_obstacle']} inside obstacles, {r['dropped_near_surface']} "
+               "nearer to a surface than their radius")
+    a = s["air"]
+    out.append(f"  reverberation, with air absorption at {a['temperature_c']:g} °C, "
+               f"{a['humidity_percent']:g} % RH, {a['pressure_kpa']:g} kPa "
+               f"(c = {a['speed_of_sound_m_s']:.1f} m/s):")
+    rows = [("band Hz", [f"{b:g}" for b in s["bands_hz"]]),
+            ("mean absorption", [f"{x:.3f}" for x in s["mean_absorption"]]),
+            ("air m (1/km)", [f"{1000 * x:.2f}" for x in a["attenuation_per_m"]]),
+            ("Sabine T60 s", [_seconds(x) for x in s["sabine_t60_s"]]),
+            ("Eyring T60 s", [_seconds(x) for x in s["eyring_t60_s"]])]
+    for label, cells in rows:
+        out.append(f"    {label:<16}" + "".join(f"{c:>8}" for c in cells))
+    if s["warnings"]:
+        out.append(f"  warnings    {len(s['warnings'])}:")
+        out += [f"    - {w}" for w in s["warnings"]]
+    else:
+        out.append("  warnings    none")
+    return "\n".join(out)

@@ -1,0 +1,117 @@
+"""A scene's ``[materials]`` table, and how material names are resolved.
+
+A name used by the geometry (a shoebox face, a mesh material, ``material = ...``) is looked up
+in the scene's own ``[materials]`` first, then in the material library
+(:mod:`sonolux.materials`). A ``[materials.NAME]`` entry is either
+
+- an override: it starts from the library entry named by ``base`` (or, without ``base``, from
+  the library entry of the same name) and replaces the fields it gives; or
+- a new material: then ``absorption`` is required, and the other fields default to
+  scattering 0.1, diffuse_rgb [0.8, 0.8, 0.8], specular 0, roughness 0.5.
+
+The library is read only when a name needs it, so a scene that defines all its materials
+(like the built-in ``paper-*`` scenes) loads without it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sonolux.errors import SceneError, close_matches
+from sonolux.materials import Library
+from sonolux.materials import library as shipped_library
+from sonolux.scene.schema import REQUIRED, Context, Material, Table
+
+MATERIAL_KEYS = ("base", "description", "absorption", "scattering", "diffuse_rgb", "specular",
+                 "roughness")
+
+#: Defaults of a new material's optional fields.
+NEW_MATERIAL_DEFAULTS = {"scattering": 0.1, "diffuse_rgb": (0.8, 0.8, 0.8), "specular": 0.0,
+                         "roughness": 0.5}
+
+
+class MaterialNames:
+    """Resolves material names for one scene: its ``[materials]`` first, then the library."""
+
+    def __init__(self, table: Table | None, ctx: Context, library: Library | None = None) -> None:
+        self.ctx = ctx
+        self._library = library
+        self._library_error: SceneError | None = None
+        self.defined: dict[str, Material] = {}
+        if table is not None:
+            for name in table.data:
+                self.defined[name] = self._read(table, name)
+
+    def library(self, required: bool = True) -> Library | None:
+        """The library in use; None when it cannot be read and ``required`` is False."""
+        if self._library is None and self._library_error is None:
+            try:
+                self._library = shipped_library()
+            except SceneError as exc:
+                self._library_error = exc
+        if self._library is None and required:
+            assert self._library_error is not None
+            raise self._library_error
+        return self._library
+
+    def names(self) -> list[str]:
+        lib = self.library(required=False)
+        return sorted(set(self.defined) | set(lib.names() if lib else ()))
+
+    def find(self, name: str) -> Material | None:
+        if name in self.defined:
+            return self.defined[name]
+        lib = self.library(required=False)
+        return lib.find(name) if lib is not None else None
+
+    def resolve(self, name: str, key: str) -> Material:
+        """The material called ``name``; a SceneError at ``key`` listing close matches if none."""
+        m = self.find(name)
+        if m is None:
+            lib = self.library(required=False)
+            where = f"the library {lib.path}" if lib is not None else "the library (unreadable)"
+            raise self.ctx.error(key, name, f"a material defined in [materials] or in {where}",
+                                 matches=close_matches(name, self.names()))
+        return m
+
+    def _read(self, materials: Table, name: str) -> Material:
+        t = materials.table(name)
+        assert t is not None
+        t.check_keys(MATERIAL_KEYS)
+        base_name = t.string("base", None)
+        if base_name is not None:
+            lib = self.library(required=True)
+            assert lib is not None
+            if base_name not in lib:
+                raise self.ctx.error(t.path("base"), base_name,
+                                     f"a material of the library {lib.path}",
+                                     matches=close_matches(base_name, lib.names()))
+            start = lib.materials[base_name]
+        else:
+            lib = self.library(required=False)
+            start = lib.find(name) if lib is not None else None
+        if start is None:
+            if not t.has("absorption"):
+                raise self.ctx.error(
+                    t.path("absorption"),
+                    allowed="a new material needs its absorption (a number in [0, 1] or 8 of "
+                            "them), or base = NAME to start from a library material")
+            d = NEW_MATERIAL_DEFAULTS
+            return Material(
+                name=name,
+                absorption=t.bands("absorption", REQUIRED),
+                scattering=t.bands("scattering", np.full(8, d["scattering"])),
+                diffuse_rgb=t.vector("diffuse_rgb", 3, d["diffuse_rgb"], lo=0.0, hi=1.0),
+                specular=t.number("specular", d["specular"], lo=0.0, hi=1.0),
+                roughness=t.number("roughness", d["roughness"], lo=0.0, hi=1.0),
+                description=t.string("description", ""),
+            )
+        return Material(
+            name=name,
+            absorption=t.bands("absorption", start.absorption.copy()),
+            scattering=t.bands("scattering", start.scattering.copy()),
+            diffuse_rgb=t.vector("diffuse_rgb", 3, start.diffuse_rgb, lo=0.0, hi=1.0),
+            specular=t.number("specular", start.specular, lo=0.0, hi=1.0),
+            roughness=t.number("roughness", start.roughness, lo=0.0, hi=1.0),
+            description=t.string("description", start.description),
+        )
