@@ -39,6 +39,83 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _xy(text: str) -> tuple[float, float]:
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y in metres (e.g. 3,1.25)") from None
+    return x, y
+
+
+def _rays(text: str) -> int | str:
+    if text == "auto":
+        return text
+    try:
+        n = int(float(text))
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a ray count ≥ 1 or 'auto'")
+    return n
+
+
+def _range(text: str) -> tuple[int, int]:
+    try:
+        a, b = (int(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not FIRST:END (e.g. 0:500000)") from None
+    return a, b
+
+
+def cmd_bake(args: argparse.Namespace) -> int:
+    from sonolux.scene import load_scene
+    from sonolux.sound.bake import bake
+    from sonolux.sound.fieldfile import save
+    from sonolux.sound.info import format_info
+
+    scene = load_scene(args.scene)
+    for w in scene.warnings:
+        print(f"sonolux: warning: {w}", file=sys.stderr)
+    field = bake(scene, rays=args.rays, estimator=args.estimator,
+                 azimuth_bands=args.azimuth_bands, elevation_bands=args.elevation_bands,
+                 ray_range=args.range, progress=not args.quiet,
+                 log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
+    if field.stats.get("cancelled"):
+        print("sonolux: stopped early: the field holds the rays traced so far", file=sys.stderr)
+    path = save(field, args.output)
+    print(format_info(field, path))
+    return 0
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from sonolux.sound.fieldfile import open_field
+    from sonolux.sound.info import format_info, info
+
+    field = open_field(args.field)
+    if args.json:
+        print(json.dumps(info(field), indent=2, ensure_ascii=False))
+    else:
+        print(format_info(field, args.field))
+    return 0
+
+
+def cmd_ir(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from sonolux.audio import write_wav
+    from sonolux.sound.fieldfile import open_field
+
+    field = open_field(args.field)
+    r = field.cell_at(*args.at)
+    direction = None if args.direction == "all" else args.direction
+    ir = field.impulse_response(r, direction, seed=args.seed)
+    write_wav(args.output, ir[:, None] if ir.ndim == 1 else ir, field.sample_rate_hz)
+    print(f"impulse response of receiver #{r} at ({', '.join(f'{v:g}' for v in field.positions_m[r])}) m, "
+          f"direction {args.direction}: {ir.shape[0] / field.sample_rate_hz:.3f} s, peak "
+          f"{np.max(np.abs(ir)):.3g} -> {args.output}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sonolux",
@@ -55,6 +132,44 @@ def build_parser() -> argparse.ArgumentParser:
                        help="a scene file (.toml) or a built-in scene name, e.g. paper-small")
     check.add_argument("--json", action="store_true", help="print machine-readable JSON")
     check.set_defaults(func=cmd_check)
+
+    bake = sub.add_parser(
+        "bake", help="trace the scene's sound into a sound field file",
+        description="Trace an impulse from every sound source into a sound field over the "
+                    "receiver grid: energy per receiver, direction, band and time, saved as HDF5.")
+    bake.add_argument("scene", metavar="SCENE", help="a scene file (.toml) or a built-in name")
+    bake.add_argument("-o", "--output", required=True, help="the field file to write (.h5)")
+    bake.add_argument("--rays", type=_rays, default="auto",
+                      help="rays per source, or 'auto' (printed with the reason); default auto")
+    bake.add_argument("--estimator", choices=("rain", "paper"), default="rain",
+                      help="rain: exact direct sound and diffuse rain (default); paper: the "
+                           "paper's sphere receivers only")
+    bake.add_argument("--azimuth-bands", type=int, default=8, help="azimuth sectors (default 8)")
+    bake.add_argument("--elevation-bands", type=int, default=1,
+                      help="elevation bands of equal solid angle (1, or 3 = below/level/above)")
+    bake.add_argument("--range", type=_range, default=None, metavar="FIRST:END",
+                      help="trace only rays FIRST..END of the bake (ranges merge exactly)")
+    bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    bake.set_defaults(func=cmd_bake)
+
+    inf = sub.add_parser("info", help="summarise a sound field file",
+                         description="Summarise a sound field file: scene, settings, receivers, "
+                                     "statistics and the energy balance.")
+    inf.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
+    inf.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    inf.set_defaults(func=cmd_info)
+
+    ir = sub.add_parser("ir", help="write a receiver's pressure impulse response as WAV",
+                        description="Write the pressure impulse response of the cell at X,Y "
+                                    "(one direction, or all directions summed) as a 32-bit "
+                                    "float WAV file.")
+    ir.add_argument("field", metavar="FIELD")
+    ir.add_argument("--at", type=_xy, required=True, metavar="X,Y", help="position in metres")
+    ir.add_argument("--direction", default="all",
+                    help="a direction name (front, left, right, back, ...) or 'all' (default)")
+    ir.add_argument("--seed", type=int, default=0, help="seed of the synthesized phases")
+    ir.add_argument("-o", "--output", required=True, help="the WAV file to write")
+    ir.set_defaults(func=cmd_ir)
     return parser
 
 

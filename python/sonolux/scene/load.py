@@ -262,4 +262,4 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     return Scene(name=name, origin=ctx.file, vertices_m=vertices_m, triangles=triangles,
                  material_index=material_index, materials=materials, surface_tag=tags,
                  sources=sources, lights=lights, receivers=receivers, settings=settings,
-                 mesh_report=report, warnings=warnings)
+                 mesh_report=report, warnings=warnings, geometry=geometry)

@@ -171,6 +171,8 @@ class Scene:
     settings: Settings
     mesh_report: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
+    #: The core's mesh and BVH, built once when the scene was loaded and shared by the tracers.
+    geometry: Any = field(default=None, repr=False)
 
     @property
     def volume_m3(self) -> float:

@@ -1,0 +1,158 @@
+"""The sound field: per receiver, per direction, per band, the energy over time.
+
+Axes and units (the same in memory and in the file, see :mod:`sonolux.sound.fieldfile`):
+
+- ``energy``: float32[receiver, direction, band, time], J/m² per time bin (a bin's total).
+- ``bin_start_s``, ``bin_width_s``: float64[time]; one-sample bins for the first ``early_bins``
+  (exact arrival times of early reflections), then ``late_bin_s`` wide.
+- directions: ``azimuth_bands`` sectors, the first centred on 0° (+x, "front"), counter-clockwise
+  seen from above (the third of eight, centred on +90°, is "left"), times ``elevation_bands``
+  bands of equal solid angle from below to above: index = elevation × azimuth_bands + azimuth.
+- receivers: ``positions_m`` float64[receiver, 3]; a grid also has ``grid_index`` int[receiver, 2].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from sonolux.errors import SonoluxError
+
+EIGHT_NAMES = ("front", "front-left", "left", "back-left", "back", "back-right", "right",
+               "front-right")
+
+
+def direction_names(n_azimuth: int, n_elevation: int) -> list[str]:
+    """Names of the direction bins in index order (e.g. "front", "left@above")."""
+    if n_azimuth == 8:
+        az = list(EIGHT_NAMES)
+    else:
+        az = [f"az{round(360 * k / n_azimuth):g}" for k in range(n_azimuth)]
+    if n_elevation == 1:
+        return az
+    el = ["below", "level", "above"] if n_elevation == 3 else [f"el{k}" for k in range(n_elevation)]
+    return [f"{a}@{e}" for e in el for a in az]
+
+
+@dataclass
+class SoundField:
+    energy: np.ndarray
+    bin_start_s: np.ndarray
+    bin_width_s: np.ndarray
+    bands_hz: np.ndarray
+    positions_m: np.ndarray
+    radius_m: float
+    grid_index: np.ndarray | None
+    grid_spacing_m: float | None
+    source_positions_m: np.ndarray
+    source_powers_w: np.ndarray
+    settings: dict[str, Any]
+    stats: dict[str, Any]
+    scene_name: str = ""
+    scene_origin: str = ""
+    counts: np.ndarray | None = field(default=None, repr=False)
+    quantum: float = 0.0
+    path: str | None = None
+
+    # --- shape -------------------------------------------------------------------------------
+    @property
+    def n_receivers(self) -> int:
+        return int(self.energy.shape[0])
+
+    @property
+    def sample_rate_hz(self) -> int:
+        return int(self.settings["sample_rate_hz"])
+
+    @property
+    def azimuth_bands(self) -> int:
+        return int(self.settings["azimuth_bands"])
+
+    @property
+    def elevation_bands(self) -> int:
+        return int(self.settings["elevation_bands"])
+
+    @property
+    def direction_names(self) -> list[str]:
+        return direction_names(self.azimuth_bands, self.elevation_bands)
+
+    @property
+    def azimuth_centres_deg(self) -> np.ndarray:
+        return 360.0 * np.arange(self.azimuth_bands) / self.azimuth_bands
+
+    @property
+    def bytes_per_receiver(self) -> int:
+        return int(self.energy[0].nbytes) if self.n_receivers else 0
+
+    # --- lookups -----------------------------------------------------------------------------
+    def cell_at(self, x: float, y: float, z: float | None = None) -> int:
+        """The receiver whose cell holds the position: the nearest receiver in plan (in 3D when
+        z is given). A position farther than one cell (or 2 radii for listed points) from every
+        receiver is outside the field: an error names the nearest one."""
+        p = np.array([x, y] if z is None else [x, y, z], float)
+        d = np.linalg.norm(self.positions_m[:, : p.size] - p, axis=1)
+        k = int(np.argmin(d))
+        reach = (self.grid_spacing_m or 2 * self.radius_m) * (np.sqrt(2) / 2 + 1e-9)
+        if d[k] > reach:
+            near = ", ".join(f"{v:g}" for v in self.positions_m[k])
+            raise SonoluxError(f"position ({x:g}, {y:g}) is outside the sound field: the nearest "
+                               f"receiver, #{k} at ({near}) m, is {d[k]:.2f} m away")
+        return k
+
+    def direction_index(self, direction: str | int) -> int:
+        names = self.direction_names
+        if isinstance(direction, (int, np.integer)):
+            if 0 <= direction < len(names):
+                return int(direction)
+        elif direction in names:
+            return names.index(direction)
+        raise SonoluxError(f"direction {direction!r} is not one of: {', '.join(names)}")
+
+    def receiver_energy(self, receiver: int) -> np.ndarray:
+        """float32[direction, band, time] of one receiver, J/m² per bin."""
+        return self.energy[receiver]
+
+    def omni_energy(self, receiver: int) -> np.ndarray:
+        """float64[band, time]: the energy from all directions."""
+        return self.energy[receiver].sum(axis=0, dtype=np.float64)
+
+    def impulse_response(self, receiver: int, direction: str | int | None = None,
+                         seed: int = 0) -> np.ndarray:
+        """Pressure impulse response (float64[samples]) of one receiver and direction (None:
+        all directions). See :func:`sonolux.sound.synthesis.pressure_ir`."""
+        from sonolux.sound.synthesis import pressure_ir
+
+        e = (self.omni_energy(receiver) if direction is None
+             else self.energy[receiver, self.direction_index(direction)].astype(np.float64))
+        return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.bands_hz,
+                           self.sample_rate_hz, self.settings["volume_m3"],
+                           self.settings["speed_of_sound_m_s"], seed=seed)
+
+    def paper_filters(self, receiver: int, length: int = 3840) -> np.ndarray:
+        """The paper's filters: float64[direction, band, length] energy taps at the sample rate."""
+        from sonolux.sound.synthesis import paper_filters
+
+        return np.stack([paper_filters(self.energy[receiver, d].astype(np.float64),
+                                       self.bin_start_s, self.bin_width_s, self.sample_rate_hz,
+                                       length) for d in range(self.energy.shape[1])])
+
+    # --- ranges ------------------------------------------------------------------------------
+    def merge(self, other: SoundField) -> SoundField:
+        """Adds the field of another ray range of the same bake: exact (integer counts), so
+        the ranges of a bake merge to the same bits as the bake done at once."""
+        if self.counts is None or other.counts is None:
+            raise SonoluxError("only fields baked with a ray range carry the counts to merge")
+        same = ("rays", "seed", "estimator", "max_time_s", "early_bins", "late_bin_s")
+        if self.quantum != other.quantum or any(self.settings[k] != other.settings[k] for k in same) \
+                or self.counts.shape != other.counts.shape:
+            raise SonoluxError("these two fields come from different bakes and cannot be merged")
+        counts = self.counts + other.counts
+        energy = (counts.astype(np.float64) * self.quantum).astype(np.float32).transpose(0, 2, 3, 1)
+        ranges = sorted([tuple(self.settings["ray_range"]), tuple(other.settings["ray_range"])])
+        stats = {k: (v + other.stats[k] if isinstance(v, (int, float, np.ndarray)) and k.startswith("energy_") or k in (
+            "rays", "segments", "surface_hits", "escaped_rays", "deposits") else v)
+            for k, v in self.stats.items()}
+        settings = dict(self.settings, ray_range=[ranges[0][0], ranges[1][1]])
+        return SoundField(**{**self.__dict__, "energy": np.ascontiguousarray(energy),
+                             "counts": counts, "stats": stats, "settings": settings, "path": None})

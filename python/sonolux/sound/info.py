@@ -1,0 +1,59 @@
+"""What `sonolux info` and `sonolux bake` print about a sound field."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sonolux.sound.field import SoundField
+
+#: Share of rays that may escape before a bake warns of a leak.
+LEAK_WARNING_SHARE = 0.001
+
+
+def info(field: SoundField) -> dict[str, Any]:
+    st, se = field.stats, field.settings
+    emitted = np.asarray(st["energy_emitted_j"], float)
+    accounted = sum(np.asarray(st[f"energy_{k}_j"], float) for k in
+                    ("absorbed_surfaces", "absorbed_air", "escaped", "remaining"))
+    balance = (accounted - emitted - np.asarray(st["energy_reweighted_j"], float)) / emitted
+    return {
+        "scene": field.scene_name, "origin": field.scene_origin, "path": field.path,
+        "receivers": field.n_receivers, "radius_m": field.radius_m,
+        "directions": field.direction_names, "bands_hz": field.bands_hz.tolist(),
+        "duration_s": float(field.bin_start_s[-1] + field.bin_width_s[-1]) if field.bin_start_s.size else 0.0,
+        "time_bins": int(field.bin_start_s.size), "early_bins": se["early_bins"],
+        "late_bin_s": se["late_bin_s"], "bytes_per_receiver": field.bytes_per_receiver,
+        "settings": se, "stats": {k: v for k, v in st.items() if not k.startswith("energy_")},
+        "energy_balance_relative_error": balance.tolist(),
+        "escaped_share": st["escaped_rays"] / max(st["rays"], 1),
+    }
+
+
+def format_info(field: SoundField, path: str | Path | None = None) -> str:
+    d = info(field)
+    st, se = field.stats, field.settings
+    lines = [
+        f"sound field of {d['scene']}" + (f"  ({path})" if path else ""),
+        f"  receivers   {d['receivers']}, spheres of radius {d['radius_m']:g} m",
+        f"  directions  {len(d['directions'])}: {', '.join(d['directions'])}",
+        f"  bands       {', '.join(f'{b:g}' for b in d['bands_hz'])} Hz",
+        f"  time        {d['duration_s']:.3f} s: {d['early_bins']} one-sample bins at "
+        f"{se['sample_rate_hz']} Hz, then {d['late_bin_s'] * 1e3:g} ms bins",
+        f"  memory      {d['bytes_per_receiver'] / 1e6:.2f} MB per receiver (float32)",
+        f"  bake        {se['estimator']} estimator, {se['rays']:,} rays per source"
+        f" (range {se['ray_range'][0]:,}..{se['ray_range'][1]:,}), seed {se['seed']}",
+        f"  traced      {st['segments']:,} segments, {st['surface_hits']:,} surface hits, "
+        f"{st['escaped_rays']:,} escaped, in {st.get('seconds', float('nan')):.2f} s "
+        f"({st.get('rays_per_second') or 0:,.0f} rays/s, {st.get('segments_per_second') or 0:,.0f} segments/s)",
+        f"  free path   {st['mean_free_path_m']:.3f} m measured, 4V/S = {st.get('mean_free_path_theory_m', float('nan')):.3f} m",
+        f"  balance     emitted = absorbed + air + escaped + remaining, to "
+        f"{max(abs(v) for v in d['energy_balance_relative_error']):.1e} relative",
+    ]
+    if d["escaped_share"] > LEAK_WARNING_SHARE:
+        where = "; ".join(f"from ({', '.join(f'{v:.2f}' for v in e[2])})" for e in st["escapes"][:4])
+        lines.append(f"  WARNING     {d['escaped_share']:.2%} of rays escaped: the geometry leaks "
+                     f"({where})")
+    return "\n".join(lines)
