@@ -68,7 +68,7 @@ fn energy(res: &SoundResult, r: usize, band: usize, bins: std::ops::Range<usize>
     let mut e = 0.0;
     for t in bins {
         for d in 0..l.n_directions() {
-            e += res.field.counts[l.index(r, t, d) + band] as f64 * res.field.quantum;
+            e += res.field.get(l.index(r, t, d) + band) as f64 * res.field.quantum;
         }
     }
     e
@@ -190,7 +190,7 @@ fn a_source_to_the_right_lands_in_the_right_sector() {
     let res = run(&mesh, &ac, &[omni(DVec3::new(10.0, 5.0, 10.0))], &rc, &settings(1_000_000, Estimator::Paper, 0.5));
     let l = &res.layout;
     let by_dir: Vec<f64> = (0..l.n_directions())
-        .map(|d| (0..l.n_time()).map(|t| res.field.counts[l.index(0, t, d)] as f64).sum())
+        .map(|d| (0..l.n_time()).map(|t| res.field.get(l.index(0, t, d)) as f64).sum())
         .collect();
     let total: f64 = by_dir.iter().sum();
     assert!(by_dir[6] / total >= 0.95, "right sector (−90°) holds {:.3}: {by_dir:?}", by_dir[6] / total);
@@ -208,7 +208,7 @@ fn same_bits_for_any_thread_count_and_any_split_into_ranges() {
         let one = run(&mesh, &ac, &src, &rc, &set);
         set.threads = 2;
         let two = run(&mesh, &ac, &src, &rc, &set);
-        assert_eq!(one.field.counts, two.field.counts);
+        assert_eq!(one.field.to_vec(), two.field.to_vec());
         assert_eq!(one.stats.energy("absorbed_air"), two.stats.energy("absorbed_air"));
         // Three ranges, merged in another order.
         let mut parts: Vec<SoundResult> = [(0, 1234), (1234, 4000), (4000, 5000)]
@@ -224,7 +224,7 @@ fn same_bits_for_any_thread_count_and_any_split_into_ranges() {
         for p in parts.iter().rev() {
             merged.merge(p).unwrap();
         }
-        assert_eq!(merged.field.counts, one.field.counts, "{est:?}");
+        assert_eq!(merged.field.to_vec(), one.field.to_vec(), "{est:?}");
         assert_eq!(merged.stats.energy("remaining"), one.stats.energy("remaining"));
         assert_eq!(merged.stats.surface_hits, one.stats.surface_hits);
     }
@@ -236,10 +236,12 @@ fn the_two_estimators_agree_in_expectation() {
     let ac = acoustics([0.2, 0.1, 0.15], [0.3, 0.6, 0.5], 2);
     let rc = Receivers::new(vec![DVec3::new(2.0, 2.0, 1.5), DVec3::new(6.0, 3.5, 1.2)], 0.5);
     let src = [omni(DVec3::new(4.0, 2.5, 1.5))];
-    let paper = run(&mesh, &ac, &src, &rc, &settings(400_000, Estimator::Paper, 1.0));
-    let rain = run(&mesh, &ac, &src, &rc, &settings(20_000, Estimator::Rain, 1.0));
-    // Compare energies in windows of the decay; 3% covers the paper estimator's noise here
-    // (each window gathers tens of thousands of sphere crossings).
+    let paper = run(&mesh, &ac, &src, &rc, &settings(1_500_000, Estimator::Paper, 1.0));
+    let rain = run(&mesh, &ac, &src, &rc, &settings(300_000, Estimator::Rain, 1.0));
+    // Compare energies in windows of the decay. The paper estimator's noise is largest in the
+    // first window, where the direct sound (about 1.5M × (0.5 / 2·2.3 m)² ≈ 18 000 crossings for
+    // the nearer receiver, σ ≈ 0.8%) dominates: 3% is over 3.5σ there and more elsewhere. The
+    // rain estimator still collects specular reflections with its spheres, so it needs rays too.
     let l = &paper.layout;
     let ms = |t: f64| l.time_bin(t).unwrap();
     for r in 0..2 {

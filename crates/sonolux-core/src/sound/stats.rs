@@ -44,6 +44,7 @@ pub(crate) const ABSORBED_AIR: usize = 2;
 pub(crate) const ESCAPED: usize = 3;
 pub(crate) const REMAINING: usize = 4;
 pub(crate) const REWEIGHTED: usize = 5;
+pub(crate) const KINDS: usize = 6;
 
 impl SoundStats {
     pub fn new(n_bands: usize) -> SoundStats {

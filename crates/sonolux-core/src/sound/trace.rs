@@ -38,7 +38,7 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
 
 /// Traces ray `index` of source `s` to its end, depositing into `acc` and tallying `st`.
 /// `stamp` is the worker's scratch for [`super::Receivers::crossings`], one entry a receiver.
-pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulator, st: &mut SoundStats, stamp: &mut [u64]) {
+pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, st: &mut SoundStats, stamp: &mut [u64]) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
@@ -59,9 +59,13 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
     let radius = scene.receivers.radius;
     let sphere_volume = 4.0 / 3.0 * PI * radius.powi(3);
     let mut deposit = [0.0f64; MAX_BANDS];
-    for b in 0..nb {
-        st.add_energy(stats::EMITTED, b, share);
-    }
+    // This ray's energy tallies (in units of its share), summed here and added to the
+    // fixed-point statistics once at the end: per segment that conversion would cost more than
+    // the tracing.
+    let mut tally = [[0.0f64; MAX_BANDS]; stats::KINDS];
+    tally[stats::EMITTED][..nb].fill(1.0);
+    let uniform_scattering = (0..scene.acoustics.scattering.len() / nb)
+        .all(|m| scene.acoustics.scattering[m * nb..(m + 1) * nb].iter().all(|&x| x == scene.acoustics.scattering[m * nb]));
     st.rays += 1;
 
     loop {
@@ -92,7 +96,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
         let Some(hit) = hit else {
             // The ray left the scene: a leak, unless the scene is open on purpose.
             for b in 0..nb {
-                st.add_energy(stats::ESCAPED, b, e[b] * share);
+                tally[stats::ESCAPED][b] += e[b];
             }
             st.add_escape(Escape { source: s as u32, ray: index, from: pos.to_array(), dir: dir.to_array() });
             break;
@@ -101,7 +105,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
         // Air absorption over the segment.
         for b in 0..nb {
             let kept = e[b] * (-set.air_attenuation[b] * length).exp();
-            st.add_energy(stats::ABSORBED_AIR, b, (e[b] - kept) * share);
+            tally[stats::ABSORBED_AIR][b] += e[b] - kept;
             e[b] = kept;
         }
         if reflections > 0 {
@@ -111,7 +115,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
         wave_radius += length;
         if path / set.speed_of_sound > set.max_time_s || reflections >= MAX_REFLECTIONS {
             for b in 0..nb {
-                st.add_energy(stats::REMAINING, b, e[b] * share);
+                tally[stats::REMAINING][b] += e[b];
             }
             break;
         }
@@ -129,7 +133,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
         let alpha = &scene.acoustics.absorption[m..m + nb];
         let scat = &scene.acoustics.scattering[m..m + nb];
         for b in 0..nb {
-            st.add_energy(stats::ABSORBED_SURFACES, b, e[b] * alpha[b] * share);
+            tally[stats::ABSORBED_SURFACES][b] += e[b] * alpha[b];
             e[b] *= 1.0 - alpha[b];
         }
 
@@ -141,11 +145,13 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
         let p_diffuse = scat.iter().sum::<f64>() / nb as f64;
         let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
-        for b in 0..nb {
-            let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
-            let before = e[b];
-            e[b] *= w;
-            st.add_energy(stats::REWEIGHTED, b, (e[b] - before) * share);
+        if !uniform_scattering {
+            for b in 0..nb {
+                let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
+                let before = e[b];
+                e[b] *= w;
+                tally[stats::REWEIGHTED][b] += e[b] - before;
+            }
         }
         if diffuse {
             dir = cosine_hemisphere(&Frame::from_normal(normal), rng.uniform(), rng.uniform());
@@ -159,12 +165,17 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
 
         if e[..nb].iter().all(|&x| x < floor) {
             for b in 0..nb {
-                st.add_energy(stats::REMAINING, b, e[b] * share);
+                tally[stats::REMAINING][b] += e[b];
             }
             break;
         }
     }
     st.max_reflections = st.max_reflections.max(reflections);
+    for (kind, t) in tally.iter().enumerate() {
+        for b in 0..nb {
+            st.add_energy(kind, b, t[b] * share);
+        }
+    }
 }
 
 /// Next-event estimation at a reflection: the diffusely scattered part s·E leaves the point as
@@ -172,7 +183,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &mut Accumulat
 /// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
 /// [`ball_mean_inverse_square`], and attenuated by the air on the way.
 #[allow(clippy::too_many_arguments)]
-fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &mut Accumulator, st: &mut SoundStats, rng: &mut Stream) {
+fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, st: &mut SoundStats, rng: &mut Stream) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = e.len();
@@ -204,7 +215,7 @@ fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: 
 /// The direct sound of every source at every receiver it can see, computed exactly: power ×
 /// directivity × the sphere mean of 1/(4π d²) × air attenuation, at d / c, from the source's
 /// direction. A source inside a receiver's sphere is heard from all directions equally.
-pub(crate) fn direct_sound(scene: &Scene, acc: &mut Accumulator) {
+pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;

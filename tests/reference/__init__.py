@@ -1,0 +1,1 @@
+"""Independent reference models (numpy only) that the tracer's results are checked against."""
