@@ -41,8 +41,9 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-import sonolux._core as core
 import trimesh
+
+import sonolux._core as core
 
 HERE = Path(__file__).resolve().parent
 ROOM_SIZE_M = np.array([24.0, 10.0, 8.0])  # paper-large
@@ -132,6 +133,23 @@ def make_cases(n_rays: int, seed: int) -> list[dict]:
 
 
 # --------------------------------------------------------------------------- timing helpers
+
+
+def other_cpu_use(seconds: float = 0.5) -> float:
+    """Fraction of all CPUs busy over `seconds` while this process sleeps (Linux /proc/stat;
+    0 elsewhere). Other work on the machine (a compile, say) makes every rate noisy."""
+    def sample():
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        return sum(v), v[3] + v[4]  # total, idle + iowait
+    try:
+        t0, i0 = sample()
+        time.sleep(seconds)
+        t1, i1 = sample()
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    return 1.0 - (i1 - i0) / max(t1 - t0, 1)
+
 
 
 def median_time(fn, repeats: int, warmup: bool = True) -> tuple[float, object]:
@@ -427,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=HERE / "results" / "bvh.json")
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
-    load_start = os.getloadavg()[0]
+    busy_start = other_cpu_use()
 
     peer, peer_note = None, "none requested"
     if args.peer in ("auto", "embree"):
@@ -454,9 +472,10 @@ def main(argv: list[str] | None = None) -> int:
         print("FALLBACK peer: trimesh's pure-Python tracer, 1 thread, on the first "
               + ", ".join(f"{r['name']} {r['peer_subset_rays']:,}" for r in results)
               + " rays (not Embree: its ratios say little about the BVH's quality).")
-    if load_start > 0.5 or os.getloadavg()[0] > 0.5:
-        print(f"WARNING: the machine was busy (1-min load average {load_start:.2f} at the start, "
-              f"{os.getloadavg()[0]:.2f} at the end on {os.cpu_count()} CPUs): rates are noisy.")
+    busy_end = other_cpu_use()
+    if max(busy_start, busy_end) > 0.15:
+        print(f"WARNING: other processes kept {busy_start:.0%} of the CPUs busy at the start, "
+              f"{busy_end:.0%} at the end: the rates are noisy, run again on an idle machine.")
     for r in results:
         a = r.get("agreement")
         if a and a["n_disagree"]:
@@ -471,7 +490,7 @@ def main(argv: list[str] | None = None) -> int:
         "peer": ({"name": peer.name, "version": peer.version, "note": peer_note} if peer else None),
         "machine": {"platform": platform.platform(), "python": platform.python_version(),
                     "cpus": os.cpu_count(),
-                    "load_avg_1min_start_end": [load_start, os.getloadavg()[0]]},
+                    "other_cpu_use_start_end": [busy_start, busy_end]},
         "settings": {"rays": args.rays, "repeats": args.repeats, "seed": args.seed,
                      "threads": list(THREAD_COUNTS), "t_rel_tol": T_REL_TOL},
         "elapsed_s": elapsed,

@@ -166,6 +166,7 @@ pub(crate) fn trace_sound<'py>(
     s.set_item("deposits", st.deposits)?;
     s.set_item("max_reflections", st.max_reflections)?;
     s.set_item("mean_free_path_m", st.mean_free_path())?;
+    s.set_item("free_path_relative_variance", st.free_path_relative_variance())?;
     for w in ["emitted", "absorbed_surfaces", "absorbed_air", "escaped", "remaining", "reweighted"] {
         s.set_item(format!("energy_{w}_j"), st.energy(w).unwrap_or_default().into_pyarray(py))?;
     }

@@ -34,6 +34,9 @@ pub struct SoundStats {
     energy: [Vec<i128>; 6],
     /// Sum of the lengths of segments from one surface to the next (2⁻³² m a count), and their number.
     free_path_sum: i128,
+    /// Sum of their squares (2⁻³² m² a count), for the variance that Kuttruff's correction of
+    /// Eyring's formula needs.
+    free_path_sq_sum: i128,
     pub free_paths: u64,
 }
 
@@ -59,6 +62,7 @@ impl SoundStats {
     #[inline]
     pub(crate) fn add_free_path(&mut self, metres: f64) {
         self.free_path_sum += (metres * (1u64 << 32) as f64).round() as i128;
+        self.free_path_sq_sum += (metres * metres * (1u64 << 32) as f64).round() as i128;
         self.free_paths += 1;
     }
 
@@ -82,6 +86,7 @@ impl SoundStats {
             }
         }
         self.free_path_sum += o.free_path_sum;
+        self.free_path_sq_sum += o.free_path_sq_sum;
         self.free_paths += o.free_paths;
         self.escapes.extend_from_slice(&o.escapes);
         self.escapes.sort_by_key(|e| (e.source, e.ray));
@@ -97,6 +102,13 @@ impl SoundStats {
     pub fn energy(&self, which: &str) -> Option<Vec<f64>> {
         let i = ["emitted", "absorbed_surfaces", "absorbed_air", "escaped", "remaining", "reweighted"].iter().position(|w| *w == which)?;
         Some(self.energy[i].iter().map(|&c| c as f64 * ENERGY_QUANTUM).collect())
+    }
+
+    /// Relative variance of the free path lengths, γ² = var / mean².
+    pub fn free_path_relative_variance(&self) -> f64 {
+        let mean = self.mean_free_path();
+        let mean_sq = self.free_path_sq_sum as f64 / (1u64 << 32) as f64 / self.free_paths as f64;
+        (mean_sq - mean * mean) / (mean * mean)
     }
 
     pub fn mean_free_path(&self) -> f64 {
