@@ -35,7 +35,15 @@ test-rust: ## cargo tests of the core
 test-python: build ## pytest, fast set
 	$(PY) -m pytest -q
 
-test-all: build test-rust ## every test, the slow statistical and peer checks too
+PEERS := pyrato pyroomacoustics
+
+$(VENV)/.peers-stamp: $(STAMP)
+	@echo "installing the peers used by slow checks and benchmarks (not runtime dependencies): $(PEERS)"
+	$(PIP) install --quiet $(PEERS)
+	touch $@
+
+test-all: build $(VENV)/.peers-stamp ## every test, the slow statistical and peer checks too
+	cargo test --release -p sonolux-core --quiet -- --include-ignored
 	$(PY) -m pytest -q -m "slow or not slow"
 
 lint: $(STAMP) ## ruff and clippy
@@ -44,14 +52,14 @@ lint: $(STAMP) ## ruff and clippy
 
 ci: test lint ## what .ci/run does
 
-demo: build ## the main job on built-in data
-	$(VENV)/bin/sonolux check paper-small
-	$(VENV)/bin/sonolux check paper-medium
+demo: build ## the paper's experiment: three rooms checked, baked, compared (out/demo)
 	$(VENV)/bin/sonolux check paper-large
+	$(VENV)/bin/sonolux experiment -o out/demo
 
-bench: build ## benchmarks against peers (installs the peers into .venv)
+bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomacoustics), results in benchmarks/results
 	$(PY) benchmarks/bvh.py
+	$(PY) benchmarks/sound.py
 
-clean: ## remove build products and the virtual environment
+clean: ## remove build products, outputs and the virtual environment
 	cargo clean
-	rm -rf $(VENV) python/sonolux/*.so
+	rm -rf $(VENV) python/sonolux/*.so out

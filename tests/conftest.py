@@ -10,6 +10,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+
 from sonolux.materials import load_library
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+
 from sonolux import cli
 from sonolux.acoustics.theory import air_energy_attenuation_per_m
 

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from sonolux import materials
 from sonolux.scene import load_scene
 

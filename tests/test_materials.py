@@ -6,9 +6,9 @@ import json
 
 import numpy as np
 import pytest
+
 from sonolux import materials
 from sonolux.errors import SceneError
-
 from tests.conftest import DATA
 
 

@@ -6,8 +6,18 @@ what the core returns. Start with :func:`load_scene` and the ``sonolux`` command
 
 from __future__ import annotations
 
+import os
+
+# numpy's OpenBLAS threads spin while idle and steal the cores the tracers run on; sonolux does
+# no heavy linear algebra, so one BLAS thread is enough (a user's own setting wins).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 from sonolux.errors import SceneError, SonoluxError
 from sonolux.scene import Scene, load_scene
+from sonolux.sound.bake import bake
+from sonolux.sound.field import SoundField
+from sonolux.sound.fieldfile import open_field as open
+from sonolux.sound.options import SoundOptions
 
 try:
     from importlib.metadata import PackageNotFoundError, version
@@ -16,4 +26,5 @@ try:
 except PackageNotFoundError:  # running from the source tree (PYTHONPATH=python)
     __version__ = "0.1.0"
 
-__all__ = ["Scene", "SceneError", "SonoluxError", "__version__", "load_scene"]
+__all__ = ["Scene", "SceneError", "SonoluxError", "SoundField", "SoundOptions", "__version__",
+           "bake", "load_scene", "open"]

@@ -116,6 +116,13 @@ def cmd_ir(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from sonolux.experiment import run
+
+    run(args.output, rays=args.rays, estimator=args.estimator)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sonolux",
@@ -170,6 +177,15 @@ def build_parser() -> argparse.ArgumentParser:
     ir.add_argument("--seed", type=int, default=0, help="seed of the synthesized phases")
     ir.add_argument("-o", "--output", required=True, help="the WAV file to write")
     ir.set_defaults(func=cmd_ir)
+
+    exp = sub.add_parser("experiment", help="the paper's three rooms, baked and compared",
+                         description="Bake the paper's three rooms, print T30 of the central "
+                                     "cell beside Sabine and Eyring and the ratios between rooms, "
+                                     "and write figure 7 and the impulse responses.")
+    exp.add_argument("-o", "--output", default="out/experiment", help="output folder")
+    exp.add_argument("--rays", type=_rays, default="auto", help="rays per source (default auto)")
+    exp.add_argument("--estimator", choices=("rain", "paper"), default="paper")
+    exp.set_defaults(func=cmd_experiment)
     return parser
 
 

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from sonolux.acoustics.theory import (
     air_attenuation_db_per_m,
     air_energy_attenuation_per_m,

@@ -6,6 +6,7 @@ Errors found before the geometry is built need no compiled core; the others ask 
 from __future__ import annotations
 
 import pytest
+
 from sonolux.errors import SceneError
 from sonolux.scene import load_scene
 

@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 import pytest
+
 from sonolux.scene import builtin, load_scene
 from sonolux.scene.load import weld
-
 from tests.conftest import EXAMPLES
 
 if sys.version_info >= (3, 11):

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from sonolux.scene import load_scene
 from sonolux.scene.receivers import grid_candidates
-
 from tests.conftest import EXAMPLES
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from sonolux.scene.shoebox import FACES, shoebox_mesh
 
 SIZE = np.array([6.0, 2.5, 2.0])

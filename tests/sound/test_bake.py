@@ -9,7 +9,7 @@ import pytest
 
 import sonolux
 from sonolux.errors import SonoluxError
-from sonolux.sound.bake import auto_rays, band_arrays, bake
+from sonolux.sound.bake import auto_rays, bake, band_arrays
 from sonolux.sound.fieldfile import open_field, save
 from sonolux.sound.options import SoundOptions
 

@@ -79,7 +79,8 @@ def auto_rays(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray]
     size = float(np.max(scene.mesh_report["bbox_max"] - scene.mesh_report["bbox_min"]))
     n_paper = PAPER_RULE_CONSTANT * reflections * size**2
     n = int(min(max(n_hits, 1000), 50_000_000))
-    why = (f"{n:,} rays: {HITS_PER_LATE_BIN} sphere crossings per receiver per {options.late_bin_s * 1e3:g} ms "
+    bin_ms = options.late_bin_s * 1e3
+    why = (f"{n:,} rays: {HITS_PER_LATE_BIN} sphere crossings per receiver per {bin_ms:g} ms "
            f"late bin (V = {scene.volume_m3:.4g} m³, r = {r:g} m); the paper's rule "
            f"({reflections:.0f} reflections to -{scene.settings.energy_drop_db:g} dB × "
            f"{size:g} m²) would take {n_paper:,.0f}")

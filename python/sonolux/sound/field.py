@@ -157,9 +157,9 @@ class SoundField:
                     raise SonoluxError(f"ray ranges {a0}..{a1} and {b0}..{b1} overlap: merging "
                                        "them would count those rays twice")
         ranges = sorted([list(r) for r in mine + theirs])
-        stats = {k: (v + other.stats[k] if isinstance(v, (int, float, np.ndarray)) and k.startswith("energy_") or k in (
-            "rays", "segments", "surface_hits", "escaped_rays", "deposits") else v)
-            for k, v in self.stats.items()}
+        summed = ("rays", "segments", "surface_hits", "escaped_rays", "deposits")
+        stats = {k: (np.add(v, other.stats[k]) if k.startswith("energy_") or k in summed else v)
+                 for k, v in self.stats.items()}
         settings = dict(self.settings, ray_range=[ranges[0][0], max(r[1] for r in ranges)],
                         ray_ranges=ranges)
         return SoundField(**{**self.__dict__, "energy": np.ascontiguousarray(energy),

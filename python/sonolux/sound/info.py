@@ -35,6 +35,11 @@ def info(field: SoundField) -> dict[str, Any]:
 def format_info(field: SoundField, path: str | Path | None = None) -> str:
     d = info(field)
     st, se = field.stats, field.settings
+    rate = st.get("rays_per_second") or 0.0
+    seg_rate = st.get("segments_per_second") or 0.0
+    theory = st.get("mean_free_path_theory_m", float("nan"))
+    balance = max(abs(v) for v in d["energy_balance_relative_error"])
+    first, end = se["ray_range"]
     lines = [
         f"sound field of {d['scene']}" + (f"  ({path})" if path else ""),
         f"  receivers   {d['receivers']}, spheres of radius {d['radius_m']:g} m",
@@ -44,13 +49,12 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
         f"{se['sample_rate_hz']} Hz, then {d['late_bin_s'] * 1e3:g} ms bins",
         f"  memory      {d['bytes_per_receiver'] / 1e6:.2f} MB per receiver (float32)",
         f"  bake        {se['estimator']} estimator, {se['rays']:,} rays per source"
-        f" (range {se['ray_range'][0]:,}..{se['ray_range'][1]:,}), seed {se['seed']}",
+        f" (range {first:,}..{end:,}), seed {se['seed']}",
         f"  traced      {st['segments']:,} segments, {st['surface_hits']:,} surface hits, "
         f"{st['escaped_rays']:,} escaped, in {st.get('seconds', float('nan')):.2f} s "
-        f"({st.get('rays_per_second') or 0:,.0f} rays/s, {st.get('segments_per_second') or 0:,.0f} segments/s)",
-        f"  free path   {st['mean_free_path_m']:.3f} m measured, 4V/S = {st.get('mean_free_path_theory_m', float('nan')):.3f} m",
-        f"  balance     emitted = absorbed + air + escaped + remaining, to "
-        f"{max(abs(v) for v in d['energy_balance_relative_error']):.1e} relative",
+        f"({rate:,.0f} rays/s, {seg_rate:,.0f} segments/s)",
+        f"  free path   {st['mean_free_path_m']:.3f} m measured, 4V/S = {theory:.3f} m",
+        f"  balance     emitted = absorbed + air + escaped + remaining, to {balance:.1e} relative",
     ]
     if d["escaped_share"] > LEAK_WARNING_SHARE:
         where = "; ".join(f"from ({', '.join(f'{v:.2f}' for v in e[2])})" for e in st["escapes"][:4])
