@@ -16,6 +16,7 @@
 pub mod bvh;
 pub mod error;
 pub mod geometry;
+pub mod light;
 pub mod mesh;
 pub mod parallel;
 pub mod rng;

@@ -10,6 +10,7 @@ use pyo3::types::PyDict;
 use sonolux_core::glam_export::Vec3;
 use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
+mod light;
 mod sound;
 
 create_exception!(_core, InvalidInputError, PyValueError, "An array or value handed to the core is malformed.");
@@ -160,6 +161,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", sonolux_core::VERSION)?;
     m.add_class::<Geometry>()?;
     m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
+    m.add_function(wrap_pyfunction!(light::trace_light, m)?)?;
+    m.add_function(wrap_pyfunction!(light::patch_index, m)?)?;
     m.add("InvalidInputError", m.py().get_type::<InvalidInputError>())?;
     m.add("GeometryError", m.py().get_type::<GeometryError>())?;
     Ok(())

@@ -1,0 +1,276 @@
+//! The light tracer: particles leave the emitting triangles (cosine-distributed, RGB flux),
+//! bounce by each material's optical properties (ideal diffuse, ideal specular, or glossy), end
+//! by Russian roulette, and deposit the flux they carry on the patch where they land. Time is
+//! ignored: this is the equilibrium of light, as the paper says.
+//!
+//! It shares the BVH, the samplers, the random streams and the parallel driver with the sound
+//! tracer; only the bounce and what is stored differ. Flux is summed in fixed point with atomic
+//! adds, so a bake is the same bits on any number of threads.
+
+pub mod patches;
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+
+use crate::bvh::Bvh;
+use crate::error::CoreError;
+use crate::geometry::Ray;
+use crate::mesh::Mesh;
+use crate::parallel::{run_chunks, Progress};
+use crate::rng::Stream;
+use crate::sampling::{cosine_hemisphere, triangle_point, Discrete, Frame};
+pub use patches::Patches;
+
+/// How each material reflects light: `rho` is the total reflectance per RGB channel, of which
+/// the share `specular` leaves as a mirror (roughness 0) or glossy lobe (roughness > 0) and the
+/// rest diffusely (Lambert).
+#[derive(Clone, Debug)]
+pub struct Optics {
+    pub rho: Vec<[f64; 3]>,
+    pub specular: Vec<f64>,
+    pub roughness: Vec<f64>,
+}
+
+/// An emitting triangle, one-sided: it emits on the side of (b − a) × (c − a).
+#[derive(Clone, Copy, Debug)]
+pub struct Emitter {
+    pub corners: [DVec3; 3],
+    /// Radiant flux per channel, W.
+    pub flux: [f64; 3],
+}
+
+#[derive(Clone, Debug)]
+pub struct LightSettings {
+    pub particles: u64,
+    pub first: u64,
+    pub end: u64,
+    pub seed: u64,
+    pub threads: usize,
+    /// Particles bounce at most this often (a guard; Russian roulette ends them long before).
+    pub max_bounces: u32,
+}
+
+/// Flux per patch and channel (W), how many particles landed on each, and the bake's tallies.
+#[derive(Debug)]
+pub struct LightResult {
+    pub patches: Patches,
+    pub flux: Vec<[f64; 3]>,
+    pub hits: Vec<u64>,
+    pub stats: LightStats,
+    pub cancelled: bool,
+}
+
+/// Per channel, in W: emitted, absorbed by surfaces, escaped, and the net change from Russian
+/// roulette (zero in expectation): emitted + roulette = absorbed + escaped, exactly.
+#[derive(Clone, Debug, Default)]
+pub struct LightStats {
+    pub particles: u64,
+    pub bounces: u64,
+    pub escaped_particles: u64,
+    pub emitted: [f64; 3],
+    pub absorbed: [f64; 3],
+    pub escaped: [f64; 3],
+    pub roulette: [f64; 3],
+}
+
+/// Fixed point for flux: 2⁻⁵⁰ of the total emitted flux a count.
+struct FluxSums {
+    counts: Vec<AtomicU64>,
+    hits: Vec<AtomicU64>,
+    quantum: f64,
+}
+
+impl FluxSums {
+    fn add(&self, patch: usize, flux: [f64; 3], rng: &mut Stream) {
+        let u = rng.uniform();
+        for c in 0..3 {
+            let x = flux[c] / self.quantum;
+            let add = x.floor() as u64 + u64::from(u < x - x.floor());
+            self.counts[patch * 3 + c].fetch_add(add, Ordering::Relaxed);
+        }
+        self.hits[patch].fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// Stats in fixed point (2⁻⁶⁴ W a count) so that they too are the same bits for any threads.
+#[derive(Default)]
+struct Tally {
+    particles: u64,
+    bounces: u64,
+    escaped_particles: u64,
+    energy: [[i128; 3]; 4],
+}
+
+const EMITTED: usize = 0;
+const ABSORBED: usize = 1;
+const ESCAPED: usize = 2;
+const ROULETTE: usize = 3;
+const TALLY_QUANTUM: f64 = 1.0 / 18_446_744_073_709_551_616.0;
+
+impl Tally {
+    fn add(&mut self, kind: usize, v: [f64; 3]) {
+        for c in 0..3 {
+            self.energy[kind][c] += (v[c] / TALLY_QUANTUM).round() as i128;
+        }
+    }
+}
+
+/// Traces the particles the settings name and returns the flux on every patch.
+pub fn trace_light(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    optics: &Optics,
+    emitters: &[Emitter],
+    patches: Patches,
+    settings: &LightSettings,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<LightResult, CoreError> {
+    let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+    if optics.rho.len() < n_mat || optics.specular.len() < n_mat || optics.roughness.len() < n_mat {
+        return Err(CoreError::invalid("optics", format!("need values for {n_mat} materials")));
+    }
+    if optics.rho.iter().flatten().chain(&optics.specular).chain(&optics.roughness).any(|v| !(0.0..=1.0).contains(v)) {
+        return Err(CoreError::invalid("optics", "reflectance, specular share and roughness must lie in [0, 1]"));
+    }
+    if patches.resolution.len() != mesh.triangles.len() {
+        return Err(CoreError::invalid("patches", "one patch resolution per triangle"));
+    }
+    if !(settings.first < settings.end && settings.end <= settings.particles) {
+        return Err(CoreError::invalid("particles", format!("range {}..{} is not within 0..{}", settings.first, settings.end, settings.particles)));
+    }
+    let power: Vec<f64> = emitters.iter().map(|e| e.flux.iter().sum::<f64>()).collect();
+    let choose = Discrete::new(&power).ok_or_else(|| CoreError::invalid("lights", "no light emits any flux"))?;
+    let total: f64 = power.iter().sum();
+    let sums = FluxSums {
+        counts: (0..patches.len() * 3).map(|_| AtomicU64::new(0)).collect(),
+        hits: (0..patches.len()).map(|_| AtomicU64::new(0)).collect(),
+        // Independent of the particle count, so that ranges of one bake merge exactly; a patch
+        // can take 16 000 × the emitted flux before its sum would wrap.
+        quantum: total / (1u64 << 50) as f64,
+    };
+    let epsilon = 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0);
+    let scene = LightScene { mesh, bvh, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
+    let (tallies, cancelled) = run_chunks(
+        settings.end - settings.first,
+        4096,
+        settings.threads,
+        Tally::default,
+        |tally, range| {
+            for i in range {
+                trace_particle(&scene, settings.first + i, tally);
+            }
+        },
+        progress,
+    );
+    let mut stats = LightStats::default();
+    let mut energy = [[0i128; 3]; 4];
+    for t in &tallies {
+        stats.particles += t.particles;
+        stats.bounces += t.bounces;
+        stats.escaped_particles += t.escaped_particles;
+        for k in 0..4 {
+            for c in 0..3 {
+                energy[k][c] += t.energy[k][c];
+            }
+        }
+    }
+    let w = |k: usize| energy[k].map(|v| v as f64 * TALLY_QUANTUM);
+    (stats.emitted, stats.absorbed, stats.escaped, stats.roulette) = (w(EMITTED), w(ABSORBED), w(ESCAPED), w(ROULETTE));
+    let flux = (0..patches.len()).map(|p| std::array::from_fn(|c| sums.counts[p * 3 + c].load(Ordering::Relaxed) as f64 * sums.quantum)).collect();
+    let hits = sums.hits.iter().map(|h| h.load(Ordering::Relaxed)).collect();
+    Ok(LightResult { patches, flux, hits, stats, cancelled })
+}
+
+struct LightScene<'a> {
+    mesh: &'a Mesh,
+    bvh: &'a Bvh,
+    optics: &'a Optics,
+    emitters: &'a [Emitter],
+    choose: &'a Discrete,
+    patches: &'a Patches,
+    sums: &'a FluxSums,
+    settings: &'a LightSettings,
+    epsilon: f64,
+}
+
+/// One particle from its light to its end.
+fn trace_particle(sc: &LightScene, index: u64, tally: &mut Tally) {
+    let mut rng = Stream::new(sc.settings.seed, u64::MAX - 1, index);
+    // Emit: a light by its power, a point by area, a direction by cosine.
+    let k = sc.choose.sample(rng.uniform());
+    let em = &sc.emitters[k];
+    let [a, b, c] = em.corners;
+    let mut pos = triangle_point(a, b, c, rng.uniform(), rng.uniform());
+    let n = (b - a).cross(c - a).normalize();
+    let mut dir = cosine_hemisphere(&Frame::from_normal(n), rng.uniform(), rng.uniform());
+    pos += n * sc.epsilon;
+    // Each particle carries the light's colour at a share of the total flux, so that every
+    // particle starts with the same power.
+    let p_k = sc.choose.probability(k);
+    let n_particles = sc.settings.particles as f64;
+    let mut w = em.flux.map(|f| f / (p_k * n_particles));
+    tally.particles += 1;
+    tally.add(EMITTED, w);
+
+    for _ in 0..sc.settings.max_bounces {
+        // Find where the particle lands.
+        let Some(hit) = sc.bvh.closest_hit(&Ray::new(pos.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY) else {
+            tally.escaped_particles += 1;
+            tally.add(ESCAPED, w);
+            return;
+        };
+        tally.bounces += 1;
+        let tri = hit.triangle as usize;
+        let [v0, v1, v2] = sc.mesh.corners(tri).map(|v| v.as_dvec3());
+        let point = pos + dir * hit.t as f64;
+        // Deposit the incident flux on the patch it lands on.
+        let (s, t) = patches::barycentric(point, v0, v1, v2);
+        sc.sums.add(sc.patches.index(tri, s, t), w, &mut rng);
+
+        // Absorb; Russian roulette on the largest reflectance decides whether it goes on.
+        let m = sc.mesh.material[tri] as usize;
+        let rho = sc.optics.rho[m];
+        let reflected = [w[0] * rho[0], w[1] * rho[1], w[2] * rho[2]];
+        tally.add(ABSORBED, [w[0] - reflected[0], w[1] - reflected[1], w[2] - reflected[2]]);
+        let survive = rho[0].max(rho[1]).max(rho[2]);
+        if survive <= 0.0 || rng.uniform() >= survive {
+            tally.add(ROULETTE, reflected.map(|x| -x));
+            return;
+        }
+        let next = reflected.map(|x| x / survive);
+        tally.add(ROULETTE, [next[0] - reflected[0], next[1] - reflected[1], next[2] - reflected[2]]);
+        w = next;
+
+        // Bounce from the side it came from.
+        let mut normal = (v1 - v0).cross(v2 - v0).normalize();
+        if normal.dot(dir) > 0.0 {
+            normal = -normal;
+        }
+        dir = if rng.uniform() < sc.optics.specular[m] {
+            glossy(dir, normal, sc.optics.roughness[m], &mut rng)
+        } else {
+            cosine_hemisphere(&Frame::from_normal(normal), rng.uniform(), rng.uniform())
+        };
+        pos = point + normal * sc.epsilon;
+    }
+    // The bounce guard stopped it: what it carried is absorbed here.
+    tally.add(ABSORBED, w);
+}
+
+/// The mirror direction, spread for a rough surface by a Phong lobe of exponent
+/// 2 / roughness² − 2 around it; a direction that falls below the surface is mirrored back
+/// above it, which keeps the energy.
+fn glossy(dir: DVec3, normal: DVec3, roughness: f64, rng: &mut Stream) -> DVec3 {
+    let mirror = dir - 2.0 * dir.dot(normal) * normal;
+    if roughness <= 1e-4 {
+        return mirror;
+    }
+    let exponent = (2.0 / (roughness * roughness) - 2.0).max(0.0);
+    let cos = rng.uniform().powf(1.0 / (exponent + 1.0));
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = std::f64::consts::TAU * rng.uniform();
+    let d = Frame::from_normal(mirror).to_world(DVec3::new(sin * phi.cos(), sin * phi.sin(), cos));
+    let below = d.dot(normal);
+    if below < 0.0 { d - 2.0 * below * normal } else { d }
+}
