@@ -63,7 +63,7 @@ pub(crate) fn trace_light<'py>(
             flux: [f[[i, 0]], f[[i, 1]], f[[i, 2]]],
         })
         .collect();
-    if !(patch_size_m > 0.0) {
+    if patch_size_m.is_nan() || patch_size_m <= 0.0 {
         return Err(InvalidInputError::new_err(format!("patch_size_m: {patch_size_m} is not a positive size")));
     }
     let patches = patches_of(geometry, patch_size_m);
