@@ -24,7 +24,7 @@ fn per_material(name: &str, a: &PyReadonlyArray2<'_, f64>, n_bands: usize) -> Py
 /// `progress(done, total, elapsed_s)` is called about every 100 ms and may return False to stop.
 ///
 /// Returns a dict: energy float32[R, D, B, T] in J/m², bin_start_s and bin_width_s float64[T],
-/// counts uint64[R, T, D, B] and quantum (only with keep_counts, for exact merging), the layout
+/// counts uint64[T, R, D, B] and quantum (only with keep_counts, for exact merging), the layout
 /// numbers, stats (a dict) and cancelled.
 #[pyfunction]
 #[pyo3(signature = (
@@ -134,8 +134,8 @@ pub(crate) fn trace_sound<'py>(
     let (nr, nt, nd) = (l.n_receivers, l.n_time(), l.n_directions());
     let q = res.field.quantum;
     let mut energy = vec![0f32; res.field.len()];
-    for r in 0..nr {
-        for t in 0..nt {
+    for t in 0..nt {
+        for r in 0..nr {
             for d in 0..nd {
                 let base = l.index(r, t, d);
                 for b in 0..nb {
@@ -155,7 +155,7 @@ pub(crate) fn trace_sound<'py>(
     out.set_item("saturated", res.field.saturated())?;
     out.set_item("cancelled", res.cancelled)?;
     if keep_counts {
-        out.set_item("counts", res.field.to_vec().into_pyarray(py).reshape([nr, nt, nd, nb])?)?;
+        out.set_item("counts", res.field.to_vec().into_pyarray(py).reshape([nt, nr, nd, nb])?)?;
     }
     let st = &res.stats;
     let s = PyDict::new(py);

@@ -88,10 +88,11 @@ def auto_rays(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray]
 
 
 class ProgressLine:
-    """Prints `rays done/total, rays/s, ETA` on one line of stderr, at most 5 times a second."""
+    """Prints `rays done/total, rays/s, ETA` on one line of stderr, at most 5 times a second
+    (``unit`` names what is counted: rays, particles)."""
 
-    def __init__(self, label: str, stream: Any = sys.stderr) -> None:
-        self.label, self.stream, self.last = label, stream, 0.0
+    def __init__(self, label: str, stream: Any = sys.stderr, unit: str = "rays") -> None:
+        self.label, self.stream, self.last, self.unit = label, stream, 0.0, unit
 
     def __call__(self, done: int, total: int, elapsed_s: float) -> bool:
         now = time.monotonic()
@@ -100,7 +101,7 @@ class ProgressLine:
         self.last = now
         rate = done / elapsed_s if elapsed_s > 0 else 0.0
         eta = (total - done) / rate if rate > 0 else float("nan")
-        self.stream.write(f"\r{self.label}: {done:,}/{total:,} rays, {rate:,.0f} rays/s, "
+        self.stream.write(f"\r{self.label}: {done:,}/{total:,} {self.unit}, {rate:,.0f} {self.unit}/s, "
                           f"ETA {eta:5.1f} s   ")
         if done >= total:
             self.stream.write("\n")

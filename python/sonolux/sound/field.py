@@ -148,7 +148,7 @@ class SoundField:
                 or self.counts.shape != other.counts.shape:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
         counts = self.counts + other.counts
-        energy = (counts.astype(np.float64) * self.quantum).astype(np.float32).transpose(0, 2, 3, 1)
+        energy = (counts.astype(np.float64) * self.quantum).astype(np.float32).transpose(1, 2, 3, 0)
         mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
         theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
         for a0, a1 in mine:

@@ -126,7 +126,7 @@ impl SoundSettings {
 #[derive(Debug)]
 pub struct SoundResult {
     pub layout: Layout,
-    /// Fixed-point energies, `[receiver][time][direction][band]`.
+    /// Fixed-point energies, `[time][receiver][direction][band]` (see [`Layout::index`]).
     pub field: Accumulator,
     pub stats: SoundStats,
     pub cancelled: bool,
