@@ -7,7 +7,7 @@ STAMP := $(VENV)/.deps-stamp
 PYTHON ?= python3
 
 .DEFAULT_GOAL := help
-.PHONY: help venv build test test-rust test-python test-all lint demo bench clean ci
+.PHONY: help venv build test test-rust test-python test-all lint demo bench clean ci web web-deps test-web validation
 
 help: ## list the targets
 	@echo "sonolux make targets:"
@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet "maturin>=1.9,<2" "numpy>=1.24" "scipy>=1.10" "h5py>=3.8" "trimesh>=4.0" \
-	    "soundfile>=0.12" "matplotlib>=3.7" "pytest>=8" "ruff>=0.6"
+	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "pytest>=8" "ruff>=0.6"
 	touch $(STAMP)
 
 venv: $(STAMP) ## create .venv and install the Python dependencies
@@ -27,7 +27,7 @@ build: $(STAMP) ## build the Rust extension (release) into .venv
 	$(VENV)/bin/maturin develop --release --quiet
 	@$(PY) -c "import sonolux._core" || { echo "error: the extension did not build"; exit 1; }
 
-test: build test-rust test-python ## build, then run the Rust and Python tests (fast set)
+test: build test-rust test-python test-web ## build, then run the Rust, Python and viewer tests (fast set)
 
 test-rust: ## cargo tests of the core
 	cargo test --release -p sonolux-core --quiet
@@ -35,14 +35,23 @@ test-rust: ## cargo tests of the core
 test-python: build ## pytest, fast set
 	$(PY) -m pytest -q
 
-PEERS := pyrato pyroomacoustics
+web-deps: ## the viewer's npm packages and Debian's Chromium, installed when missing
+	@bash tests/web/run.sh --deps-only
+
+test-web: build ## the viewer's unit tests and browser tests (headless Chromium; installs what is missing)
+	@bash tests/web/run.sh
+
+web: ## rebuild the viewer (web/) into python/sonolux/web_dist, which ships it (needs Node.js)
+	cd web && { test -x node_modules/.bin/vite || npm install --no-audit --no-fund; } && npm run build
+
+PEERS := pyrato pyroomacoustics mitsuba embreex
 
 $(VENV)/.peers-stamp: $(STAMP)
 	@echo "installing the peers used by slow checks and benchmarks (not runtime dependencies): $(PEERS)"
 	$(PIP) install --quiet $(PEERS)
 	touch $@
 
-test-all: build $(VENV)/.peers-stamp ## every test, the slow statistical and peer checks too
+test-all: build $(VENV)/.peers-stamp test-web ## every test, the slow statistical and peer checks too
 	cargo test --release -p sonolux-core --quiet -- --include-ignored
 	$(PY) -m pytest -q -m "slow or not slow"
 
@@ -59,6 +68,11 @@ demo: build ## the paper's experiment: three rooms checked, baked, compared (out
 bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomacoustics), results in benchmarks/results
 	$(PY) benchmarks/bvh.py
 	$(PY) benchmarks/sound.py
+	$(PY) benchmarks/light.py
+	$(PY) benchmarks/auralize.py
+
+validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md
+	$(PY) benchmarks/validation.py
 
 clean: ## remove build products, outputs and the virtual environment
 	cargo clean

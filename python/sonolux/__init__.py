@@ -13,6 +13,10 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from sonolux.errors import SceneError, SonoluxError
+from sonolux.fieldfile import open_light_field
+from sonolux.light.bake import bake_light
+from sonolux.light.field import LightField
+from sonolux.light.options import LightOptions
 from sonolux.scene import Scene, load_scene
 from sonolux.sound.bake import bake
 from sonolux.sound.field import SoundField
@@ -26,5 +30,6 @@ try:
 except PackageNotFoundError:  # running from the source tree (PYTHONPATH=python)
     __version__ = "0.1.0"
 
-__all__ = ["Scene", "SceneError", "SonoluxError", "SoundField", "SoundOptions", "__version__",
-           "bake", "load_scene", "open"]
+__all__ = ["LightField", "LightOptions", "Scene", "SceneError", "SonoluxError", "SoundField",
+           "SoundOptions", "__version__", "bake", "bake_light", "load_scene", "open",
+           "open_light_field"]

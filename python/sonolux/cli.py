@@ -1,6 +1,7 @@
 """The ``sonolux`` command line.
 
-Subcommands (more, such as ``bake`` and ``render``, join the same table):
+Subcommands (more join the same table; the light's ``render`` and ``export`` live in
+:mod:`sonolux.light.commands`):
 
 - ``sonolux check SCENE [--json]``: load a scene (a .toml file or a built-in name), check it
   and print what it contains and the reverberation times theory predicts.
@@ -68,34 +69,60 @@ def _range(text: str) -> tuple[int, int]:
 
 
 def cmd_bake(args: argparse.Namespace) -> int:
-    from sonolux.scene import load_scene
-    from sonolux.sound.bake import bake
-    from sonolux.sound.fieldfile import save
-    from sonolux.sound.info import format_info
+    import time
 
+    from sonolux.fieldfile import save_fields
+    from sonolux.light.info import format_info as format_light
+    from sonolux.light.options import LightOptions
+    from sonolux.multisensory import bake_senses
+    from sonolux.scene import load_scene
+    from sonolux.sound.info import format_info as format_sound
+    from sonolux.sound.options import SoundOptions
+
+    started = time.perf_counter()
     scene = load_scene(args.scene)
+    load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
-    field = bake(scene, rays=args.rays, estimator=args.estimator,
-                 azimuth_bands=args.azimuth_bands, elevation_bands=args.elevation_bands,
-                 ray_range=args.range, progress=not args.quiet,
-                 log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
-    if field.stats.get("cancelled"):
-        print("sonolux: stopped early: the field holds the rays traced so far", file=sys.stderr)
-    path = save(field, args.output)
-    print(format_info(field, path))
+    baked = bake_senses(
+        scene, sound=args.sound, light=args.light, load_s=load_s,
+        sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
+                                   azimuth_bands=args.azimuth_bands,
+                                   elevation_bands=args.elevation_bands, ray_range=args.range),
+        light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
+        progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
+    for field in (baked.sound, baked.light):
+        if field is not None and field.stats.get("cancelled"):
+            print("sonolux: stopped early: the field holds what was traced so far", file=sys.stderr)
+    path = save_fields(args.output, sound=baked.sound, light=baked.light, bake=baked.report)
+    if baked.sound is not None:
+        print(format_sound(baked.sound, path))
+    if baked.light is not None:
+        print(format_light(baked.light, path))
+    print(baked.sharing_note())
     return 0
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import contents, open_field, open_light_field
+    from sonolux.light.info import format_info as format_light
+    from sonolux.light.info import info as light_info
     from sonolux.sound.info import format_info, info
 
-    field = open_field(args.field)
+    has = contents(args.field)
+    sound = open_field(args.field) if has["sound"] else None
+    light = open_light_field(args.field) if has["light"] else None
     if args.json:
-        print(json.dumps(info(field), indent=2, ensure_ascii=False))
+        out = info(sound) if sound is not None else {}
+        if light is not None:
+            out["light"] = light_info(light)
+        if has["bake"] is not None:
+            out["bake"] = has["bake"]
+        print(json.dumps(out, indent=2, ensure_ascii=False, default=str))
     else:
-        print(format_info(field, args.field))
+        parts = ([format_info(sound, args.field)] if sound is not None else []) + \
+                ([format_light(light, args.field)] if light is not None else [])
+        print("\n".join(parts))
     return 0
 
 
@@ -141,27 +168,38 @@ def build_parser() -> argparse.ArgumentParser:
     check.set_defaults(func=cmd_check)
 
     bake = sub.add_parser(
-        "bake", help="trace the scene's sound into a sound field file",
-        description="Trace an impulse from every sound source into a sound field over the "
-                    "receiver grid: energy per receiver, direction, band and time, saved as HDF5.")
+        "bake", help="trace the scene's sound and light into one field file",
+        description="Trace the scene's sound and light with the same particle tracer, in one run "
+                    "that loads the scene and builds its BVH once. Sound: an impulse from every "
+                    "source into energy per receiver, direction, band and time. Light: particles "
+                    "from every light into the flux on every surface patch. Saved as HDF5.")
     bake.add_argument("scene", metavar="SCENE", help="a scene file (.toml) or a built-in name")
     bake.add_argument("-o", "--output", required=True, help="the field file to write (.h5)")
     bake.add_argument("--rays", type=_rays, default="auto",
                       help="rays per source, or 'auto' (printed with the reason); default auto")
-    bake.add_argument("--estimator", choices=("rain", "paper"), default="rain",
-                      help="rain: exact direct sound and diffuse rain (default); paper: the "
-                           "paper's sphere receivers only")
+    bake.add_argument("--estimator", choices=("paper", "rain"), default="paper",
+                      help="paper: sphere receivers, as the paper (default, measured faster to "
+                           "a given accuracy on grids); rain: exact direct sound and diffuse rain "
+                           "to every receiver (better with few receivers and diffuse surfaces)")
     bake.add_argument("--azimuth-bands", type=int, default=8, help="azimuth sectors (default 8)")
     bake.add_argument("--elevation-bands", type=int, default=1,
                       help="elevation bands of equal solid angle (1, or 3 = below/level/above)")
     bake.add_argument("--range", type=_range, default=None, metavar="FIRST:END",
                       help="trace only rays FIRST..END of the bake (ranges merge exactly)")
+    bake.add_argument("--sound", action=argparse.BooleanOptionalAction, default=None,
+                      help="trace sound (default: when the scene has a source and receivers)")
+    bake.add_argument("--light", action=argparse.BooleanOptionalAction, default=None,
+                      help="trace light (default: when the scene has a light)")
+    bake.add_argument("--particles", type=_rays, default="auto",
+                      help="light particles, or 'auto' (printed with the reason); default auto")
+    bake.add_argument("--patch-size", type=float, default=0.25, metavar="M",
+                      help="size of the light's surface patches in metres (default 0.25)")
     bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     bake.set_defaults(func=cmd_bake)
 
-    inf = sub.add_parser("info", help="summarise a sound field file",
-                         description="Summarise a sound field file: scene, settings, receivers, "
-                                     "statistics and the energy balance.")
+    inf = sub.add_parser("info", help="summarise a field file (sound and light)",
+                         description="Summarise a field file: scene, settings, receivers and "
+                                     "patches, statistics and the energy and flux balance.")
     inf.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
     inf.add_argument("--json", action="store_true", help="print machine-readable JSON")
     inf.set_defaults(func=cmd_info)
@@ -186,6 +224,21 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--rays", type=_rays, default="auto", help="rays per source (default auto)")
     exp.add_argument("--estimator", choices=("rain", "paper"), default="paper")
     exp.set_defaults(func=cmd_experiment)
+
+    from sonolux.light.commands import add_commands as add_light_commands
+    from sonolux.report.commands import add_commands as add_measuring_commands
+
+    add_light_commands(sub)  # render, export
+
+    from sonolux.web.commands import add_commands as add_web_commands
+
+    add_web_commands(sub)  # export --web, serve (after the light's export, which it extends)
+
+    add_measuring_commands(sub, _xy)  # params, report
+
+    from sonolux.auralize.cli import add_parser as add_auralize_command
+
+    add_auralize_command(sub)  # auralize
     return parser
 
 

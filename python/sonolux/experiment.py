@@ -1,7 +1,8 @@
 """The paper's experiment, end to end: the three rooms of Pope and Chalmers (6×2.5×2, 12×5×4 and
 24×10×8 m), each baked into a sound field over its grid, with the central cell's reverberation
 times beside Sabine and Eyring and the ratio between rooms, the front and right impulse
-responses of the central cell side by side (the paper's figure 7) and their WAV files.
+responses of the central cell side by side (the paper's figure 7) and their WAV files, and an
+HTML report of all three (``DIR/report/index.html``).
 
 ``sonolux experiment -o DIR`` runs it; ``make demo`` calls that.
 """
@@ -19,16 +20,18 @@ import numpy as np
 from sonolux.analysis.decay import decay_times
 from sonolux.audio import write_wav
 from sonolux.check import summarize
+from sonolux.fieldfile import save_fields
+from sonolux.multisensory import bake_senses
 from sonolux.scene import load_scene
-from sonolux.sound.bake import bake
-from sonolux.sound.fieldfile import save
+from sonolux.sound.options import SoundOptions
 
 ROOMS = ("paper-small", "paper-medium", "paper-large")
 
 
 def run(out_dir: str | Path, *, rays: int | str = "auto", estimator: str = "paper",
-        log: Callable[[str], None] = print) -> dict[str, Any]:
-    """Bakes the three rooms into ``out_dir`` and returns what it measured."""
+        log: Callable[[str], None] = print, report: bool = True) -> dict[str, Any]:
+    """Bakes the three rooms into ``out_dir`` and returns what it measured; ``report``
+    also writes the HTML report (``out_dir/report/index.html``)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     results: dict[str, Any] = {}
@@ -36,10 +39,12 @@ def run(out_dir: str | Path, *, rays: int | str = "auto", estimator: str = "pape
         scene = load_scene(name)
         theory = summarize(scene)
         started = time.perf_counter()
-        field = bake(scene, rays=rays, estimator=estimator, progress=sys.stderr.isatty(),
-                     log=lambda m: log(f"  {m}"))
+        # One bake for both senses: the report renders the lit room from the file's /light.
+        baked = bake_senses(scene, sound_options=SoundOptions(rays=rays, estimator=estimator),
+                            progress=sys.stderr.isatty(), log=lambda m: log(f"  {m}"))
+        field = baked.sound
         seconds = time.perf_counter() - started
-        path = save(field, out / f"{name}.h5")
+        path = save_fields(out / f"{name}.h5", sound=field, light=baked.light, bake=baked.report)
         centre = field.cell_at(*scene.sources[0].position_m[:2])
         t30 = decay_times(field.omni_energy(centre), field.bin_start_s, field.bin_width_s)["t30_s"]
         irs = {d: field.impulse_response(centre, d, seed=1) for d in ("front", "right")}
@@ -55,12 +60,36 @@ def run(out_dir: str | Path, *, rays: int | str = "auto", estimator: str = "pape
             "sample_rate_hz": field.sample_rate_hz,
             "bytes_per_receiver": field.bytes_per_receiver,
         }
+        lit = (f", light {baked.report['light_s']:.1f} s" if baked.light is not None else "")
         log(f"{name}: {field.n_receivers} receivers, {field.settings['rays']:,} rays in "
-            f"{seconds:.1f} s -> {path}")
+            f"{baked.report.get('sound_s', seconds):.1f} s{lit} -> {path}")
     log(format_table(results))
     plot_figure7(results, out / "figure7.png")
     log(f"figure 7 (front and right impulse responses of the central cell) -> {out / 'figure7.png'}")
+    if report:
+        index = write_report(results, out, log=log)
+        log(f"report -> {index}\n  open it in any browser: file://{index.resolve()}")
     return results
+
+
+def write_report(results: dict[str, Any], out: Path, *,
+                 log: Callable[[str], None] = print) -> Path:
+    """The HTML report of the three rooms (``out/report/index.html``): the T30 table and
+    figure 7 first, the impulse responses to listen to, then each room (see
+    :mod:`sonolux.report.build`), auralized when ``sonolux.auralize`` is installed."""
+    from sonolux.report.build import ReportOptions, build_report
+
+    wavs = [w for n in results for d in ("front", "right")
+            if (w := out / f"{n}-centre-{d}.wav").is_file()]
+    options = ReportOptions(
+        title="The paper's experiment: three rooms of the same shape, 6, 12 and 24 m long",
+        texts=[("Reverberation at the central cell", format_table(results))],
+        figures=[(out / "figure7.png", "Figure 7: energy arriving at the central cell from the "
+                  "front and from the right; the smaller the room, the sooner reflections come "
+                  "and die out.")],
+        audio=wavs, auralize=True)
+    return build_report([Path(r["field"]) for r in results.values()], out / "report", options,
+                        log=lambda m: log(f"  {m}"))
 
 
 def format_table(results: dict[str, Any]) -> str:

@@ -161,5 +161,6 @@ def resolve_lights(specs: list[LightSpec], triangles_m: np.ndarray, materials: l
                                   + ", ".join(used) + ")",
                                   matches=close_matches(str(spec.material), used))
             tris = np.ascontiguousarray(triangles_m[material_index == used.index(spec.material)])
-        lights.append(Light(spec.name, spec.kind, tris, spec.power_w, spec.color_rgb))
+        lights.append(Light(spec.name, spec.kind, tris, spec.power_w, spec.color_rgb,
+                            material=spec.material))
     return lights

@@ -38,7 +38,8 @@ class Material:
 
     absorption: float64[8], energy absorption coefficient per band, in [0, 1].
     scattering: float64[8], share of reflected sound energy scattered diffusely, in [0, 1].
-    diffuse_rgb: float64[3], diffuse reflectance of light (linear RGB), in [0, 1].
+    diffuse_rgb: float64[3], reflectance of light per linear RGB channel, in [0, 1]: the total,
+        of which the share ``specular`` is reflected specularly and the rest diffusely.
     specular: share of reflected light that is specular, in [0, 1].
     roughness: roughness of the specular lobe, in [0, 1].
     """
@@ -106,7 +107,8 @@ class Light:
 
     triangles_m: float64[k, 3, 3], axes (triangle, corner, xyz); each triangle emits on the side
     of its normal ``cross(v1 - v0, v2 - v0)``. power_w is the radiant flux of the whole light,
-    shared among the triangles in proportion to their area. color_rgb: float64[3].
+    shared among the triangles in proportion to their area. color_rgb: float64[3]. material: the
+    emitting material's name (surface lights), whose triangles in the scene are these.
     """
 
     name: str
@@ -114,6 +116,7 @@ class Light:
     triangles_m: np.ndarray
     power_w: float
     color_rgb: np.ndarray
+    material: str | None = None
 
     @property
     def area_m2(self) -> float:

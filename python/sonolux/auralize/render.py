@@ -1,0 +1,198 @@
+"""From directions to output channels: each direction bin of the field is a virtual source at
+the bin's centre, rotated into the listener's head frame by the heading, then sent to a layout.
+
+Frames. The field's directions are in the world: azimuth 0° = +x, counter-clockwise from above,
+elevation bands at the middle of their range of sin(elevation). A listener facing heading θ
+(0° = +x, 90° = +y) hears a source at world azimuth φ at head-relative azimuth φ − θ, so
+:func:`head_frame` rotates by −θ about z. Facing +x, "left" (+y) is at the left ear.
+
+A spatializer turns the convolver's output spectra O[direction, bins] of one block (see
+:class:`~sonolux.auralize.convolve.PartitionedConvolver`) into float[channel, B] samples, for a
+heading that may change within the block (``heading_deg``: float[B]):
+
+- :class:`GainSpatializer` (stereo, 5.1, 7.1, cube8, ambisonics): inverse FFT of each direction,
+  then a gain matrix G(θ)[channel, direction], interpolated linearly between keyframes at most
+  ``heading_step_deg`` apart (per sample, so a turn is smooth).
+- :class:`BinauralSpatializer`: the HRIR spectra of the rotated directions multiplied into the
+  direction spectra, summed per ear, one inverse FFT per ear and keyframe, keyframes cross-faded
+  linearly. Keyframe headings are rounded to ``heading_step_deg`` so that HRIR spectra repeat
+  and are cached.
+
+While the head is still, :meth:`combine` folds the spatialization into a cell's partitioned
+filters once (channels instead of directions: 2 ears instead of 8 directions for binaural),
+so the convolver does a quarter of the work; the block renderer keeps them while the heading
+and the cell stay the same.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+from scipy import fft as sfft
+
+from sonolux.auralize import ambisonics
+from sonolux.auralize.binaural import load_hrtf
+from sonolux.auralize.layouts import LAYOUTS, loudspeaker_layout, unit_vectors
+from sonolux.errors import SonoluxError, close_matches
+
+LAYOUT_NAMES = ("binaural", "cube8", "ambisonics", "stereo", "5.1", "7.1")
+
+
+def check_layout(name: str) -> str:
+    if name not in LAYOUT_NAMES:
+        near = close_matches(name, LAYOUT_NAMES)
+        hint = f"; did you mean {near[0]!r}?" if near else ""
+        raise SonoluxError(f"unknown layout {name!r}: one of {', '.join(LAYOUT_NAMES)}{hint}")
+    return name
+
+
+def field_directions(field) -> np.ndarray:
+    """float[direction, 3]: world unit vectors of the centres of the field's direction bins."""
+    n_az, n_el = field.azimuth_bands, field.elevation_bands
+    az = 360.0 * np.arange(n_az) / n_az
+    z = -1.0 + (2.0 * np.arange(n_el) + 1.0) / n_el  # middle of each band of sin(elevation)
+    el = np.degrees(np.arcsin(z))
+    return unit_vectors(np.tile(az, n_el), np.repeat(el, n_az))
+
+
+def head_frame(world: np.ndarray, heading_deg: float) -> np.ndarray:
+    """World unit vectors float[n, 3] seen by a listener facing ``heading_deg``."""
+    t = np.radians(heading_deg)
+    c, s = np.cos(t), np.sin(t)
+    x, y = world[:, 0], world[:, 1]
+    return np.column_stack([c * x + s * y, -s * x + c * y, world[:, 2]])
+
+
+def _keyframes(heading_deg: np.ndarray, step_deg: float) -> np.ndarray:
+    """Sample indices of the keyframes of a block: first and last sample, and enough between
+    that the heading moves at most step_deg from one keyframe to the next."""
+    b = heading_deg.size
+    travel = float(np.sum(np.abs(np.diff(heading_deg)))) if b > 1 else 0.0
+    if travel <= 1e-6:
+        return np.array([0])
+    n = min(b, int(np.ceil(travel / step_deg)) + 1)
+    return np.unique(np.round(np.linspace(0, b - 1, max(n, 2))).astype(int))
+
+
+def _crossfade(frames: list[np.ndarray], keys: np.ndarray, b: int) -> np.ndarray:
+    """Piecewise-linear interpolation in time between outputs frames[k] valid at keys[k]."""
+    if len(frames) == 1:
+        return frames[0]
+    out = np.empty_like(frames[0])
+    for k in range(len(keys) - 1):
+        a, z = keys[k], keys[k + 1]
+        end = b if k == len(keys) - 2 else z
+        r = (np.arange(a, end) - a) / max(z - a, 1)
+        out[:, a:end] = frames[k][:, a:end] * (1 - r) + frames[k + 1][:, a:end] * r
+    return out
+
+
+class GainSpatializer:
+    """Amplitude panning (loudspeakers) or encoding (ambisonics) of the direction signals."""
+
+    extra_taps = 0
+    grid_keyframes = False  # keyframes at the exact headings
+
+    def __init__(self, world: np.ndarray, gain_fn, channel_names, name: str,
+                 heading_step_deg: float = 2.0):
+        self.world = world
+        self.gain_fn = gain_fn  # head-frame unit vectors float[n, 3] -> float[channel, n]
+        self.channel_names = list(channel_names)
+        self.name = name
+        self.step = float(heading_step_deg)
+        self.delay_samples = 0
+
+    @property
+    def n_channels(self) -> int:
+        return len(self.channel_names)
+
+    def gains(self, heading_deg: float) -> np.ndarray:
+        return self.gain_fn(head_frame(self.world, heading_deg)).astype(np.float32)
+
+    def combine(self, filters: np.ndarray, heading_deg: float, fft_size: int) -> np.ndarray:
+        """Filter spectra [bins, channel, P] of the channels for a still head: the gains mixed
+        into the direction filters [bins, direction, P] (worth it with fewer channels)."""
+        g = self.gains(heading_deg).astype(filters.real.dtype)
+        return np.matmul(g, filters)  # [channel, direction] @ [bins][direction, P]
+
+    def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
+        b = heading_deg.size
+        s = sfft.irfft(spectra, fft_size, axis=-1, workers=1)[:, -b:]
+        keys = _keyframes(heading_deg, self.step)
+        return _crossfade([self.gains(heading_deg[k]) @ s for k in keys], keys, b)
+
+
+class BinauralSpatializer:
+    """HRIRs of the rotated virtual sources, applied in the convolver's frequency domain."""
+
+    def __init__(self, world: np.ndarray, hrtf, heading_step_deg: float = 2.0,
+                 cache_entries: int = 2048):
+        self.world = world
+        self.hrtf = hrtf
+        self.channel_names = ["left", "right"]
+        self.name = f"binaural ({hrtf.name})"
+        self.step = float(heading_step_deg)
+        self.extra_taps = int(hrtf.taps)
+        self.delay_samples = int(hrtf.delay_samples)
+        self._cache: OrderedDict = OrderedDict()
+        self._cache_entries = int(cache_entries)
+
+    n_channels = 2
+    grid_keyframes = True  # a turning head's keyframes on the grid of heading_step_deg
+
+    def _spectra(self, heading_deg: float, fft_size: int) -> np.ndarray:
+        """complex64[ear, direction, bins]: the HRIR spectra for a heading (cached)."""
+        key = (round(heading_deg % 360.0, 6), fft_size)
+        hit = self._cache.get(key)
+        if hit is not None:
+            self._cache.move_to_end(key)
+            return hit
+        h = self.hrtf.hrirs(head_frame(self.world, heading_deg))  # [direction, ear, taps]
+        spec = sfft.rfft(h.transpose(1, 0, 2), fft_size, axis=-1, workers=1).astype(np.complex64)
+        self._cache[key] = spec
+        if len(self._cache) > self._cache_entries:
+            self._cache.popitem(last=False)
+        return spec
+
+    def combine(self, filters: np.ndarray, heading_deg: float, fft_size: int) -> np.ndarray:
+        """Filter spectra [bins, ear, P] for a still head: the HRIRs multiplied into the
+        direction filters [bins, direction, P] and summed, exact since K ≥ 2B + taps − 1."""
+        m = self._spectra(heading_deg, fft_size).transpose(2, 0, 1)  # [bins, ear, direction]
+        return np.matmul(m, filters)  # batched over bins: [ear, direction] @ [direction, P]
+
+    def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
+        b = heading_deg.size
+        keys = _keyframes(heading_deg, self.step)
+        frames = []
+        for k in keys:
+            # A still head keeps its exact heading; a turning one is sampled on a grid of
+            # step_deg so that the spectra are found again in the cache.
+            q = heading_deg[k] if keys.size == 1 else self.step * np.round(heading_deg[k] / self.step)
+            m = self._spectra(q, fft_size)
+            ears = np.einsum("edf,df->ef", m, spectra)
+            frames.append(sfft.irfft(ears, fft_size, axis=-1, workers=1)[:, -b:])
+        return _crossfade(frames, keys, b)
+
+
+def spatializer(field, layout: str, order: int = 1, hrtf: str | None = None,
+                heading_step_deg: float = 2.0):
+    """The spatializer of a layout name (see :data:`LAYOUT_NAMES`) for the field's directions."""
+    layout = check_layout(layout)
+    world = field_directions(field)
+    if hrtf is not None and layout != "binaural":
+        raise SonoluxError(f"an HRTF ({hrtf}) is only used with the binaural layout, not {layout}")
+    if layout == "binaural":
+        return BinauralSpatializer(world, load_hrtf(hrtf, field.sample_rate_hz),
+                                   heading_step_deg)
+    if layout == "ambisonics":
+        order = ambisonics.check_order(order)
+        return GainSpatializer(world, lambda d: ambisonics.sn3d_gains(d, order),
+                               ambisonics.channel_names(order),
+                               f"ambisonics order {order} (AmbiX: ACN, SN3D)", heading_step_deg)
+    spk = loudspeaker_layout(layout)
+    return GainSpatializer(world, spk.gains, spk.channel_names, layout, heading_step_deg)
+
+
+__all__ = ["LAYOUTS", "LAYOUT_NAMES", "BinauralSpatializer", "GainSpatializer", "check_layout",
+           "field_directions", "head_frame", "spatializer"]

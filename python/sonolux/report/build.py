@@ -1,0 +1,271 @@
+"""``sonolux report``: one static HTML page of one or more sound fields.
+
+The folder holds ``index.html``, its figures in ``img/`` and its sounds in ``audio/``, all by
+relative path, no scripts and no external files: it opens offline in any browser. It is written
+to a temporary folder beside the target and renamed into place, so a failed run leaves the
+previous report as it was. Per field: the scene, the bake's statistics with its energy balance,
+the ISO 3382-1 parameters over the grid and at one cell (with Sabine and Eyring), the cell's
+echograms per direction and decay curves, parameter maps, the light view and auralizations.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sonolux.analysis.params import PARAMETERS, RoomParameters, room_parameters, scene_of
+from sonolux.analysis.tables import DIRECTIONAL_SHOWN, format_value, label_of
+from sonolux.errors import SonoluxError
+from sonolux.report import extras
+from sonolux.report import html as h
+from sonolux.sound.field import SoundField
+from sonolux.sound.fieldfile import open_field
+from sonolux.sound.info import info
+
+
+@dataclass
+class ReportOptions:
+    """``at``: the cell shown in detail (default: the first source's cell). ``light_images``:
+    rendered views, one per field in order (else rendered if the field has light).
+    ``audio``: WAV files offered as players. ``auralize``: auralize a generated dry signal at
+    the cell. ``texts`` and ``figures``: (heading, preformatted text) and (PNG, caption) shown
+    before the fields, e.g. by the paper's experiment."""
+
+    at: tuple[float, float] | None = None
+    light_images: list[Path] = field(default_factory=list)
+    audio: list[Path] = field(default_factory=list)
+    auralize: bool = False
+    title: str | None = None
+    texts: list[tuple[str, str]] = field(default_factory=list)
+    figures: list[tuple[Path, str]] = field(default_factory=list)
+
+    def validate(self) -> ReportOptions:
+        for p in [*self.light_images, *self.audio, *(f for f, _ in self.figures)]:
+            if not Path(p).is_file():
+                raise SonoluxError(f"{p}: no such file for the report")
+        return self
+
+
+def build_report(field_paths: list[Path], out_dir: Path, options: ReportOptions | None = None,
+                 *, log: Callable[[str], None] = lambda m: None) -> Path:
+    """Writes the report folder and returns the path of its ``index.html``."""
+    options = (options or ReportOptions()).validate()
+    out_dir = Path(out_dir)
+    _check_target(out_dir)
+    fields = [open_field(p) for p in field_paths]  # every error before anything is written
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    try:
+        (tmp / "img").mkdir()
+        (tmp / "audio").mkdir()
+        title = options.title or ("sonolux report: " + ", ".join(f.scene_name for f in fields))
+        body = [f"<h1>{h.esc(title)}</h1>"]
+        if len(fields) > 1:
+            body.append("<nav>" + "".join(f'<a href="#{_slug(k, f)}">{h.esc(f.scene_name)}</a>'
+                                          for k, f in enumerate(fields)) + "</nav>")
+        for heading, text in options.texts:
+            body.append(f"<h3>{h.esc(heading)}</h3><pre>{h.esc(text)}</pre>")
+        for k, (png, caption) in enumerate(options.figures):
+            name = f"img/extra-{k}-{Path(png).name}"
+            shutil.copyfile(png, tmp / name)
+            body.append(h.figure(name, caption))
+        if options.audio:
+            body.append("<h2>Listening</h2>")
+            for k, wav in enumerate(options.audio):
+                name = f"audio/given-{k}-{Path(wav).stem}.wav"
+                body.append(h.audio(name, f"{Path(wav).name} ({extras.browser_copy(wav, tmp / name)})"))
+        for k, (f, path) in enumerate(zip(fields, field_paths)):
+            log(f"report: {f.scene_name} ({f.n_receivers} receivers)")
+            light = options.light_images[k] if k < len(options.light_images) else None
+            body.append(_field_section(k, f, Path(path), tmp, options, light))
+        body.append('<p class="muted">Written by sonolux. Parameters follow ISO 3382-1:2009; '
+                    "just-noticeable differences: EDT 5 %, C80 1 dB, D50 0.05, Ts 10 ms, "
+                    "G 1 dB.</p>")
+        (tmp / "index.html").write_text(h.page(title, "\n".join(body)), encoding="utf-8")
+        _swap_into_place(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out_dir / "index.html"
+
+
+def _check_target(out_dir: Path) -> None:
+    if out_dir.exists() and (not out_dir.is_dir() or (any(out_dir.iterdir())
+                                                       and not (out_dir / "index.html").exists())):
+        raise SonoluxError(f"{out_dir}: exists and is not a report folder; choose another -o")
+
+
+def _swap_into_place(tmp: Path, out_dir: Path) -> None:
+    old = None
+    if out_dir.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
+        os.replace(out_dir, old / "report")
+    os.replace(tmp, out_dir)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _slug(k: int, f: SoundField) -> str:
+    return f"f{k}-" + re.sub(r"[^a-z0-9]+", "-", f.scene_name.lower()).strip("-")
+
+
+def _shown_cell(f: SoundField, at: tuple[float, float] | None) -> int:
+    if at is not None:
+        return f.cell_at(*at)
+    d = np.linalg.norm(f.positions_m[:, :2] - f.source_positions_m[0, :2], axis=1)
+    return int(np.argmin(d))
+
+
+# --- one field ------------------------------------------------------------------------------
+
+
+def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: ReportOptions,
+                   light_image: Path | None) -> str:
+    from sonolux.plotting.maps import plan_section, plot_parameter_maps
+    from sonolux.plotting.responses import plot_azimuth_echograms, plot_decay_curves
+
+    slug = _slug(k, f)
+    grid = room_parameters(f)
+    cell = _shown_cell(f, options.at)
+    one = room_parameters(f, [cell], directional=True, theory=False)
+    one.theory = grid.theory
+    scene, why_no_scene = scene_of(f)
+    xy = tuple(float(v) for v in f.positions_m[cell, :2])
+    out = [f'<h2 id="{slug}">{h.esc(f.scene_name)}</h2>',
+           f'<p class="muted">{h.esc(path)}</p>', "<h3>Scene</h3>", _scene_summary(f, scene)]
+    if why_no_scene:
+        out.append(h.note(f"No room outline and no Sabine/Eyring: {why_no_scene}."))
+
+    out.append("<h3>Bake</h3>" + _bake_statistics(f))
+
+    out.append("<h3>Light</h3>")
+    view = f"img/{slug}-light.png"
+    if light_image is not None:
+        shutil.copyfile(light_image, tmp / view)
+        out.append(h.figure(view, f"the lit room ({light_image.name})"))
+    else:
+        why = extras.render_light_view(path, tmp / view)
+        out.append(h.note(f"No light view: {why}.") if why else
+                   h.figure(view, "the lit room, rendered from the field's light (default camera)"))
+
+    out.append("<h3>Room-acoustic parameters over the grid</h3>")
+    out.append(f"<p>Mean over {grid.receivers.size} receivers, with the range (min–max) "
+               "below each. Broadband is the mean of the bands' energies (a flat-spectrum "
+               "source). Sabine and Eyring include air absorption.</p>")
+    out.append(_parameter_table(grid, summary=True))
+    out += [h.note(n) for n in grid.notes]
+
+    out.append(f"<h3>At the cell ({xy[0]:g}, {xy[1]:g}) m</h3>")
+    out.append(_parameter_table(one, summary=False))
+    out.append("<p>Per direction (broadband): the energy arriving from that direction only.</p>")
+    rows = [[name] + [format_value(n, one.directional[n][0, d, -1]) for n in DIRECTIONAL_SHOWN]
+            for d, name in enumerate(one.direction_names)]
+    out.append(h.table(["direction"] + [label_of(n) for n in DIRECTIONAL_SHOWN], rows))
+
+    echo = plot_azimuth_echograms(f, cell, tmp / f"img/{slug}-echograms.png")
+    out.append(h.figure(f"img/{echo.name}", "Energy per millisecond from each azimuth sector, "
+                        "laid out around a listener facing +x (front at the top, right on the "
+                        "right); the paper's figure 7 shows the front and right panels."))
+    edc = plot_decay_curves(f, cell, tmp / f"img/{slug}-decay.png")
+    out.append(h.figure(f"img/{edc.name}", "Schroeder decay curves (Lundeby truncation) per band "
+                        "and broadband; T30 is fitted over the shaded range."))
+    outline = (plan_section(scene.vertices_m, scene.triangles, float(np.mean(f.positions_m[:, 2])))
+               if scene is not None else None)
+    for part, names in (("maps", ("t30_s", "c80_db", "d50", "g_db")),
+                        ("maps-more", ("edt_s", "c50_db", "ts_s", "jlf"))):
+        png = plot_parameter_maps(f, grid, tmp / f"img/{slug}-{part}.png", names=names,
+                                  outline=outline, mark_m=xy)
+        out.append(h.figure(f"img/{png.name}", "Broadband parameters over the floor plan (x "
+                            "along the width, y up); star: the source, circle: the cell above. "
+                            "Cells whose sphere holds the source are left out of the colour "
+                            "scale."))
+
+    if options.auralize:
+        out.append("<h3>Listening</h3>" + _auralizations(f, path, tmp, slug, xy))
+    return "\n".join(out)
+
+
+def _scene_summary(f: SoundField, scene) -> str:
+    s, st = f.settings, f.stats
+    src = "; ".join(f"{w:g} W at ({', '.join(f'{v:g}' for v in p)}) m"
+                    for p, w in zip(f.source_positions_m, f.source_powers_w))
+    items = [("scene", f"{f.scene_name} ({f.scene_origin})"),
+             ("volume, surface", f"{s['volume_m3']:.4g} m³, {s['area_m2']:.4g} m²"),
+             ("sources", src),
+             ("receivers", f"{f.n_receivers}" + (f", a grid every {f.grid_spacing_m:g} m"
+                                                  if f.grid_spacing_m else " points")
+              + f", spheres of radius {f.radius_m:g} m"),
+             ("bands", ", ".join(f"{b:g}" for b in f.bands_hz) + " Hz"),
+             ("directions", f"{f.azimuth_bands} azimuth sectors × {f.elevation_bands} "
+                            "elevation band(s)"),
+             ("air", f"{s['air']['temperature_c']:g} °C, {s['air']['humidity_percent']:g} % RH, "
+                     f"c = {s['speed_of_sound_m_s']:.1f} m/s"),
+             ("bake", f"{s['estimator']} estimator, {s['rays']:,} rays, seed {s['seed']}, "
+                      f"{s['max_time_s']:.2f} s recorded at {s['sample_rate_hz']} Hz"),
+             ("time", f"{st.get('seconds', float('nan')):.1f} s "
+                      f"({st.get('rays_per_second') or 0:,.0f} rays/s)")]
+    if scene is not None:
+        items.insert(1, ("geometry", f"{scene.triangles.shape[0]} triangles, "
+                                     f"{len(scene.materials)} materials"))
+    return h.definitions(items)
+
+
+def _bake_statistics(f: SoundField) -> str:
+    st = f.stats
+    d = info(f)
+    emitted = np.asarray(st["energy_emitted_j"], float)
+    shares = {k: np.asarray(st[f"energy_{k}_j"], float) / emitted
+              for k in ("absorbed_surfaces", "absorbed_air", "escaped", "remaining")}
+    rows = [[f"{b:g}", f"{emitted[i]:.4g}"] + [f"{100 * shares[k][i]:.3f}" for k in shares]
+            + [f"{d['energy_balance_relative_error'][i]:.1e}"] for i, b in enumerate(f.bands_hz)]
+    mfp = st["mean_free_path_m"]
+    theory = st.get("mean_free_path_theory_m", float("nan"))
+    text = (f"<p>{st['segments']:,} ray segments, {st['surface_hits']:,} surface hits, "
+            f"{st['escaped_rays']:,} escaped rays ({d['escaped_share']:.2%}). Mean free path "
+            f"{mfp:.3f} m measured against 4V/S = {theory:.3f} m "
+            f"({100 * (mfp / theory - 1):+.2f} %).</p>")
+    return text + h.table(["band Hz", "emitted J", "surfaces %", "air %", "escaped %",
+                           "remaining %", "balance error"], rows)
+
+
+def _parameter_table(p: RoomParameters, *, summary: bool) -> str:
+    header = ["parameter"] + [c if c == "broadband" else f"{c} Hz" for c in p.columns]
+    rows, classes = [], []
+    s = p.summary() if summary else None
+    for name in PARAMETERS:
+        if summary:
+            rows.append([label_of(name)] + [format_value(name, v) for v in s[name]["mean"]])
+            rows.append([""] + [f"{format_value(name, a)}–{format_value(name, b)}"
+                                for a, b in zip(s[name]["min"], s[name]["max"])])
+            classes += ["", "sub"]
+        else:
+            rows.append([label_of(name)] + [format_value(name, v) for v in p.values[name][0]])
+            classes.append("")
+    for label, key in (("Sabine T60 s", "sabine_t60_s"), ("Eyring T60 s", "eyring_t60_s")):
+        if key in p.theory:
+            rows.append([label] + [h.number(v) for v in p.theory[key]] + ["–"])
+            classes.append("theory")
+    return h.table(header, rows, classes=classes)
+
+
+def _auralizations(f: SoundField, path: Path, tmp: Path, slug: str,
+                   xy: tuple[float, float]) -> str:
+    from sonolux.audio import write_wav
+
+    dry = tmp / "audio" / f"dry-{f.sample_rate_hz}.wav"
+    if not dry.exists():
+        write_wav(dry, extras.dry_signal(f.sample_rate_hz), f.sample_rate_hz, subtype="PCM_16")
+    out = [h.audio(f"audio/{dry.name}", "the dry signal (clicks, plucked notes, a noise burst)")]
+    made, why = extras.auralize(path, dry, xy, tmp / "audio", slug)
+    for wav, caption in made:
+        out.append(h.audio(f"audio/{wav.name}", f"{caption} ({extras.browser_copy(wav, wav)})"))
+    if why:
+        out.append(h.note(f"No auralization: {why}."))
+    return "\n".join(out)

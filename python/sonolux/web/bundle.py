@@ -1,0 +1,228 @@
+"""``sonolux export FIELD --web DIR``: the bundle the browser viewer reads.
+
+Files (format ``sonolux-web/1``), written into a temporary folder beside DIR and renamed into
+place, so that a reader never sees half a bundle:
+
+- ``scene.glb``: the scene (see :mod:`sonolux.web.geometry`), glTF axes (y up).
+- ``responses.bin``: one block a cell, 8-byte aligned: that cell's full responses, direction by
+  direction, then its direct-sound responses; each as :mod:`sonolux.web.responses` packs it.
+- ``field.json``: the index, in sonolux's axes (metres, z up, azimuth 0° = +x,
+  counter-clockwise). Per cell: ``position_m``, ``grid_index``, ``byte_offset`` and
+  ``byte_length`` of its block in ``responses.bin``, its ``crc32``, and per direction
+  ``full`` and ``direct`` entries ``[delay, length, offset, scale]``: ``delay`` zeros, then
+  ``length`` samples starting ``offset`` samples into the block, each times ``scale``.
+  ``playback_gain`` scales every response so that the loudest cell (all directions) has unit
+  energy: a dry signal of RMS a gives at most RMS a.
+
+Responses are pressures in sqrt(W/m²) (see :mod:`sonolux.sound.synthesis`); levels between
+cells are kept, so walking away from a source makes it quieter.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+import time
+import zlib
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from sonolux.errors import SonoluxError
+from sonolux.sound.field import SoundField
+from sonolux.web.geometry import glb_triangles, plan_segments, write_scene_glb
+from sonolux.web.options import WebExportOptions
+from sonolux.web.responses import cell_responses, pack
+
+FORMAT = "sonolux-web/1"
+FILES = ("field.json", "responses.bin", "scene.glb")
+_ALIGN = 8
+
+
+@dataclass
+class BundleSummary:
+    path: Path
+    cells: int
+    directions: int
+    responses_bytes: int
+    response_length_s: float
+    scene_source: str
+    seconds: float
+    warnings: list[str] = field(default_factory=list)
+
+    def describe(self) -> str:
+        return (f"web bundle {self.path}: {self.cells} cells × {self.directions} directions, "
+                f"responses {self.responses_bytes / 1e6:.1f} MB (up to {self.response_length_s:.2f} s), "
+                f"scene from {self.scene_source}, in {self.seconds:.1f} s")
+
+
+def direction_table(sound: SoundField) -> list[dict]:
+    """Name, azimuth and elevation (degrees) of every direction bin, in index order.
+    Elevation bands have equal solid angle: band e of n spans sin(el) in
+    [−1 + 2e/n, −1 + 2(e+1)/n] and is centred on the middle of that."""
+    n_az, n_el = sound.azimuth_bands, sound.elevation_bands
+    out = []
+    for k, name in enumerate(sound.direction_names):
+        e, a = divmod(k, n_az)
+        el = 0.0 if n_el == 1 else math.degrees(math.asin(-1 + (2 * e + 1) / n_el))
+        out.append({"name": name, "azimuth_deg": 360.0 * a / n_az, "elevation_deg": round(el, 6)})
+    return out
+
+
+def export_web(field_path: str | Path, out_dir: str | Path, options: WebExportOptions | None = None,
+               log: Callable[[str], None] | None = None) -> BundleSummary:
+    """Writes the bundle of the field file ``field_path`` into ``out_dir`` (replaced whole if it
+    is a bundle already; a folder holding anything else is refused)."""
+    from sonolux.sound.fieldfile import open_field
+
+    options = (options or WebExportOptions()).validate()
+    say = log or (lambda _m: None)
+    t0 = time.perf_counter()
+    out_dir = Path(out_dir)
+    _check_target(out_dir)
+    sound = open_field(field_path)
+    if sound.n_receivers == 0:
+        raise SonoluxError(f"{field_path}: the field has no receivers, so nothing to walk through")
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=out_dir.parent))
+    try:
+        glb = write_scene_glb(sound, field_path, tmp / "scene.glb")
+        for w in glb.warnings:
+            say(f"warning: {w}")
+        cells, gain, n_bytes, longest = _write_responses(sound, tmp / "responses.bin", options, say)
+        tris = glb_triangles(tmp / "scene.glb")
+        head_z = float(np.mean(sound.positions_m[:, 2]))
+        index = _index(sound, options, cells, gain, n_bytes, longest, tris, head_z, glb)
+        (tmp / "field.json").write_text(json.dumps(index, indent=1, ensure_ascii=False) + "\n",
+                                        encoding="utf-8")
+        _install(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return BundleSummary(out_dir, sound.n_receivers, sound.energy.shape[1], n_bytes,
+                         longest / sound.sample_rate_hz, glb.source, time.perf_counter() - t0,
+                         glb.warnings)
+
+
+def _write_responses(sound: SoundField, path: Path, options: WebExportOptions,
+                     say: Callable[[str], None]):
+    """Synthesizes every cell (in threads, in order) and appends its block to ``path``."""
+    n = sound.n_receivers
+    threads = options.threads or os.cpu_count() or 1
+    cells, energy_max, offset, longest = [], 0.0, 0, 0
+    itemsize = 2 if options.sample_format == "int16" else 4
+
+    def one(r: int):
+        return cell_responses(sound, r, options.seed, options.max_length_s)
+
+    with open(path, "wb") as f, ThreadPoolExecutor(max_workers=threads) as pool:
+        for r, resp in enumerate(pool.map(one, range(n))):
+            energy = sum(float(np.sum(x * x)) for x in resp.full)
+            energy_max = max(energy_max, energy)
+            block, entries = [], {"full": [], "direct": []}
+            at = 0
+            for kind in ("full", "direct"):
+                for x in getattr(resp, kind):
+                    longest = max(longest, x.size)
+                    p = pack(x, options.sample_format)
+                    entries[kind].append([p.delay, int(p.samples.size), at, float(p.scale)])
+                    block.append(p.samples)
+                    at += p.samples.size
+            data = np.concatenate(block).tobytes() if block else b""
+            data += b"\0" * (-len(data) % _ALIGN)
+            f.write(data)
+            cells.append({"byte_offset": offset, "byte_length": len(data),
+                          "crc32": zlib.crc32(data), **entries})
+            offset += len(data)
+            if (r + 1) * 10 // n > r * 10 // n:  # every tenth
+                say(f"responses: {r + 1}/{n} cells")
+    assert offset % itemsize == 0
+    gain = 1.0 / math.sqrt(energy_max) if energy_max > 0 else 1.0
+    return cells, gain, offset, longest
+
+
+def _index(sound: SoundField, options: WebExportOptions, cells: list[dict], gain: float,
+           n_bytes: int, longest: int, tris: np.ndarray, head_z: float, glb) -> dict:
+    from sonolux import __version__
+
+    pos = sound.positions_m
+    if len(tris):
+        lo, hi = tris.reshape(-1, 3).min(0), tris.reshape(-1, 3).max(0)
+    else:
+        half = (sound.grid_spacing_m or 2 * sound.radius_m) / 2
+        lo = np.append(pos[:, :2].min(0) - half, 0.0)
+        hi = np.append(pos[:, :2].max(0) + half, pos[:, 2].max() + 1.0)
+    for k, cell in enumerate(cells):
+        cell["position_m"] = [float(v) for v in pos[k]]
+        cell["grid_index"] = None if sound.grid_index is None else [int(v) for v in sound.grid_index[k]]
+    fs = sound.sample_rate_hz
+    return {
+        "format": FORMAT,
+        "sonolux_version": __version__,
+        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "axes": "sonolux: metres, z up, azimuth 0 deg = +x, counter-clockwise seen from above; "
+                "scene.glb is glTF (y up): (x, y, z) -> (x, z, -y)",
+        "scene": {"name": sound.scene_name, "origin": sound.scene_origin, "file": "scene.glb",
+                  "lit": glb.lit, "source": glb.source},
+        "field": {"estimator": sound.settings.get("estimator"), "rays": sound.settings.get("rays"),
+                  "bands_hz": [float(b) for b in sound.bands_hz]},
+        "sample_rate_hz": fs,
+        "response_length_samples": int(longest),
+        "response_length_s": longest / fs,
+        "max_length_s": options.max_length_s,
+        "seed": options.seed,
+        "sample_format": options.sample_format,
+        "responses_file": "responses.bin",
+        "responses_bytes": int(n_bytes),
+        "playback_gain": gain,
+        "head_height_m": head_z,
+        "directions": direction_table(sound),
+        "grid": {"spacing_m": sound.grid_spacing_m, "radius_m": sound.radius_m},
+        "sources": [{"position_m": [float(v) for v in p], "power_w": float(w)}
+                    for p, w in zip(np.atleast_2d(sound.source_positions_m), sound.source_powers_w)],
+        "bounds_m": {"min": [float(v) for v in lo], "max": [float(v) for v in hi]},
+        "plan_segments_m": [[round(float(v), 6) for v in s] for s in plan_segments(tris, head_z)],
+        "cells": cells,
+    }
+
+
+def _check_target(out_dir: Path) -> None:
+    if out_dir.exists() and not out_dir.is_dir():
+        raise SonoluxError(f"{out_dir}: exists and is not a folder")
+    if out_dir.is_dir():
+        foreign = [p.name for p in out_dir.iterdir() if p.name not in FILES]
+        if foreign:
+            raise SonoluxError(f"{out_dir}: holds files that are not a web bundle's "
+                               f"({', '.join(sorted(foreign)[:5])}); choose an empty or new folder")
+
+
+def _install(tmp: Path, out_dir: Path) -> None:
+    """Renames the finished bundle into place; an old bundle there is moved aside first and
+    removed after, so DIR is always either the old bundle or the new one. The temporary
+    folder and files were private (mkdtemp); the bundle gets the usual modes, so that a web
+    server running as another user can read it."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
+    for p in tmp.iterdir():
+        os.chmod(p, 0o666 & ~umask)
+    old = None
+    if out_dir.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".old", dir=out_dir.parent))
+        os.rmdir(old)
+        os.replace(out_dir, old)
+    try:
+        os.replace(tmp, out_dir)
+    except BaseException:
+        if old is not None:
+            os.replace(old, out_dir)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)

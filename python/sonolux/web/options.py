@@ -1,0 +1,42 @@
+"""Settings of the web bundle export (``sonolux export FIELD --web DIR``): one dataclass with
+defaults and ``validate()``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from sonolux.errors import SonoluxError
+
+SAMPLE_FORMATS = ("int16", "float32")
+
+
+@dataclass(frozen=True)
+class WebExportOptions:
+    """max_length_s: responses are cut (with a 10 ms fade) after this time; None keeps the full
+    decay. sample_format: "int16" (half the size; one scale per response, its peak at 32767:
+    quantization noise about 100 dB below the peak, far below the end of a 60 dB decay) or
+    "float32". seed: of the synthesized fine structure; response (cell r, direction d) uses
+    seed + r × directions + d, so directions and cells are uncorrelated and an equal-power
+    cross-fade between cells keeps the loudness. threads: 0 = all cores."""
+
+    max_length_s: float | None = None
+    sample_format: str = "int16"
+    seed: int = 0
+    threads: int = 0
+
+    def validate(self) -> WebExportOptions:
+        if self.max_length_s is not None and not (
+                isinstance(self.max_length_s, (int, float)) and math.isfinite(self.max_length_s)
+                and self.max_length_s > 0):
+            raise SonoluxError(f"max_length_s = {self.max_length_s!r} is not allowed: a time > 0 s "
+                               "or None for the full decay")
+        if self.sample_format not in SAMPLE_FORMATS:
+            raise SonoluxError(f"sample_format = {self.sample_format!r} is not one of: "
+                               f"{', '.join(SAMPLE_FORMATS)}")
+        if not (isinstance(self.seed, int) and self.seed >= 0):
+            raise SonoluxError(f"seed = {self.seed!r} is not allowed: a whole number ≥ 0")
+        if not (isinstance(self.threads, int) and self.threads >= 0):
+            raise SonoluxError(f"threads = {self.threads!r} is not allowed: a whole number ≥ 0 "
+                               "(0 = all cores)")
+        return self

@@ -1,0 +1,67 @@
+/**
+ * Once for the browser tests: bake a small field of paper-small (sound and light), make a
+ * copy without its light field (so the viewer's own lighting is tested too), and serve each
+ * with `sonolux serve --port 0` (which exports the bundle into a cache folder, so the export
+ * and the server are tested on the way). The tests get the addresses through inject().
+ */
+import { execFileSync, spawn, type ChildProcess } from 'node:child_process';
+import { existsSync, mkdirSync, mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { dirname, join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const repo = resolve(dirname(fileURLToPath(import.meta.url)), '../../..');
+
+function sonolux(): string {
+  const exe = process.env.SONOLUX ?? join(repo, '.venv/bin/sonolux');
+  if (!existsSync(exe)) throw new Error(`${exe} is missing: run \`make build\` first (or set SONOLUX)`);
+  return exe;
+}
+
+function serve(exe: string, field: string, cache: string): Promise<{ url: string; proc: ChildProcess }> {
+  return new Promise((ok, fail) => {
+    const proc = spawn(exe, ['serve', field, '--port', '0'], { env: { ...process.env, SONOLUX_CACHE: cache }, stdio: ['ignore', 'pipe', 'pipe'] });
+    let out = '';
+    let err = '';
+    const timer = setTimeout(() => fail(new Error(`sonolux serve did not start in 240 s:\n${out}\n${err}`)), 240_000);
+    proc.stdout!.on('data', (d) => {
+      out += d;
+      const m = /at (http:\/\/\S+)/.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        ok({ url: m[1], proc });
+      }
+    });
+    proc.stderr!.on('data', (d) => (err += d));
+    proc.on('exit', (code) => fail(new Error(`sonolux serve exited (${code}):\n${out}\n${err}`)));
+  });
+}
+
+export default async function setup({ provide }: { provide: (key: string, value: unknown) => void }) {
+  const exe = sonolux();
+  const work = mkdtempSync(join(tmpdir(), 'sonolux-web-test-'));
+  const shots = join(repo, 'out', 'web-test');
+  mkdirSync(shots, { recursive: true });
+  const lit = join(work, 'small.h5');
+  execFileSync(exe, ['bake', 'paper-small', '-o', lit, '--rays', '3000', '--particles', '100000', '-q'], { stdio: ['ignore', 'ignore', 'inherit'] });
+  const unlit = join(work, 'small-unlit.h5');
+  const python = join(dirname(exe), 'python');
+  execFileSync(python, ['-c', `import h5py, shutil; shutil.copy(${JSON.stringify(lit)}, ${JSON.stringify(unlit)}); f = h5py.File(${JSON.stringify(unlit)}, "a"); f.__delitem__("light") if "light" in f else None; f.close()`]);
+  const cache = join(work, 'cache');
+  const servers = await Promise.all([serve(exe, lit, cache), serve(exe, unlit, cache)]);
+  provide('litUrl', servers[0].url);
+  provide('unlitUrl', servers[1].url);
+  provide('shots', shots);
+  return () => {
+    for (const s of servers) s.proc.kill();
+    rmSync(work, { recursive: true, force: true });
+  };
+}
+
+declare module 'vitest' {
+  export interface ProvidedContext {
+    litUrl: string;
+    unlitUrl: string;
+    shots: string;
+  }
+}

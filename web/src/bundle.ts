@@ -1,0 +1,223 @@
+/**
+ * The bundle's index, field.json (written by `sonolux export FIELD --web DIR`, format
+ * sonolux-web/1), read and checked: anything missing or out of range is a BundleError that
+ * names the file and the field, which the page shows.
+ */
+import type { Vec3 } from './coords';
+
+export const FORMAT = 'sonolux-web/1';
+
+/** `delay` zeros, then `length` samples from `offset` (samples into the cell's block), × `scale`. */
+export interface ResponseRef {
+  delay: number;
+  length: number;
+  offset: number;
+  scale: number;
+}
+
+export interface Direction {
+  name: string;
+  azimuthDeg: number;
+  elevationDeg: number;
+}
+
+export interface Cell {
+  index: number;
+  position: Vec3;
+  gridIndex: [number, number] | null;
+  byteOffset: number;
+  byteLength: number;
+  crc32: number;
+  full: ResponseRef[];
+  direct: ResponseRef[];
+}
+
+export interface Source {
+  position: Vec3;
+  powerW: number;
+}
+
+export interface BundleIndex {
+  format: string;
+  sceneFile: string;
+  sceneLit: boolean;
+  sceneName: string;
+  sceneSource: string;
+  sampleRateHz: number;
+  responseLengthSamples: number;
+  sampleFormat: 'int16' | 'float32';
+  responsesFile: string;
+  responsesBytes: number;
+  playbackGain: number;
+  headHeightM: number;
+  directions: Direction[];
+  gridSpacingM: number | null;
+  radiusM: number;
+  sources: Source[];
+  boundsMin: Vec3;
+  boundsMax: Vec3;
+  planSegments: [number, number, number, number][];
+  cells: Cell[];
+}
+
+export class BundleError extends Error {
+  constructor(
+    readonly file: string,
+    message: string,
+  ) {
+    super(`${file}: ${message}`);
+    this.name = 'BundleError';
+  }
+}
+
+type Json = Record<string, unknown>;
+
+class Reader {
+  constructor(readonly file: string) {}
+
+  fail(path: string, what: string): never {
+    throw new BundleError(this.file, `${path} ${what}`);
+  }
+
+  obj(v: unknown, path: string): Json {
+    if (typeof v !== 'object' || v === null || Array.isArray(v)) this.fail(path, 'is not an object');
+    return v as Json;
+  }
+
+  arr(v: unknown, path: string, length?: number): unknown[] {
+    if (!Array.isArray(v)) this.fail(path, 'is not a list');
+    if (length !== undefined && v.length !== length) this.fail(path, `has ${v.length} items, not ${length}`);
+    return v;
+  }
+
+  num(v: unknown, path: string, lo = -Infinity, hi = Infinity): number {
+    if (typeof v !== 'number' || !Number.isFinite(v)) this.fail(path, 'is not a number');
+    if (v < lo || v > hi) this.fail(path, `= ${v} is outside [${lo}, ${hi}]`);
+    return v;
+  }
+
+  int(v: unknown, path: string, lo = 0, hi = Number.MAX_SAFE_INTEGER): number {
+    const n = this.num(v, path, lo, hi);
+    if (!Number.isInteger(n)) this.fail(path, `= ${n} is not a whole number`);
+    return n;
+  }
+
+  str(v: unknown, path: string): string {
+    if (typeof v !== 'string') this.fail(path, 'is not a string');
+    return v;
+  }
+
+  vec3(v: unknown, path: string): Vec3 {
+    const a = this.arr(v, path, 3);
+    return [this.num(a[0], `${path}[0]`), this.num(a[1], `${path}[1]`), this.num(a[2], `${path}[2]`)];
+  }
+}
+
+/** Checks a parsed field.json and returns it in the viewer's terms. */
+export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
+  const r = new Reader(file);
+  const j = r.obj(raw, 'the index');
+  const format = r.str(j.format, 'format');
+  if (format !== FORMAT) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMAT}`);
+  const scene = r.obj(j.scene, 'scene');
+  const sampleFormat = r.str(j.sample_format, 'sample_format');
+  if (sampleFormat !== 'int16' && sampleFormat !== 'float32') r.fail('sample_format', `is ${sampleFormat}`);
+  const itemBytes = sampleFormat === 'int16' ? 2 : 4;
+  const responsesBytes = r.int(j.responses_bytes, 'responses_bytes');
+  const directions = r.arr(j.directions, 'directions').map((d, k) => {
+    const o = r.obj(d, `directions[${k}]`);
+    return {
+      name: r.str(o.name, `directions[${k}].name`),
+      azimuthDeg: r.num(o.azimuth_deg, `directions[${k}].azimuth_deg`, -360, 360),
+      elevationDeg: r.num(o.elevation_deg, `directions[${k}].elevation_deg`, -90, 90),
+    };
+  });
+  if (directions.length === 0) r.fail('directions', 'is empty');
+  const refs = (v: unknown, path: string, block: number): ResponseRef[] =>
+    r.arr(v, path, directions.length).map((e, k) => {
+      const a = r.arr(e, `${path}[${k}]`, 4);
+      const ref = {
+        delay: r.int(a[0], `${path}[${k}][0] (delay)`),
+        length: r.int(a[1], `${path}[${k}][1] (length)`),
+        offset: r.int(a[2], `${path}[${k}][2] (offset)`),
+        scale: r.num(a[3], `${path}[${k}][3] (scale)`, 0),
+      };
+      if ((ref.offset + ref.length) * itemBytes > block) r.fail(`${path}[${k}]`, 'reaches past its cell block');
+      return ref;
+    });
+  const cells = r.arr(j.cells, 'cells').map((c, i): Cell => {
+    const o = r.obj(c, `cells[${i}]`);
+    const byteOffset = r.int(o.byte_offset, `cells[${i}].byte_offset`);
+    const byteLength = r.int(o.byte_length, `cells[${i}].byte_length`);
+    if (byteOffset + byteLength > responsesBytes) r.fail(`cells[${i}]`, 'reaches past the end of responses_bytes');
+    const gi = o.grid_index === null ? null : r.arr(o.grid_index, `cells[${i}].grid_index`, 2);
+    return {
+      index: i,
+      position: r.vec3(o.position_m, `cells[${i}].position_m`),
+      gridIndex: gi === null ? null : [r.num(gi[0], 'grid_index'), r.num(gi[1], 'grid_index')],
+      byteOffset,
+      byteLength,
+      crc32: r.int(o.crc32, `cells[${i}].crc32`, 0, 0xffffffff),
+      full: refs(o.full, `cells[${i}].full`, byteLength),
+      direct: refs(o.direct, `cells[${i}].direct`, byteLength),
+    };
+  });
+  if (cells.length === 0) r.fail('cells', 'is empty');
+  const grid = r.obj(j.grid, 'grid');
+  const bounds = r.obj(j.bounds_m, 'bounds_m');
+  return {
+    format,
+    sceneFile: r.str(scene.file, 'scene.file'),
+    sceneLit: Boolean(scene.lit),
+    sceneName: typeof scene.name === 'string' ? scene.name : '',
+    sceneSource: typeof scene.source === 'string' ? scene.source : '',
+    sampleRateHz: r.int(j.sample_rate_hz, 'sample_rate_hz', 3000, 768000),
+    responseLengthSamples: r.int(j.response_length_samples, 'response_length_samples'),
+    sampleFormat: sampleFormat as 'int16' | 'float32',
+    responsesFile: r.str(j.responses_file, 'responses_file'),
+    responsesBytes,
+    playbackGain: r.num(j.playback_gain, 'playback_gain', 0),
+    headHeightM: r.num(j.head_height_m, 'head_height_m'),
+    directions,
+    gridSpacingM: grid.spacing_m === null ? null : r.num(grid.spacing_m, 'grid.spacing_m', 0),
+    radiusM: r.num(grid.radius_m, 'grid.radius_m', 0),
+    sources: r.arr(j.sources, 'sources').map((s, k) => {
+      const o = r.obj(s, `sources[${k}]`);
+      return { position: r.vec3(o.position_m, `sources[${k}].position_m`), powerW: r.num(o.power_w, 'power_w') };
+    }),
+    boundsMin: r.vec3(bounds.min, 'bounds_m.min'),
+    boundsMax: r.vec3(bounds.max, 'bounds_m.max'),
+    planSegments: r.arr(j.plan_segments_m, 'plan_segments_m').map((s, k) => {
+      const a = r.arr(s, `plan_segments_m[${k}]`, 4).map((v) => r.num(v, `plan_segments_m[${k}]`));
+      return [a[0], a[1], a[2], a[3]];
+    }),
+    cells,
+  };
+}
+
+/** The bundle's folder URL, always ending in '/'. */
+export function bundleBase(param: string | null, pageUrl: string): string {
+  const u = new URL(param && param.length ? param : 'bundle/', pageUrl);
+  if (!u.pathname.endsWith('/')) u.pathname += '/';
+  return u.href;
+}
+
+/** Fetches and checks field.json. */
+export async function loadIndex(base: string, fetchFn: typeof fetch = fetch): Promise<BundleIndex> {
+  const file = 'field.json';
+  let res: Response;
+  try {
+    res = await fetchFn(new URL(file, base).href);
+  } catch (e) {
+    throw new BundleError(file, `could not be fetched from ${base} (${(e as Error).message})`);
+  }
+  if (!res.ok) throw new BundleError(file, `could not be fetched from ${base} (HTTP ${res.status})`);
+  const text = await res.text();
+  let raw: unknown;
+  try {
+    raw = JSON.parse(text);
+  } catch (e) {
+    throw new BundleError(file, `is not valid JSON (${(e as Error).message})`);
+  }
+  return parseIndex(raw, file);
+}

@@ -1,0 +1,73 @@
+import { describe, expect, test } from 'vitest';
+import { BundleError, bundleBase, parseIndex } from '../src/bundle';
+import { crc32 } from '../src/crc32';
+import { decodeCell } from '../src/responses';
+
+function index(): Record<string, unknown> {
+  return {
+    format: 'sonolux-web/1',
+    scene: { file: 'scene.glb', lit: true, name: 't', source: 'scene' },
+    sample_rate_hz: 48000,
+    response_length_samples: 4,
+    sample_format: 'int16',
+    responses_file: 'responses.bin',
+    responses_bytes: 8,
+    playback_gain: 0.5,
+    head_height_m: 1.5,
+    directions: [{ name: 'front', azimuth_deg: 0, elevation_deg: 0 }],
+    grid: { spacing_m: 1, radius_m: 0.25 },
+    sources: [{ position_m: [3, 1, 1.5], power_w: 1 }],
+    bounds_m: { min: [0, 0, 0], max: [6, 2.5, 2] },
+    plan_segments_m: [[0, 0, 6, 0]],
+    cells: [{ position_m: [1, 1, 1.5], grid_index: [0, 0], byte_offset: 0, byte_length: 8, crc32: 0, full: [[2, 3, 0, 0.5]], direct: [[2, 1, 0, 0.5]] }],
+  };
+}
+
+describe('field.json', () => {
+  test('a good index reads back in the viewer terms', () => {
+    const ix = parseIndex(index());
+    expect(ix.cells[0].full[0]).toEqual({ delay: 2, length: 3, offset: 0, scale: 0.5 });
+    expect(ix.sampleRateHz).toBe(48000);
+  });
+
+  test('every problem names its field', () => {
+    const bad = (edit: (j: Record<string, unknown>) => void, words: string) => {
+      const j = index();
+      edit(j);
+      expect(() => parseIndex(j)).toThrow(BundleError);
+      expect(() => parseIndex(j)).toThrow(words);
+    };
+    bad((j) => (j.format = 'other/2'), 'format');
+    bad((j) => delete j.cells, 'cells is not a list');
+    bad((j) => ((j.cells as any)[0].byte_length = 99), 'past the end');
+    bad((j) => ((j.cells as any)[0].full = [[0, 9, 0, 1]]), 'past its cell block');
+    bad((j) => ((j.cells as any)[0].full = []), 'has 0 items, not 1');
+    bad((j) => (j.sample_rate_hz = 'x'), 'sample_rate_hz is not a number');
+  });
+
+  test('the bundle folder URL ends in a slash', () => {
+    expect(bundleBase(null, 'http://h/p/index.html')).toBe('http://h/p/bundle/');
+    expect(bundleBase('/data/b', 'http://h/p/')).toBe('http://h/data/b/');
+  });
+});
+
+describe('responses.bin', () => {
+  test('CRC-32 is zlib\u2019s', () => {
+    expect(crc32(new TextEncoder().encode('123456789'))).toBe(0xcbf43926);
+  });
+
+  test('a block decodes with its delay and scale; a corrupt one is refused', () => {
+    const words = new Int16Array([10, -20, 30, 0]);
+    const bytes = new Uint8Array(words.buffer);
+    const j = index();
+    (j.cells as any)[0].crc32 = crc32(bytes);
+    const ix = parseIndex(j);
+    const c = decodeCell(ix, ix.cells[0], words.buffer.slice(0));
+    expect(c.full[0].delay).toBe(2);
+    expect(Array.from(c.full[0].samples)).toEqual([5, -10, 15]);
+    expect(Array.from(c.direct[0].samples)).toEqual([5]);
+    const broken = words.slice();
+    broken[1] = 21;
+    expect(() => decodeCell(ix, ix.cells[0], broken.buffer)).toThrow('CRC-32');
+  });
+});
