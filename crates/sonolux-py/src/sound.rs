@@ -2,6 +2,7 @@
 
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
+use rayon::prelude::*;
 use pyo3::types::PyDict;
 
 use sonolux_core::glam_export::DVec3;
@@ -134,15 +135,27 @@ pub(crate) fn trace_sound<'py>(
     let (nr, nt, nd) = (l.n_receivers, l.n_time(), l.n_directions());
     let q = res.field.quantum;
     let mut energy = vec![0f32; res.field.len()];
-    for t in 0..nt {
-        for r in 0..nr {
-            for d in 0..nd {
-                let base = l.index(r, t, d);
-                for b in 0..nb {
-                    energy[((r * nd + d) * nb + b) * nt + t] = (res.field.get(base + b) as f64 * q) as f32;
-                }
-            }
-        }
+    if !energy.is_empty() {
+        // One receiver's block [direction][band][time] per task, on the bake's thread count.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| InvalidInputError::new_err(format!("threads: {e}")))?;
+        let field = &res.field;
+        py.detach(|| {
+            pool.install(|| {
+                energy.par_chunks_mut(nd * nb * nt).enumerate().for_each(|(r, block)| {
+                    for t in 0..nt {
+                        for d in 0..nd {
+                            let base = l.index(r, t, d);
+                            for b in 0..nb {
+                                block[(d * nb + b) * nt + t] = (field.get(base + b) as f64 * q) as f32;
+                            }
+                        }
+                    }
+                })
+            })
+        });
     }
     let out = PyDict::new(py);
     out.set_item("energy", energy.into_pyarray(py).reshape([nr, nd, nb, nt])?)?;
