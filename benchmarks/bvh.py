@@ -30,18 +30,17 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import platform
 import subprocess
 import sys
-import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import trimesh
+from common import other_cpu_use, write_json
 
 import sonolux._core as core
 
@@ -135,20 +134,6 @@ def make_cases(n_rays: int, seed: int) -> list[dict]:
 # --------------------------------------------------------------------------- timing helpers
 
 
-def other_cpu_use(seconds: float = 0.5) -> float:
-    """Fraction of all CPUs busy over `seconds` while this process sleeps (Linux /proc/stat;
-    0 elsewhere). Other work on the machine (a compile, say) makes every rate noisy."""
-    def sample():
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:]]
-        return sum(v), v[3] + v[4]  # total, idle + iowait
-    try:
-        t0, i0 = sample()
-        time.sleep(seconds)
-        t1, i1 = sample()
-    except (OSError, ValueError, IndexError):
-        return 0.0
-    return 1.0 - (i1 - i0) / max(t1 - t0, 1)
 
 
 
@@ -421,17 +406,6 @@ def print_table(results: list[dict], peer_name: str | None) -> None:
           "sonolux builds faster). Build columns: BVH build only, median of the builds.")
 
 
-def write_json(path: Path, data: dict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".bvh-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=2)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def main(argv: list[str] | None = None) -> int:

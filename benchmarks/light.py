@@ -31,7 +31,6 @@ Results go to benchmarks/results/light.json.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import statistics
@@ -46,6 +45,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # tests.reference.mitsuba_light: the rooms, Mitsuba's scene
+
+from common import other_cpu_use, write_json  # noqa: E402
 
 import sonolux  # noqa: E402
 from sonolux.light.bake import bake_light  # noqa: E402
@@ -62,19 +63,6 @@ def log(msg: str) -> None:
     print(f"[light {time.strftime('%H:%M:%S')}] {msg}", flush=True)
 
 
-def other_cpu_use(seconds: float = 0.5) -> float:
-    """Fraction of all CPUs busy over `seconds` while this process sleeps (Linux /proc/stat)."""
-    def sample():
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:]]
-        return sum(v), v[3] + v[4]
-    try:
-        t0, i0 = sample()
-        time.sleep(seconds)
-        t1, i1 = sample()
-    except (OSError, ValueError, IndexError):
-        return 0.0
-    return 1.0 - (i1 - i0) / max(t1 - t0, 1)
 
 
 def paper_room(directory: str, name: str, scale: float) -> sonolux.Scene:
@@ -298,17 +286,6 @@ def print_table(results: dict[str, Any]) -> None:
           "brackets.")
 
 
-def write_json(path: Path, data: dict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".light-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=2)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def main(argv: list[str] | None = None) -> int:

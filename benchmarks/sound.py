@@ -33,17 +33,16 @@ what else runs on it. Results go to benchmarks/results/sound.json.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import platform
 import sys
-import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from common import other_cpu_use, write_json
 from sound_peer import ENERGY_THRES, HIST_BIN_S, load_pra, pra_hits_per_ray, pra_room, pra_trace, shoebox_of
 
 import sonolux
@@ -69,33 +68,8 @@ def log(msg: str) -> None:
 # --------------------------------------------------------------------------- helpers
 
 
-def other_cpu_use(seconds: float = 0.5) -> float:
-    """Fraction of all CPUs busy over `seconds` while this process sleeps (Linux /proc/stat;
-    0 elsewhere). Other work on the machine (a compile, say) makes every rate noisy."""
-    def sample():
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:]]
-        return sum(v), v[3] + v[4]  # total, idle + iowait
-    try:
-        t0, i0 = sample()
-        time.sleep(seconds)
-        t1, i1 = sample()
-    except (OSError, ValueError, IndexError):
-        return 0.0
-    return 1.0 - (i1 - i0) / max(t1 - t0, 1)
 
 
-def write_json(path: Path, data: dict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".sound-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=2)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _dist_version(name: str) -> str:

@@ -32,6 +32,31 @@ pub(crate) fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<
     Ok(a.rows().into_iter().map(|r| Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32)).collect())
 }
 
+/// The progress closure both tracers get: it takes the GIL back briefly (the tracers run
+/// without it) to notice Ctrl-C and to call the user's `progress(done, total, elapsed_s)`,
+/// whose False stops the run. An interrupt or an error in the callback is kept to be raised
+/// once the workers have stopped.
+pub(crate) fn report_progress(
+    progress: &Option<Py<PyAny>>,
+    p: &sonolux_core::parallel::Progress,
+    interrupted: &mut Option<PyErr>,
+) -> bool {
+    Python::attach(|py| {
+        if let Err(e) = py.check_signals() {
+            *interrupted = Some(e);
+            return false;
+        }
+        let Some(cb) = progress else { return true };
+        match cb.bind(py).call1((p.done, p.total, p.elapsed.as_secs_f64())) {
+            Ok(v) => v.extract::<bool>().unwrap_or(true),
+            Err(e) => {
+                *interrupted = Some(e);
+                false
+            }
+        }
+    })
+}
+
 /// Runs `f` on a rayon pool of `threads` workers (0: all cores) with the GIL released.
 fn on_pool<T: Send>(py: Python<'_>, threads: usize, f: impl FnOnce() -> T + Send) -> PyResult<T> {
     let pool = rayon::ThreadPoolBuilder::new()

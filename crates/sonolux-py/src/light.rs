@@ -72,22 +72,7 @@ pub(crate) fn trace_light<'py>(
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
         trace(&geometry.mesh, &geometry.bvh, &optics, &ems, patches, &settings, |p| {
-            Python::attach(|py| {
-                if let Err(e) = py.check_signals() {
-                    interrupted = Some(e);
-                    return false;
-                }
-                match &progress {
-                    Some(cb) => match cb.bind(py).call1((p.done, p.total, p.elapsed.as_secs_f64())) {
-                        Ok(v) => v.extract::<bool>().unwrap_or(true),
-                        Err(e) => {
-                            interrupted = Some(e);
-                            false
-                        }
-                    },
-                    None => true,
-                }
-            })
+            crate::report_progress(&progress, p, &mut interrupted)
         })
     });
     if let Some(e) = interrupted {

@@ -105,23 +105,7 @@ pub(crate) fn trace_sound<'py>(
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
         trace(&geometry.mesh, &geometry.bvh, &acoustics, &sources, &receivers, &settings, |p| {
-            Python::attach(|py| {
-                if let Err(e) = py.check_signals() {
-                    interrupted = Some(e);
-                    return false;
-                }
-                if let Some(cb) = &progress {
-                    match cb.bind(py).call1((p.done, p.total, p.elapsed.as_secs_f64())) {
-                        Ok(v) => v.extract::<bool>().unwrap_or(true),
-                        Err(e) => {
-                            interrupted = Some(e);
-                            false
-                        }
-                    }
-                } else {
-                    true
-                }
-            })
+            crate::report_progress(&progress, p, &mut interrupted)
         })
     });
     // Ctrl-C or an error in the progress callback: the workers have stopped; re-raise it.

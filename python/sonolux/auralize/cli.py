@@ -18,11 +18,9 @@ NORMALIZE_PEAK_DBFS = -1.0
 
 
 def _xy(text: str) -> tuple[float, float]:
-    try:
-        x, y = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y in metres (e.g. 3,1.25)") from None
-    return x, y
+    from sonolux.cli import _xy as parse_xy  # the one parser of X,Y the whole command line uses
+
+    return parse_xy(text)
 
 
 def add_parser(sub) -> argparse.ArgumentParser:
