@@ -3,22 +3,15 @@
 
 use std::f64::consts::PI;
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use sonolux_core::light::{trace_light, Emitter, LightResult, LightSettings, Optics, Patches};
 use sonolux_core::{Bvh, Mesh};
 
+mod common;
+
 /// A box [0,l]×[0,w]×[0,h] with normals facing in; material 0 floor, 1 the rest.
 fn room(l: f32, w: f32, h: f32) -> Mesh {
-    let v: Vec<Vec3> = (0..8).map(|i| Vec3::new(if i & 1 == 1 { l } else { 0.0 }, if i & 2 == 2 { w } else { 0.0 }, if i & 4 == 4 { h } else { 0.0 })).collect();
-    let quads = [([0, 1, 3, 2], 0), ([4, 6, 7, 5], 1), ([0, 4, 5, 1], 1), ([2, 3, 7, 6], 1), ([0, 2, 6, 4], 1), ([1, 5, 7, 3], 1)];
-    let (mut t, mut m) = (Vec::new(), Vec::new());
-    for (q, mat) in quads {
-        // Wound so that (b − a) × (c − a) faces into the box.
-        t.push([q[0], q[1], q[2]]);
-        t.push([q[0], q[2], q[3]]);
-        m.extend([mat, mat]);
-    }
-    Mesh::new(v, t, m).unwrap()
+    common::shoebox(l, w, h, [0, 1, 1, 1, 1, 1])
 }
 
 fn patches(mesh: &Mesh, size: f64) -> Patches {
