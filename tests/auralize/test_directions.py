@@ -117,3 +117,28 @@ def test_elevation_bands_reach_the_cube_upper_layer(one_arrival):
     field = one_arrival("front@above", n_elevation=3)
     e = np.sum(render(field, "cube8", 0.0).astype(float) ** 2, axis=0)
     assert e[4:].sum() > 10 * e[:4].sum()  # the upper layer carries it
+
+
+def test_cached_hrir_spectra_equal_the_hrirs_spectra(one_arrival):
+    """The per-ear (spherical head) and per-direction (other HRTFs) caches of HRIR spectra
+    give the spectra of hrirs() for every heading of a turn, to float32 rounding."""
+    from scipy import fft as sfft
+
+    from sonolux.auralize.render import BinauralSpatializer, field_directions, head_frame
+
+    field = one_arrival("right")
+    world = field_directions(field)
+    head = SphericalHead(FS)
+
+    class Plain:  # the same head without ear_angles: the per-direction cache
+        taps, delay_samples, name = head.taps, head.delay_samples, "plain"
+        hrirs = staticmethod(head.hrirs)
+
+    for hrtf in (head, Plain()):
+        sp = BinauralSpatializer(world, hrtf)
+        for heading in np.arange(0.0, 400.0, 2.0):
+            want = sfft.rfft(head.hrirs(head_frame(world, heading)).transpose(1, 0, 2), 512,
+                             axis=-1)
+            got = sp._spectra(heading, 512)
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.abs(want).max())

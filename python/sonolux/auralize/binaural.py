@@ -53,13 +53,22 @@ class SphericalHead:
         self._window = np.kaiser(2 * _SINC_HALF + 1, 8.0)
         self.name = f"spherical head (a = {100 * self.radius_m:g} cm)"
 
-    def hrirs(self, directions: np.ndarray) -> np.ndarray:
+    def ear_angles(self, directions: np.ndarray) -> np.ndarray:
+        """float[n, ear]: the angle θ between each direction and each ear's axis; an ear's
+        HRIR depends on nothing else (:meth:`ear_hrir`), so a cache may key on it."""
         d = np.atleast_2d(np.asarray(directions, float))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
-        out = np.zeros((d.shape[0], 2, self.taps))
-        for ear, y in enumerate((1.0, -1.0)):
-            theta = np.arccos(np.clip(d[:, 1] * y, -1.0, 1.0))
-            for i, th in enumerate(theta):
+        return np.column_stack([np.arccos(np.clip(d[:, 1] * y, -1.0, 1.0)) for y in (1.0, -1.0)])
+
+    def ear_hrir(self, theta: float) -> np.ndarray:
+        """float[taps]: the HRIR of an ear for a source at angle θ (radians) from its axis."""
+        return self._ear(float(theta))
+
+    def hrirs(self, directions: np.ndarray) -> np.ndarray:
+        theta = self.ear_angles(directions)
+        out = np.zeros((theta.shape[0], 2, self.taps))
+        for ear in range(2):
+            for i, th in enumerate(theta[:, ear]):
                 out[i, ear] = self._ear(th)
         return out
 

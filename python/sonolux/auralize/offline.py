@@ -104,13 +104,13 @@ def run_blocks(renderer: StreamRenderer, x: np.ndarray, n_out: int, heading_deg,
     receiver) in time order, the sample where each cross-fade to a new cell starts."""
     b = renderer.block
     blocks = -(-n_out // b)
-    padded = np.zeros(blocks * b, np.float64)
-    padded[: min(x.size, padded.size)] = x[: padded.size]
     per_sample = np.ndim(heading_deg) > 0
+    # Blocks are sliced from x and the headings as they are; only a block running past their
+    # ends is padded (x with zeros, the heading held), without copying the whole signal.
+    silence = np.zeros(b, np.float64)
     if per_sample:
-        h = np.empty(blocks * b)
-        h[:n_out] = heading_deg[:n_out]
-        h[n_out:] = h[n_out - 1]
+        h = np.asarray(heading_deg, float)
+        h_end = min(n_out, h.size)
     out = np.empty((blocks * b, renderer.spatializer.n_channels), np.float32)
     pending = list(changes)
     for i in range(blocks):
@@ -118,8 +118,16 @@ def run_blocks(renderer: StreamRenderer, x: np.ndarray, n_out: int, heading_deg,
         while pending and pending[0][0] < start + b:
             at, receiver = pending.pop(0)
             renderer.set_cell(receiver, at)
-        hb = h[start:start + b] if per_sample else float(heading_deg)
-        out[start:start + b] = renderer.process(padded[start:start + b], hb).T
+        xb = x[start:start + b]
+        if xb.size < b:
+            xb = np.concatenate([xb, silence[: b - xb.size]]) if xb.size else silence
+        if per_sample:
+            hb = h[start:min(start + b, h_end)]
+            if hb.size < b:
+                hb = np.concatenate([hb, np.full(b - hb.size, h[h_end - 1])])
+        else:
+            hb = float(heading_deg)
+        out[start:start + b] = renderer.process(xb, hb).T
     return out[:n_out]
 
 

@@ -16,7 +16,8 @@ heading that may change within the block (``heading_deg``: float[B]):
 - :class:`BinauralSpatializer`: the HRIR spectra of the rotated directions multiplied into the
   direction spectra, summed per ear, one inverse FFT per ear and keyframe, keyframes cross-faded
   linearly. Keyframe headings are rounded to ``heading_step_deg`` so that HRIR spectra repeat
-  and are cached.
+  and are cached, by heading and by head-frame direction (by ear angle for the spherical
+  head), so a turn computes each HRIR spectrum once; all keyframes share one inverse FFT call.
 
 While the head is still, :meth:`combine` folds the spatialization into a cell's partitioned
 filters once (channels instead of directions: 2 ears instead of 8 directions for binaural),
@@ -137,9 +138,56 @@ class BinauralSpatializer:
         self.delay_samples = int(hrtf.delay_samples)
         self._cache: OrderedDict = OrderedDict()
         self._cache_entries = int(cache_entries)
+        self._dir_cache: OrderedDict = OrderedDict()  # head-frame direction -> [ear, bins]
+        self._dir_cache_entries = 1024
 
     n_channels = 2
     grid_keyframes = True  # a turning head's keyframes on the grid of heading_step_deg
+
+    def _direction_spectra(self, heading_deg: float, fft_size: int) -> list[np.ndarray]:
+        """[complex64[ear, bins] per direction]: the HRIR spectra for a heading, each cached by
+        its head-frame direction: turning the head by a multiple of the grid step brings
+        another world direction to the same head-frame direction (e.g. the field's azimuth
+        bins 90° apart), so a turn computes each HRIR spectrum once."""
+        dirs = head_frame(self.world, heading_deg)
+        if hasattr(self.hrtf, "ear_angles"):
+            return self._ear_spectra(dirs, fft_size)
+        keys = [(round(float(x), 9), round(float(y), 9), round(float(z), 9), fft_size)
+                for x, y, z in dirs]
+        cache = self._dir_cache
+        missing = [i for i, k in enumerate(keys) if k not in cache]
+        if missing:
+            h = self.hrtf.hrirs(dirs[missing])  # [direction, ear, taps]
+            new = sfft.rfft(h, fft_size, axis=-1, workers=1).astype(np.complex64)
+            for j, i in enumerate(missing):
+                cache[keys[i]] = new[j]
+        out = []
+        for k in keys:
+            cache.move_to_end(k)
+            out.append(cache[k])
+        while len(cache) > self._dir_cache_entries:
+            cache.popitem(last=False)
+        return out
+
+    def _ear_spectra(self, dirs: np.ndarray, fft_size: int) -> list[np.ndarray]:
+        """As :meth:`_direction_spectra` for an HRTF whose ears depend on one angle each
+        (the spherical head): each ear's spectrum is cached by that angle, which the two ears
+        and mirrored directions (front/back, up/down) share."""
+        theta = self.hrtf.ear_angles(dirs)  # [direction, ear]
+        keys = [(round(float(t), 9), fft_size) for t in theta.ravel()]
+        cache = self._dir_cache
+        missing = {k: t for k, t in zip(keys, theta.ravel()) if k not in cache}  # key -> an angle
+        if missing:
+            h = np.array([self.hrtf.ear_hrir(t) for t in missing.values()])  # [ear IR, taps]
+            new = sfft.rfft(h, fft_size, axis=-1, workers=1).astype(np.complex64)
+            for k, spec in zip(missing, new):
+                cache[k] = spec
+        for k in keys:
+            cache.move_to_end(k)
+        out = [np.stack([cache[keys[2 * d]], cache[keys[2 * d + 1]]]) for d in range(len(dirs))]
+        while len(cache) > self._dir_cache_entries:
+            cache.popitem(last=False)
+        return out
 
     def _spectra(self, heading_deg: float, fft_size: int) -> np.ndarray:
         """complex64[ear, direction, bins]: the HRIR spectra for a heading (cached)."""
@@ -148,8 +196,7 @@ class BinauralSpatializer:
         if hit is not None:
             self._cache.move_to_end(key)
             return hit
-        h = self.hrtf.hrirs(head_frame(self.world, heading_deg))  # [direction, ear, taps]
-        spec = sfft.rfft(h.transpose(1, 0, 2), fft_size, axis=-1, workers=1).astype(np.complex64)
+        spec = np.stack(self._direction_spectra(heading_deg, fft_size), axis=1)
         self._cache[key] = spec
         if len(self._cache) > self._cache_entries:
             self._cache.popitem(last=False)
@@ -158,21 +205,27 @@ class BinauralSpatializer:
     def combine(self, filters: np.ndarray, heading_deg: float, fft_size: int) -> np.ndarray:
         """Filter spectra [bins, ear, P] for a still head: the HRIRs multiplied into the
         direction filters [bins, direction, P] and summed, exact since K ≥ 2B + taps − 1."""
-        m = self._spectra(heading_deg, fft_size).transpose(2, 0, 1)  # [bins, ear, direction]
+        # [bins, ear, direction], contiguous: matmul's batched BLAS path, 3x faster than a view.
+        m = np.ascontiguousarray(self._spectra(heading_deg, fft_size).transpose(2, 0, 1))
         return np.matmul(m, filters)  # batched over bins: [ear, direction] @ [direction, P]
 
     def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
         b = heading_deg.size
         keys = _keyframes(heading_deg, self.step)
-        frames = []
-        for k in keys:
+        ears = np.empty((keys.size, 2, spectra.shape[-1]), np.result_type(spectra, np.complex64))
+        for i, k in enumerate(keys):
             # A still head keeps its exact heading; a turning one is sampled on a grid of
             # step_deg so that the spectra are found again in the cache.
             q = heading_deg[k] if keys.size == 1 else self.step * np.round(heading_deg[k] / self.step)
-            m = self._spectra(q, fft_size)
-            ears = np.einsum("edf,df->ef", m, spectra)
-            frames.append(sfft.irfft(ears, fft_size, axis=-1, workers=1)[:, -b:])
-        return _crossfade(frames, keys, b)
+            e = ears[i]
+            for d, m in enumerate(self._direction_spectra(q, fft_size)):  # Σ_d HRIR_d · O_d
+                if d == 0:
+                    np.multiply(m, spectra[0], out=e)
+                else:
+                    e += m * spectra[d]
+        # One inverse FFT for every keyframe and ear.
+        frames = sfft.irfft(ears, fft_size, axis=-1, workers=1)[:, :, -b:]
+        return _crossfade(list(frames), keys, b)
 
 
 def spatializer(field, layout: str, order: int = 1, hrtf: str | None = None,

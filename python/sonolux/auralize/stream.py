@@ -89,7 +89,11 @@ class _Voice:
     # Filters with the spatialization folded in, by heading (the last few headings).
     combined: dict = dataclass_field(default_factory=dict)
 
-    def gain(self, t: np.ndarray, fade: int) -> np.ndarray:
+    def gain(self, t: np.ndarray, fade: int) -> np.ndarray | None:
+        """The gains at samples t, or None when all are 1 (no fade within t)."""
+        if (self.fade_in is None or t[0] >= self.fade_in + fade) and \
+                (self.fade_out is None or t[-1] <= self.fade_out):
+            return None
         g = np.ones(t.size)
         if self.fade_in is not None:
             g *= np.sin(0.5 * np.pi * np.clip((t - self.fade_in) / fade, 0.0, 1.0))
@@ -201,10 +205,10 @@ class StreamRenderer:
         out = np.zeros((self.spatializer.n_channels, b), np.float32)
         for v in self._voices:
             g = v.gain(t, self.fade)
-            if not np.any(g):
+            if g is not None and not np.any(g):
                 continue
             y = self._render_voice(v, h)
-            out += y if np.all(g == 1.0) else y * g.astype(np.float32)
+            out += y if g is None or np.all(g == 1.0) else y * g.astype(np.float32)
         self._t += b
         self._heading = float(h[-1])
         self._voices = [v for v in self._voices
