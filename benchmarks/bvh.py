@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from common import other_cpu_use, write_json
+from common import load_peer, other_cpu_use, write_json
 
 import sonolux._core as core
 
@@ -163,22 +163,7 @@ def sonolux_geometry(case: dict):
 
 def load_embree(allow_install: bool):
     """(module pair, note) for embreex, installing it into this interpreter if allowed."""
-    try:
-        return _import_embree(), "already installed"
-    except ImportError:
-        pass
-    if not allow_install:
-        return None, "embreex missing and --no-install given"
-    log("embreex missing: pip install embreex (benchmark-only dependency)")
-    r = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "embreex"],
-                       check=False, capture_output=True, text=True)
-    if r.returncode != 0:
-        return None, f"pip install embreex failed: {r.stderr.strip()[-300:]}"
-    importlib.invalidate_caches()
-    try:
-        return _import_embree(), "installed by this run"
-    except ImportError as e:
-        return None, f"embreex installed but does not import: {e}"
+    return load_peer("embreex", _import_embree, allow_install, log)
 
 
 def _import_embree():

@@ -37,3 +37,28 @@ def write_json(path: Path, data: dict) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def load_peer(package: str, importer, allow_install: bool, log=print):
+    """(whatever `importer()` returns, or None; a note) for a benchmark-only peer, pip-installing
+    `package` into this interpreter when it is missing and `allow_install` is true."""
+    import importlib
+    import subprocess
+    import sys
+
+    try:
+        return importer(), "already installed"
+    except ImportError:
+        pass
+    if not allow_install:
+        return None, f"{package} missing and --no-install given"
+    log(f"{package} missing: pip install {package} (benchmark-only dependency)")
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", package],
+                       check=False, capture_output=True, text=True)
+    if r.returncode != 0:
+        return None, f"pip install {package} failed: {r.stderr.strip()[-300:]}"
+    importlib.invalidate_caches()
+    try:
+        return importer(), "installed by this run"
+    except ImportError as e:
+        return None, f"{package} installed but does not import: {e}"

@@ -4,13 +4,11 @@ A benchmark-only peer, never a runtime dependency of sonolux."""
 
 from __future__ import annotations
 
-import importlib
-import subprocess
-import sys
 import time
 import warnings
 
 import numpy as np
+from common import load_peer
 
 ENERGY_THRES = 1e-6  # pyroomacoustics' stop: 60 dB, as sonolux's energy_drop_db = 60
 HIST_BIN_S = 0.001  # pyroomacoustics' histogram bins = sonolux's late bins
@@ -22,22 +20,7 @@ def log(msg: str) -> None:
 
 def load_pra(allow_install: bool):
     """(pyroomacoustics module or None, note), installing it into this interpreter if allowed."""
-    try:
-        return _import_pra(), "already installed"
-    except ImportError:
-        pass
-    if not allow_install:
-        return None, "pyroomacoustics missing and --no-install given"
-    log("pyroomacoustics missing: pip install pyroomacoustics (benchmark-only dependency)")
-    r = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "pyroomacoustics"],
-                       check=False, capture_output=True, text=True)
-    if r.returncode != 0:
-        return None, f"pip install pyroomacoustics failed: {r.stderr.strip()[-300:]}"
-    importlib.invalidate_caches()
-    try:
-        return _import_pra(), "installed by this run"
-    except ImportError as e:
-        return None, f"pyroomacoustics installed but does not import: {e}"
+    return load_peer("pyroomacoustics", _import_pra, allow_install, log)
 
 
 def _import_pra():
