@@ -2,8 +2,9 @@
 //!
 //! It owns what is the craft of the project: triangle geometry and its checks ([`mesh`]),
 //! the watertight ray–triangle test ([`geometry`]), the bounding-volume hierarchy that both tracers
-//! share ([`bvh`]), the samplers that emit rays and choose bounces ([`sampling`]) and the random
-//! streams that make every ray replayable from (seed, source, ray) alone ([`rng`]).
+//! share ([`bvh`]) and its shortcut for closed convex rooms ([`convex`]), the samplers that emit
+//! rays and choose bounces ([`sampling`]) and the random streams that make every ray replayable
+//! from (seed, source, ray) alone ([`rng`]).
 //!
 //! Conventions, the same in every module and in the Python package:
 //! - lengths in metres, z up; azimuth 0° is +x and grows counter-clockwise seen from above;
@@ -14,6 +15,7 @@
 #![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bvh;
+pub mod convex;
 pub mod error;
 pub mod geometry;
 pub mod light;

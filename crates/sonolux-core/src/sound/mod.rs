@@ -19,10 +19,11 @@ mod trace;
 use glam::DVec3;
 
 use crate::bvh::Bvh;
+use crate::convex::ConvexRoom;
 use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::{run_chunks, Progress};
-pub use field::{Accumulator, Layout};
+pub use field::{Accumulator, Deposits, Layout};
 pub use receivers::Receivers;
 pub use stats::SoundStats;
 
@@ -157,6 +158,15 @@ pub(crate) struct Scene<'a> {
     pub layout: Layout,
     /// Whether the room is one closed convex volume: then nothing can block a rain connection.
     pub convex: bool,
+    /// The room's planes, when it is convex, small and holds every source: then rays find
+    /// their next wall without the BVH.
+    pub room: Option<ConvexRoom>,
+    /// Whether the air absorbs at all (its exponentials are skipped when not).
+    pub air: bool,
+    /// Probability of a diffuse bounce on each material: its scattering averaged over bands.
+    pub p_diffuse: Vec<f64>,
+    /// Whether every material scatters every band alike (then no re-weighting is needed).
+    pub uniform_scattering: bool,
     /// Offset from a surface for the next ray's origin.
     pub epsilon: f64,
 }
@@ -201,6 +211,10 @@ pub fn trace_sound(
         return Err(CoreError::invalid("receivers", "radius must be positive"));
     }
     let layout = settings.layout(receivers.len(), nb);
+    let convex = mesh.is_closed_convex();
+    let room = if convex { ConvexRoom::of_convex(mesh) } else { None };
+    let room = room.filter(|r| sources.iter().all(|s| r.contains(s.position)));
+    let scattering: Vec<&[f64]> = acoustics.scattering.chunks(nb).collect();
     let scene = Scene {
         mesh,
         bvh,
@@ -209,7 +223,11 @@ pub fn trace_sound(
         receivers,
         settings,
         layout: layout.clone(),
-        convex: mesh.is_closed_convex(),
+        convex,
+        room,
+        air: settings.air_attenuation.iter().any(|&a| a > 0.0),
+        p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
+        uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
     };
     let quantum = trace::quantum(sources, receivers.radius);
@@ -219,18 +237,19 @@ pub fn trace_sound(
         n,
         chunk_size(settings.estimator, receivers.len()),
         settings.threads,
-        || (SoundStats::new(nb), vec![0u64; receivers.len()]),
-        |(stats, stamp), range| {
+        || (SoundStats::new(nb), vec![0u64; receivers.len()], Deposits::new()),
+        |(stats, stamp, deposits), range| {
             for s in 0..sources.len() {
                 for i in range.clone() {
-                    trace::trace_ray(&scene, s, settings.first_ray + i, &field, stats, stamp);
+                    trace::trace_ray(&scene, s, settings.first_ray + i, &field, deposits, stats, stamp);
                 }
             }
+            field.flush(deposits);
         },
         progress,
     );
     let mut stats = SoundStats::new(nb);
-    for (s, _) in &workers {
+    for (s, _, _) in &workers {
         stats.merge(s);
     }
     if settings.estimator == Estimator::Rain && settings.first_ray == 0 {

@@ -9,7 +9,9 @@ use glam::DVec3;
 pub struct Receivers {
     pub centres: Vec<DVec3>,
     pub radius: f64,
+    /// The grid's box.
     lo: DVec3,
+    hi: DVec3,
     cell: f64,
     dims: [usize; 3],
     /// Receivers whose sphere overlaps each cell: `cells[i]..cells[i+1]` indexes `items`.
@@ -71,7 +73,8 @@ impl Receivers {
             items.extend(l);
             cells.push(items.len() as u32);
         }
-        Receivers { centres, radius, lo, cell, dims, cells, items }
+        let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
+        Receivers { centres, radius, lo, hi, cell, dims, cells, items }
     }
 
     pub fn len(&self) -> usize {
@@ -90,8 +93,14 @@ impl Receivers {
         if self.centres.is_empty() {
             return;
         }
+        // Most segments pass beside the box (a floor plan's receivers fill a thin slab at head
+        // height): reject those by their ends before any division.
+        let end = origin + dir * length;
+        if (origin.cmplt(self.lo) & end.cmplt(self.lo)).any() || (origin.cmpgt(self.hi) & end.cmpgt(self.hi)).any() {
+            return;
+        }
         // Clip the segment to the grid's box.
-        let hi = self.lo + DVec3::new(self.dims[0] as f64, self.dims[1] as f64, self.dims[2] as f64) * self.cell;
+        let hi = self.hi;
         let inv = dir.map(|d| if d == 0.0 { 1e300f64.copysign(d) } else { 1.0 / d });
         let t0 = (self.lo - origin) * inv;
         let t1 = (hi - origin) * inv;

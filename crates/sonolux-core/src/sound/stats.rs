@@ -59,11 +59,13 @@ impl SoundStats {
         self.energy[which][band] += (joules / ENERGY_QUANTUM).round() as i128;
     }
 
+    /// Adds one ray's free paths: `count` of them, with lengths summing to `sum` and squares to
+    /// `sum_sq` (a ray sums its own in f64, the same way on any thread: one conversion a ray).
     #[inline]
-    pub(crate) fn add_free_path(&mut self, metres: f64) {
-        self.free_path_sum += (metres * (1u64 << 32) as f64).round() as i128;
-        self.free_path_sq_sum += (metres * metres * (1u64 << 32) as f64).round() as i128;
-        self.free_paths += 1;
+    pub(crate) fn add_free_paths(&mut self, count: u64, sum: f64, sum_sq: f64) {
+        self.free_path_sum += (sum * (1u64 << 32) as f64).round() as i128;
+        self.free_path_sq_sum += (sum_sq * (1u64 << 32) as f64).round() as i128;
+        self.free_paths += count;
     }
 
     pub(crate) fn add_escape(&mut self, e: Escape) {

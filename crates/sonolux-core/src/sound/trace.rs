@@ -4,7 +4,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::field::Accumulator;
+use super::field::{Accumulator, Deposits};
 use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
 use super::{Directivity, Estimator, Scene, SoundSource};
@@ -36,23 +36,45 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
     (dir, source.power_w / rays as f64)
 }
 
+/// The nearest surface along a ray from `pos`: its distance, triangle and unit normal (facing
+/// either way). Convex rooms answer from their planes, any other scene from the BVH.
+#[inline]
+fn nearest_surface(scene: &Scene, pos: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+    match &scene.room {
+        Some(room) => {
+            let exit = room.exit(pos, dir);
+            Some((exit.t, exit.triangle as usize, exit.normal))
+        }
+        None => {
+            let hit = scene.bvh.closest_hit(&Ray::new(pos.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
+            let tri = hit.triangle as usize;
+            Some((hit.t as f64, tri, scene.mesh.normal(tri).as_dvec3()))
+        }
+    }
+}
+
 /// Traces ray `index` of source `s` to its end, depositing into `acc` and tallying `st`.
-/// `stamp` is the worker's scratch for [`super::Receivers::crossings`], one entry a receiver.
-pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, st: &mut SoundStats, stamp: &mut [u64]) {
+/// `stamp` is the worker's scratch for [`super::Receivers::crossings`], one entry a receiver;
+/// `buf` its batch of deposits (flushed by the caller).
+pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, stamp: &mut [u64]) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
+    let air = &set.air_attenuation[..nb];
     let mut rng = Stream::new(set.seed, s as u64, index);
     let (mut dir, share) = emit(&scene.sources[s], set.rays, &mut rng);
     let mut pos = scene.sources[s].position;
     // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
     let mut e = [1.0f64; MAX_BANDS];
     let floor = 10f64.powf(-set.energy_drop_db / 10.0);
+    let max_path = set.max_time_s * set.speed_of_sound;
     let mut path = 0.0f64;
     // Distance travelled since the last diffuse reflection (or the source): the radius of the
     // wavefront the ray belongs to, whose centre is the (image) source it comes from.
     let mut wave_radius = 0.0f64;
     let mut reflections = 0u64;
+    // Free paths (surface to surface) of this ray: their sum and sum of squares.
+    let (mut free_n, mut free_sum, mut free_sq) = (0u64, 0.0f64, 0.0f64);
     // Whether the spheres collect this segment: always in paper mode; in rain mode only after a
     // specular reflection (direct sound and diffuse reflections are handled exactly).
     let mut spheres = set.estimator == Estimator::Paper;
@@ -64,15 +86,12 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     // the tracing.
     let mut tally = [[0.0f64; MAX_BANDS]; stats::KINDS];
     tally[stats::EMITTED][..nb].fill(1.0);
-    let uniform_scattering = (0..scene.acoustics.scattering.len() / nb)
-        .all(|m| scene.acoustics.scattering[m * nb..(m + 1) * nb].iter().all(|&x| x == scene.acoustics.scattering[m * nb]));
     st.rays += 1;
 
     loop {
         // Find the nearest surface along the ray.
-        let ray = Ray::new(pos.as_vec3(), dir.as_vec3());
-        let hit = scene.bvh.closest_hit(&ray, 0.0, f32::INFINITY);
-        let length = hit.map_or(f64::INFINITY, |h| h.t as f64);
+        let hit = nearest_surface(scene, pos, dir);
+        let length = hit.map_or(f64::INFINITY, |h| h.0);
         st.segments += 1;
 
         // Deposit into the receiver spheres this segment crosses.
@@ -84,16 +103,22 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
                 let to_centre = ((wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - wave_radius;
                 let Some(tb) = lay.time_bin((path + to_centre) / set.speed_of_sound) else { return };
                 let weight = share * c.chord / sphere_volume;
-                for b in 0..nb {
-                    deposit[b] = e[b] * weight * (-set.air_attenuation[b] * to_centre).exp();
+                if scene.air {
+                    for b in 0..nb {
+                        deposit[b] = e[b] * weight * (-air[b] * to_centre).exp();
+                    }
+                } else {
+                    for b in 0..nb {
+                        deposit[b] = e[b] * weight;
+                    }
                 }
                 let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
-                acc.deposit(base, &deposit[..nb], &mut rng);
+                acc.deposit(buf, base, &deposit[..nb], &mut rng);
                 st.deposits += 1;
             });
         }
 
-        let Some(hit) = hit else {
+        let Some((length, tri, mut normal)) = hit else {
             // The ray left the scene: a leak, unless the scene is open on purpose.
             for b in 0..nb {
                 tally[stats::ESCAPED][b] += e[b];
@@ -103,17 +128,21 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         };
 
         // Air absorption over the segment.
-        for b in 0..nb {
-            let kept = e[b] * (-set.air_attenuation[b] * length).exp();
-            tally[stats::ABSORBED_AIR][b] += e[b] - kept;
-            e[b] = kept;
+        if scene.air {
+            for b in 0..nb {
+                let kept = e[b] * (-air[b] * length).exp();
+                tally[stats::ABSORBED_AIR][b] += e[b] - kept;
+                e[b] = kept;
+            }
         }
         if reflections > 0 {
-            st.add_free_path(length);
+            free_n += 1;
+            free_sum += length;
+            free_sq += length * length;
         }
         path += length;
         wave_radius += length;
-        if path / set.speed_of_sound > set.max_time_s || reflections >= MAX_REFLECTIONS {
+        if path > max_path || reflections >= MAX_REFLECTIONS {
             for b in 0..nb {
                 tally[stats::REMAINING][b] += e[b];
             }
@@ -122,14 +151,12 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 
         // Surface: absorb, then reflect from the side the ray came from.
         reflections += 1;
-        st.surface_hits += 1;
-        let tri = hit.triangle as usize;
-        let mut normal = scene.mesh.normal(tri).as_dvec3();
         if normal.dot(dir) > 0.0 {
             normal = -normal;
         }
         let point = pos + dir * length;
-        let m = scene.mesh.material[tri] as usize * nb;
+        let material = scene.mesh.material[tri] as usize;
+        let m = material * nb;
         let alpha = &scene.acoustics.absorption[m..m + nb];
         let scat = &scene.acoustics.scattering[m..m + nb];
         for b in 0..nb {
@@ -139,13 +166,13 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 
         // Rain: send the diffusely reflected energy to every receiver that sees this point.
         if set.estimator == Estimator::Rain {
-            rain(scene, point, normal, path, &e[..nb], scat, share, acc, st, &mut rng);
+            rain(scene, point, normal, path, &e[..nb], scat, share, acc, buf, st, &mut rng);
         }
 
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
-        let p_diffuse = scat.iter().sum::<f64>() / nb as f64;
+        let p_diffuse = scene.p_diffuse[material];
         let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
-        if !uniform_scattering {
+        if !scene.uniform_scattering {
             for b in 0..nb {
                 let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
                 let before = e[b];
@@ -170,7 +197,9 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
             break;
         }
     }
+    st.surface_hits += reflections;
     st.max_reflections = st.max_reflections.max(reflections);
+    st.add_free_paths(free_n, free_sum, free_sq);
     for (kind, t) in tally.iter().enumerate() {
         for b in 0..nb {
             st.add_energy(kind, b, t[b] * share);
@@ -183,7 +212,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 /// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
 /// [`ball_mean_inverse_square`], and attenuated by the air on the way.
 #[allow(clippy::too_many_arguments)]
-fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, st: &mut SoundStats, rng: &mut Stream) {
+fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, rng: &mut Stream) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = e.len();
@@ -207,7 +236,7 @@ fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: 
         for b in 0..nb {
             deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation[b] * d).exp();
         }
-        acc.deposit(lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], rng);
+        acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], rng);
         st.deposits += 1;
     }
 }
@@ -221,6 +250,7 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let nb = scene.acoustics.n_bands;
     let radius = scene.receivers.radius;
     let mut deposit = [0.0f64; MAX_BANDS];
+    let mut buf = Deposits::new();
     for (s, src) in scene.sources.iter().enumerate() {
         for (r, c) in scene.receivers.centres.iter().enumerate() {
             let mut rng = Stream::new(set.seed, s as u64, u64::MAX - r as u64);
@@ -249,8 +279,9 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
                 deposit[b] = energy * (-set.air_attenuation[b] * d).exp() / split;
             }
             for dir in directions {
-                acc.deposit(lay.index(r, tb, dir), &deposit[..nb], &mut rng);
+                acc.deposit(&mut buf, lay.index(r, tb, dir), &deposit[..nb], &mut rng);
             }
         }
     }
+    acc.flush(&mut buf);
 }
