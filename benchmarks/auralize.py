@@ -10,7 +10,8 @@ estimator: a few minutes on 2 cores; ``--rays`` for more) and cached in benchmar
 1. The walk: builtin:speech along a 36 m path at 1.2 m/s (30 s, straight legs and three
    turns), rendered binaural, cube8 and third-order ambisonics with the offline block. The
    responses of the cells on the path are synthesised first and timed apart ("prepare"): a live
-   application would synthesise them ahead of the listener. RTF = seconds of audio written
+   application would synthesise them ahead of the listener. Each walk is rendered 5 times
+   (fresh renderers, prepared cells shared) and the median kept. RTF = seconds of audio written
    (walk + tail) / seconds of rendering, with and without the preparation.
 2. The peer: scipy.signal.fftconvolve of the same 8 direction responses of one cell with the
    whole 30 s signal (the plain offline way, no walk, no spatialization), against our static
@@ -63,6 +64,7 @@ WAYPOINTS = [(4.0, 3.0), (20.0, 3.0), (20.0, 7.0), (6.0, 7.0), (6.0, 5.0)]  # 36
 SPEED = 1.2
 LAYOUTS = [("binaural", 1), ("cube8", 1), ("ambisonics", 3)]
 STREAM_BLOCKS = (64, 128, 256, 512, 1024)
+REPEATS = 5  # renderings of each walk; the median is reported
 
 
 def log(msg: str) -> None:
@@ -102,22 +104,33 @@ def bench_walk(field, path, dry, block: int) -> dict:
     out = {"cells": len(cells), "synthesis_s": synth_s, "layouts": {}}
     for layout, order in LAYOUTS:
         s = AuralizeSettings(layout=layout, order=order, block=block)
-        renderer = StreamRenderer(field, layout, block, order=order, responses=responses,
+        prepared = StreamRenderer(field, layout, block, order=order, responses=responses,
                                   cache_cells=len(cells))
         t0 = time.perf_counter()
-        renderer.prepare(cells)
+        prepared.prepare(cells)
         partition_s = time.perf_counter() - t0
-        t0, c0 = time.perf_counter(), time.process_time()
-        y, info = auralize_walk(field, dry, path, s, renderer=renderer)
-        render_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
+        # The walk is rendered REPEATS times, each by a fresh renderer (cold HRIR and folding
+        # caches) given the prepared cells; the median run is reported: one run of under a
+        # second varies by +-30 % on a shared virtual machine.
+        runs = []
+        for _ in range(REPEATS):
+            renderer = StreamRenderer(field, layout, block, order=order, responses=responses,
+                                      cache_cells=len(cells))
+            renderer.cells = prepared.cells
+            t0, c0 = time.perf_counter(), time.process_time()
+            y, info = auralize_walk(field, dry, path, s, renderer=renderer)
+            runs.append((time.perf_counter() - t0, time.process_time() - c0))
+        render_s, cpu_s = (float(np.median([r[k] for r in runs])) for k in (0, 1))
         audio_s = y.shape[0] / field.sample_rate_hz
         row = {"audio_s": audio_s, "render_s": render_s, "render_cpu_s": cpu_s,
+               "render_s_runs": [r[0] for r in runs],
                "partition_s": partition_s, "rtf_render": audio_s / render_s,
                "rtf_render_cpu": audio_s / cpu_s,
                "rtf_with_partition": audio_s / (render_s + partition_s),
                "rtf_with_synthesis": audio_s / (render_s + partition_s + synth_s)}
         out["layouts"][f"{layout}{order if layout == 'ambisonics' else ''}"] = row
-        log(f"walk {layout:10s}: {audio_s:.1f} s of audio in {render_s:.2f} s: "
+        log(f"walk {layout:10s}: {audio_s:.1f} s of audio in {render_s:.2f} s (median of "
+            f"{REPEATS}; {min(r[0] for r in runs):.2f} to {max(r[0] for r in runs):.2f} s): "
             f"{row['rtf_render']:.0f}x real time (filters ready; {row['rtf_render_cpu']:.0f}x per CPU "
             f"second); {row['rtf_with_partition']:.0f}x "
             f"with their FFTs ({partition_s:.2f} s); {row['rtf_with_synthesis']:.1f}x with the "

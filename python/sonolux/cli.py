@@ -135,11 +135,39 @@ def cmd_ir(args: argparse.Namespace) -> int:
     field = open_field(args.field)
     r = field.cell_at(*args.at)
     direction = None if args.direction == "all" else args.direction
+    if args.paper_filters:
+        return _write_paper_filters(field, r, direction, args)
     ir = field.impulse_response(r, direction, seed=args.seed)
     write_wav(args.output, ir[:, None] if ir.ndim == 1 else ir, field.sample_rate_hz)
     print(f"impulse response of receiver #{r} at ({', '.join(f'{v:g}' for v in field.positions_m[r])}) m, "
           f"direction {args.direction}: {ir.shape[0] / field.sample_rate_hz:.3f} s, peak "
           f"{np.max(np.abs(ir)):.3g} -> {args.output}")
+    return 0
+
+
+def _write_paper_filters(field, r: int, direction: str | None, args: argparse.Namespace) -> int:
+    """The paper's energy filters of one cell as a multichannel 32-bit float WAV: one channel per
+    (direction, band), direction-major, each ``--length`` taps (J/m² per sample)."""
+    import numpy as np
+
+    from sonolux.audio import write_wav
+    from sonolux.errors import SonoluxError
+
+    if not 1 <= args.length <= 10_000_000:
+        raise SonoluxError(f"--length {args.length} is not allowed: 1 to 10000000 taps")
+    names = field.direction_names
+    taps = field.paper_filters(r, args.length)  # [direction, band, length]
+    if direction is not None:
+        if direction not in names:
+            raise SonoluxError(f"unknown direction {direction!r}: one of {', '.join(names)} or all")
+        keep = [names.index(direction)]
+        taps, names = taps[keep], [direction]
+    channels = [f"{d} {b:g} Hz" for d in names for b in field.bands_hz]
+    write_wav(args.output, taps.reshape(len(channels), -1).T, field.sample_rate_hz)
+    print(f"the paper's filters of receiver #{r} at "
+          f"({', '.join(f'{v:g}' for v in field.positions_m[r])}) m: {len(channels)} channels "
+          f"of {args.length} energy taps (J/m² per sample, {field.sample_rate_hz:g} Hz), total "
+          f"{np.sum(taps):.3g} J/m² -> {args.output}\nchannels: {', '.join(channels)}")
     return 0
 
 
@@ -213,6 +241,11 @@ def build_parser() -> argparse.ArgumentParser:
     ir.add_argument("--direction", default="all",
                     help="a direction name (front, left, right, back, ...) or 'all' (default)")
     ir.add_argument("--seed", type=int, default=0, help="seed of the synthesized phases")
+    ir.add_argument("--paper-filters", action="store_true",
+                    help="write the paper's energy filters instead (Pope and Chalmers): one "
+                         "channel per direction and band, --length taps each")
+    ir.add_argument("--length", type=int, default=3840,
+                    help="taps of --paper-filters (default 3840: the paper's 80 ms at 48 kHz)")
     ir.add_argument("-o", "--output", required=True, help="the WAV file to write")
     ir.set_defaults(func=cmd_ir)
 

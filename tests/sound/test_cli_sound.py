@@ -41,6 +41,28 @@ def test_bake_info_and_ir(capsys, tmp_path):
     code, _, err = run(capsys, "ir", h5, "--at", "30,1", "-o", wav)
     assert code == 2 and "outside the sound field" in err
 
+    # The paper's filters: one channel per direction and band, each the energy taps of
+    # field.paper_filters (checked against the histogram in tests/sound/test_synthesis.py).
+    taps = tmp_path / "paper.wav"
+    code, out, err = run(capsys, "ir", h5, "--at", "3,1.25", "--paper-filters", "-o", taps)
+    assert code == 0, err
+    data, rate = sf.read(taps)
+    field = sonolux.open(h5)
+    r = field.cell_at(3, 1.25)
+    want = field.paper_filters(r)
+    assert data.shape == (3840, want.shape[0] * want.shape[1]) and rate == 48000
+    np.testing.assert_allclose(data.T, want.reshape(-1, 3840).astype(np.float32), rtol=1e-6)
+    assert "front 125 Hz" in out
+    code, out, err = run(capsys, "ir", h5, "--at", "3,1.25", "--paper-filters", "--direction",
+                         "left", "--length", "100", "-o", taps)
+    assert code == 0, err
+    data, _ = sf.read(taps)
+    np.testing.assert_allclose(data.T, want[field.direction_names.index("left"), :, :100]
+                               .astype(np.float32), rtol=1e-6)
+    code, _, err = run(capsys, "ir", h5, "--at", "3,1.25", "--paper-filters", "--direction",
+                       "upwards", "-o", taps)
+    assert code == 2 and "unknown direction 'upwards'" in err
+
 
 def test_bad_arguments_are_usage_errors(capsys, tmp_path):
     with pytest.raises(SystemExit) as e:

@@ -65,14 +65,15 @@ def head_frame(world: np.ndarray, heading_deg: float) -> np.ndarray:
     return np.column_stack([c * x + s * y, -s * x + c * y, world[:, 2]])
 
 
-def _keyframes(heading_deg: np.ndarray, step_deg: float) -> np.ndarray:
+def _keyframes(heading_deg: np.ndarray, step_deg: float, min_spacing: int = 1) -> np.ndarray:
     """Sample indices of the keyframes of a block: first and last sample, and enough between
-    that the heading moves at most step_deg from one keyframe to the next."""
+    that the heading moves at most step_deg from one keyframe to the next, but keyframes no
+    closer than ``min_spacing`` samples."""
     b = heading_deg.size
     travel = float(np.sum(np.abs(np.diff(heading_deg)))) if b > 1 else 0.0
     if travel <= 1e-6:
         return np.array([0])
-    n = min(b, int(np.ceil(travel / step_deg)) + 1)
+    n = min(b, int(np.ceil(travel / step_deg)) + 1, max(2, (b - 1) // max(1, min_spacing) + 1))
     return np.unique(np.round(np.linspace(0, b - 1, max(n, 2))).astype(int))
 
 
@@ -143,6 +144,10 @@ class BinauralSpatializer:
 
     n_channels = 2
     grid_keyframes = True  # a turning head's keyframes on the grid of heading_step_deg
+    # A fast turn (more than heading_step_deg within a block) is rendered with keyframes at
+    # least this many samples apart (21 ms at 48 kHz), linearly cross-faded: the filter update
+    # rate of common dynamic binaural renderers; each keyframe costs two inverse FFTs.
+    min_keyframe_spacing = 1024
 
     def _direction_spectra(self, heading_deg: float, fft_size: int) -> list[np.ndarray]:
         """[complex64[ear, bins] per direction]: the HRIR spectra for a heading, each cached by
@@ -211,7 +216,7 @@ class BinauralSpatializer:
 
     def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
         b = heading_deg.size
-        keys = _keyframes(heading_deg, self.step)
+        keys = _keyframes(heading_deg, self.step, self.min_keyframe_spacing)
         ears = np.empty((keys.size, 2, spectra.shape[-1]), np.result_type(spectra, np.complex64))
         for i, k in enumerate(keys):
             # A still head keeps its exact heading; a turning one is sampled on a grid of

@@ -89,11 +89,12 @@ class _Voice:
     # Filters with the spatialization folded in, by heading (the last few headings).
     combined: dict = dataclass_field(default_factory=dict)
 
-    def gain(self, t: np.ndarray, fade: int) -> np.ndarray | None:
-        """The gains at samples t, or None when all are 1 (no fade within t)."""
-        if (self.fade_in is None or t[0] >= self.fade_in + fade) and \
-                (self.fade_out is None or t[-1] <= self.fade_out):
+    def gain(self, start: int, b: int, fade: int) -> np.ndarray | None:
+        """The gains at samples start .. start + b - 1, or None when all are 1 (no fade there)."""
+        if (self.fade_in is None or start >= self.fade_in + fade) and \
+                (self.fade_out is None or start + b - 1 <= self.fade_out):
             return None
+        t = start + np.arange(b)
         g = np.ones(t.size)
         if self.fade_in is not None:
             g *= np.sin(0.5 * np.pi * np.clip((t - self.fade_in) / fade, 0.0, 1.0))
@@ -201,10 +202,9 @@ class StreamRenderer:
         elif h.shape != (b,):
             raise SonoluxError(f"heading_deg has shape {h.shape}, expected ({b},) or a number")
         self.convolver.push(x)
-        t = self._t + np.arange(b)
         out = np.zeros((self.spatializer.n_channels, b), np.float32)
         for v in self._voices:
-            g = v.gain(t, self.fade)
+            g = v.gain(self._t, b, self.fade)
             if g is not None and not np.any(g):
                 continue
             y = self._render_voice(v, h)

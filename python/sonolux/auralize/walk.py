@@ -210,15 +210,23 @@ def cell_schedule(field, xy: np.ndarray, rate_hz: float, settings: WalkSettings,
     current = int(nearest[0])
     events = [(0.0, current)]
     last = -np.inf
-    for i in range(1, xy.shape[0]):
+    # Only the samples where another cell is nearest can start a change; they are found again
+    # after each change (a few dozen vector passes instead of a Python step per sample).
+    candidates = np.flatnonzero(nearest != current)
+    k = 0
+    while k < candidates.size:
+        i = int(candidates[k])
+        k += 1
         n = int(nearest[i])
-        if n == current or i / rate_hz - last < min_gap_s:
+        if i / rate_hz - last < min_gap_s:
             continue
         x, y = xy[i]
         d_new = np.hypot(x - pos[n, 0], y - pos[n, 1])
         if d_new + settings.hysteresis_m < np.hypot(x - pos[current, 0], y - pos[current, 1]):
             current, last = n, i / rate_hz
             events.append((last, n))
+            candidates = i + 1 + np.flatnonzero(nearest[i + 1:] != current)
+            k = 0
     return events
 
 

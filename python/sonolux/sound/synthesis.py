@@ -31,6 +31,8 @@ energy[b] up to the band filter's time spread and the noise of band-limited sign
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import fft as sfft
 
@@ -60,8 +62,16 @@ def band_split_weights(n_fft: int, fs: float, bands_hz) -> np.ndarray:
     bands = _check_bands(bands_hz, fs)
     if not (isinstance(n_fft, (int, np.integer)) and n_fft >= 1):
         raise SonoluxError(f"n_fft = {n_fft!r} is not allowed: a whole number ≥ 1")
-    f = sfft.rfftfreq(int(n_fft), 1.0 / fs)
-    return _band_weights_at(f, bands)
+    return _cached_weights(int(n_fft), float(fs), tuple(bands.tolist()))
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_weights(n_fft: int, fs: float, bands: tuple) -> np.ndarray:
+    """The weights of :func:`band_split_weights`, read-only: every direction of every cell of a
+    field asks for the same few."""
+    w = _band_weights_at(sfft.rfftfreq(n_fft, 1.0 / fs), np.asarray(bands))
+    w.setflags(write=False)
+    return w
 
 
 def _band_weights_at(f: np.ndarray, bands: np.ndarray) -> np.ndarray:
@@ -138,12 +148,15 @@ def weighted_sequences(energy, bin_start_s, bin_width_s, fs: float, volume_m3: f
     n = int(np.ceil(b[has_energy[-1]]))
 
     # Spread each bin over its samples, then group the samples by the bin holding their middle.
-    per_sample = _energy_per_sample(e, a, b, n)
-    group = np.clip(np.searchsorted(a, np.arange(n) + 0.5, side="right") - 1, 0, None)
+    group, first, size = _sample_groups(a, n, max(n, int(np.ceil(b[-1]))))
     n_groups = a.size
-    target = np.bincount((np.arange(n_bands)[:, None] * n_groups + group).ravel(),
-                         weights=per_sample.ravel(), minlength=n_bands * n_groups)
-    target = target.reshape(n_bands, n_groups)
+    if np.all(a == np.floor(a)) and np.all(b == np.floor(b)):
+        target = e  # bins on the sample grid (the tracer's): each group is its bin
+    else:
+        per_sample = _energy_per_sample(e, a, b, n)
+        target = np.bincount((np.arange(n_bands)[:, None] * n_groups + group).ravel(),
+                             weights=per_sample.ravel(), minlength=n_bands * n_groups)
+        target = target.reshape(n_bands, n_groups)
 
     # The fine structure: one impulse sequence from the direct sound on.
     rng = np.random.default_rng(seed)
@@ -152,8 +165,6 @@ def weighted_sequences(energy, bin_start_s, bin_width_s, fs: float, volume_m3: f
     power = np.bincount(group, weights=x * x, minlength=n_groups)
 
     # Give an impulse to every bin that holds energy but drew none.
-    first = np.searchsorted(group, np.arange(n_groups), side="left")
-    size = np.searchsorted(group, np.arange(n_groups), side="right") - first
     empty = np.flatnonzero((target.sum(axis=0) > 0) & (power == 0) & (size > 0))
     where = first[empty] + np.floor(rng.random(empty.size) * size[empty]).astype(np.int64)
     x[where] = rng.choice([-1.0, 1.0], size=empty.size)
@@ -188,7 +199,10 @@ def pressure_ir(energy, bin_start_s, bin_width_s, bands_hz, fs: float, volume_m3
     if bands.size == 1 or n == 0:
         return s.sum(axis=0)
     pad = int(np.ceil(_PAD_PERIODS * fs / np.min(np.diff(bands))))
-    n_fft = sfft.next_fast_len(n + pad, real=True)
+    # The FFT size follows the whole time axis, not this histogram's last energy, so that every
+    # direction of every cell shares one set of band weights.
+    n_axis = int(np.ceil((float(np.max(np.asarray(bin_start_s) + np.asarray(bin_width_s)))) * fs))
+    n_fft = sfft.next_fast_len(max(n, n_axis) + pad, real=True)
     weights = band_split_weights(n_fft, fs, bands)
     spectrum = np.einsum("bf,bf->f", weights, sfft.rfft(s, n_fft, axis=1))
     return sfft.irfft(spectrum, n_fft)[:n]
@@ -212,18 +226,53 @@ def paper_filters(energy, bin_start_s, bin_width_s, fs: float, length: int = 384
 # --- helpers ---------------------------------------------------------------------------------
 def _energy_per_sample(e: np.ndarray, a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     """float[band, n]: each bin [a, b) (in samples) spread evenly over the samples it overlaps."""
-    # One (bin, sample) pair for every sample a bin touches.
+    n_axis = max(n, int(np.ceil(b[-1]))) if b.size else n
+    which, sample, share = _sample_shares(a.tobytes(), b.tobytes(), n_axis)
+    if n < n_axis:  # samples ascend: the ones below n are a prefix
+        k = int(np.searchsorted(sample, n))
+        which, sample, share = which[:k], sample[:k], share[:k]
+    out = np.zeros((e.shape[0], n))
+    for band in range(e.shape[0]):
+        out[band] = np.bincount(sample, weights=e[band, which] * share, minlength=n)
+    return out
+
+
+# The time axis is the same for every direction of every cell of a field: what depends on it
+# alone is computed once (the arrays are read-only).
+@functools.lru_cache(maxsize=4)
+def _sample_shares(a_bytes: bytes, b_bytes: bytes, n: int):
+    """(bin, sample, share) for every sample < n that a bin [a, b) touches: the part of the bin's
+    energy that falls in the sample."""
+    a, b = np.frombuffer(a_bytes), np.frombuffer(b_bytes)
     k0 = np.floor(a).astype(np.int64)
     touched = np.ceil(b).astype(np.int64) - k0
     which = np.repeat(np.arange(a.size), touched)
     sample = k0[which] + np.arange(which.size) - np.repeat(np.cumsum(touched) - touched, touched)
     share = (np.minimum(b[which], sample + 1) - np.maximum(a[which], sample)) / (b - a)[which]
     keep = sample < n
-    which, sample, share = which[keep], sample[keep], share[keep]
-    n_bands = e.shape[0]
-    index = (np.arange(n_bands)[:, None] * n + sample).ravel()
-    out = np.bincount(index, weights=(e[:, which] * share).ravel(), minlength=n_bands * n)
-    return out.reshape(n_bands, n)
+    out = which[keep], sample[keep], share[keep]
+    for x in out:
+        x.setflags(write=False)
+    return out
+
+
+def _sample_groups(a: np.ndarray, n: int, n_axis: int):
+    """(group, first, size): the bin holding the middle of each of n samples, and each bin's
+    first sample and number of samples in that grouping (computed for the n_axis ≥ n samples
+    of the whole axis, the same for every histogram on it)."""
+    group, first, size = _cached_groups(a.tobytes(), n_axis)
+    return group[:n], first, size
+
+
+@functools.lru_cache(maxsize=4)
+def _cached_groups(a_bytes: bytes, n: int):
+    a = np.frombuffer(a_bytes)
+    group = np.clip(np.searchsorted(a, np.arange(n) + 0.5, side="right") - 1, 0, None)
+    first = np.searchsorted(group, np.arange(a.size), side="left")
+    size = np.searchsorted(group, np.arange(a.size), side="right") - first
+    for x in (group, first, size):
+        x.setflags(write=False)
+    return group, first, size
 
 
 def _snap(x: np.ndarray) -> np.ndarray:

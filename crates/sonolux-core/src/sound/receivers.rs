@@ -9,10 +9,10 @@ use glam::DVec3;
 pub struct Receivers {
     pub centres: Vec<DVec3>,
     pub radius: f64,
-    /// The grid's box.
+    /// The grid's box, and the size of its cells along each axis.
     lo: DVec3,
     hi: DVec3,
-    cell: f64,
+    cell: DVec3,
     dims: [usize; 3],
     /// Receivers whose sphere overlaps each cell: `cells[i]..cells[i+1]` indexes `items`.
     cells: Vec<u32>,
@@ -43,16 +43,23 @@ impl Receivers {
             lo = DVec3::ZERO;
             hi = DVec3::ONE;
         }
-        let extent = (hi - lo).max(DVec3::splat(1e-9));
-        // About one receiver a cell, never cells smaller than a sphere.
-        let volume = extent.x * extent.y * extent.z;
-        let cell = (volume / centres.len().max(1) as f64).cbrt().max(2.0 * radius);
-        let dims = [
-            ((extent.x / cell).ceil() as usize).clamp(1, 1024),
-            ((extent.y / cell).ceil() as usize).clamp(1, 1024),
-            ((extent.z / cell).ceil() as usize).clamp(1, 1024),
-        ];
-        let cell = (extent.x / dims[0] as f64).max(extent.y / dims[1] as f64).max(extent.z / dims[2] as f64);
+        let (lo, cell, dims) = match floor_plan_lattice(&centres, radius) {
+            // The paper's grid: one cell per receiver, each sphere inside its own cell.
+            Some(lattice) => lattice,
+            None => {
+                let extent = (hi - lo).max(DVec3::splat(1e-9));
+                // About one receiver a cell, never cells smaller than a sphere.
+                let volume = extent.x * extent.y * extent.z;
+                let cell = (volume / centres.len().max(1) as f64).cbrt().max(2.0 * radius);
+                let dims = [
+                    ((extent.x / cell).ceil() as usize).clamp(1, 1024),
+                    ((extent.y / cell).ceil() as usize).clamp(1, 1024),
+                    ((extent.z / cell).ceil() as usize).clamp(1, 1024),
+                ];
+                let cell = (extent.x / dims[0] as f64).max(extent.y / dims[1] as f64).max(extent.z / dims[2] as f64);
+                (lo, DVec3::splat(cell), dims)
+            }
+        };
         let n_cells = dims[0] * dims[1] * dims[2];
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_cells];
         for (k, c) in centres.iter().enumerate() {
@@ -75,6 +82,11 @@ impl Receivers {
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
         Receivers { centres, radius, lo, hi, cell, dims, cells, items }
+    }
+
+    /// Receivers per cell of the search grid, at most (1 on a floor-plan lattice).
+    pub fn max_per_cell(&self) -> usize {
+        self.cells.windows(2).map(|w| (w[1] - w[0]) as usize).max().unwrap_or(0)
     }
 
     pub fn len(&self) -> usize {
@@ -120,12 +132,12 @@ impl Receivers {
             idx[a] = (p[a].floor() as i64).clamp(0, self.dims[a] as i64 - 1);
             if dir[a] > 0.0 {
                 step[a] = 1;
-                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * self.cell / dir[a];
-                t_delta[a] = self.cell / dir[a];
+                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * self.cell[a] / dir[a];
+                t_delta[a] = self.cell[a] / dir[a];
             } else if dir[a] < 0.0 {
                 step[a] = -1;
-                t_next[a] = t_enter + (idx[a] as f64 - p[a]) * self.cell / dir[a];
-                t_delta[a] = -self.cell / dir[a];
+                t_next[a] = t_enter + (idx[a] as f64 - p[a]) * self.cell[a] / dir[a];
+                t_delta[a] = -self.cell[a] / dir[a];
             }
         }
         let r2 = self.radius * self.radius;
@@ -161,6 +173,40 @@ impl Receivers {
             t_next[a] += t_delta[a];
         }
     }
+}
+
+/// The search grid of receivers that lie on a regular floor-plan lattice (one height, x and y
+/// on steps of sx and sy at least a sphere's diameter, as the scene's receiver grid): cells of
+/// sx × sy × 2r centred on the lattice points, so that each sphere lies in its own cell and a
+/// segment tests one sphere per cell it crosses. None for any other set of points.
+fn floor_plan_lattice(centres: &[DVec3], radius: f64) -> Option<(DVec3, DVec3, [usize; 3])> {
+    let first = *centres.first()?;
+    let scale = centres.iter().map(|c| c.abs().max_element()).fold(1.0, f64::max);
+    let tol = 1e-9 * scale;
+    if centres.iter().any(|c| (c.z - first.z).abs() > tol) {
+        return None;
+    }
+    let mut axes = [(0.0, 0.0, 0usize); 2]; // (origin, step, count) of x and y
+    for (a, axis) in axes.iter_mut().enumerate() {
+        let mut v: Vec<f64> = centres.iter().map(|c| c[a]).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup_by(|x, y| (*x - *y).abs() <= tol);
+        let step = if v.len() > 1 { v[1] - v[0] } else { 2.0 * radius };
+        if !(step >= 2.0 * radius) {
+            return None;
+        }
+        let count = ((v[v.len() - 1] - v[0]) / step).round() as usize + 1;
+        if count > 4096 || v.iter().any(|x| {
+            let k = (x - v[0]) / step;
+            (k - k.round()).abs() * step > tol
+        }) {
+            return None;
+        }
+        *axis = (v[0], step, count);
+    }
+    let [(x0, sx, nx), (y0, sy, ny)] = axes;
+    let lo = DVec3::new(x0 - 0.5 * sx, y0 - 0.5 * sy, first.z - radius);
+    Some((lo, DVec3::new(sx, sy, 2.0 * radius), [nx, ny, 1]))
 }
 
 /// Mean of 1 / (4π |x − s|²) over a ball of radius r whose centre is at distance d from s.
@@ -221,8 +267,23 @@ mod tests {
 
     #[test]
     fn grid_finds_the_same_spheres_as_testing_all() {
-        let centres: Vec<DVec3> = (0..60).map(|i| DVec3::new((i % 10) as f64, (i / 10) as f64 * 0.7, 1.5)).collect();
-        let rc = Receivers::new(centres.clone(), 0.4);
+        // Spheres overlapping their neighbours (a generic grid), then a floor-plan lattice
+        // (a cell per sphere) with one point missing, as a grid clipped by a wall.
+        let overlapping: Vec<DVec3> = (0..60).map(|i| DVec3::new((i % 10) as f64, (i / 10) as f64 * 0.7, 1.5)).collect();
+        let lattice: Vec<DVec3> = (0..60).filter(|&i| i != 23).map(|i| DVec3::new(0.5 + (i % 10) as f64, (i / 10) as f64 * 0.8, 1.5)).collect();
+        let rc = Receivers::new(lattice.clone(), 0.35);
+        assert_eq!(rc.max_per_cell(), 1);
+        assert_eq!(rc.dims, [10, 6, 1]);
+        assert!(Receivers::new(overlapping.clone(), 0.4).max_per_cell() > 1);
+        // 0.4: spheres that touch the cells' sides (listed in two cells, counted once).
+        for (centres, radius) in [(overlapping, 0.4), (lattice.clone(), 0.35), (lattice, 0.4), (vec![DVec3::new(1.0, 2.0, 1.5)], 0.25)] {
+            check_against_brute_force(&centres, radius);
+        }
+    }
+
+    fn check_against_brute_force(centres: &[DVec3], radius: f64) {
+        let r2 = radius * radius;
+        let rc = Receivers::new(centres.to_vec(), radius);
         let mut stamp = vec![0u64; centres.len()];
         let mut s = crate::rng::Stream::new(5, 0, 0);
         for seg in 1..20_000u64 {
@@ -237,8 +298,8 @@ mod tests {
                 let oc = *c - o;
                 let tc = oc.dot(d);
                 let d2 = oc.length_squared() - tc * tc;
-                if d2 < 0.16 {
-                    let h = (0.16 - d2).sqrt();
+                if d2 < r2 {
+                    let h = (r2 - d2).sqrt();
                     let (a, b) = ((tc - h).max(0.0), (tc + h).min(len));
                     if b > a {
                         expect.push((k as u32, b - a));
