@@ -236,12 +236,17 @@ class StreamRenderer:
             if ends[0] == ends[1]:
                 ends = ends[:1]
         frames = []
+        # Folded filters have few channels: with few partitions (a large block) they are kept
+        # channels-first, where the convolver streams through them 2x faster.
+        channels_first = self.convolver.partitions <= 64
         for q in ends:
             if q not in v.combined:
                 if len(v.combined) >= 3:
                     v.combined.pop(next(iter(v.combined)))
-                v.combined[q] = sp.combine(v.spectra, q, self.fft_size)
-            o = self.convolver.apply(v.combined[q])
+                c = sp.combine(v.spectra, q, self.fft_size)
+                v.combined[q] = np.ascontiguousarray(c.transpose(1, 2, 0)) if channels_first else c
+            o = (self.convolver.apply_channels_first(v.combined[q]) if channels_first
+                 else self.convolver.apply(v.combined[q]))
             frames.append(sfft.irfft(o, self.fft_size, axis=-1, workers=1)[:, -self.block:])
         if len(frames) == 1:
             return frames[0]
