@@ -114,6 +114,11 @@ impl ConvexRoom {
         self.faces.iter().all(|f| f.normal.dot(p) < f.offset)
     }
 
+    /// Whether `p` lies inside or within `tolerance` outside of every plane (a light on a wall).
+    pub fn holds(&self, p: DVec3, tolerance: f64) -> bool {
+        self.faces.iter().all(|f| f.normal.dot(p) <= f.offset + tolerance)
+    }
+
     /// Where the ray origin + t·dir (unit dir, origin inside or on the boundary) leaves the
     /// room: the smallest t over the planes it moves towards, never below 0, so that an origin
     /// a rounding error outside a wall meets that wall at once instead of escaping.
@@ -239,6 +244,8 @@ mod tests {
         assert!(exit.normal.x > 0.99);
         assert!(room.contains(DVec3::new(1.0, 1.0, 1.0)));
         assert!(!room.contains(DVec3::new(1.0, 1.0, 1.6)));
+        assert!(!room.contains(DVec3::new(1.0, 1.0, 1.5)) && room.holds(DVec3::new(1.0, 1.0, 1.5), 1e-9));
+        assert!(!room.holds(DVec3::new(1.0, 1.0, 1.5 + 1e-6), 1e-9));
     }
 
     #[test]

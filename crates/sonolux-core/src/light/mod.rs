@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 
 use crate::bvh::Bvh;
+use crate::convex::ConvexRoom;
 use crate::error::CoreError;
 use crate::geometry::Ray;
 use crate::mesh::Mesh;
@@ -150,7 +151,15 @@ pub fn trace_light(
         quantum: total / (1u64 << 50) as f64,
     };
     let epsilon = 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0);
-    let scene = LightScene { mesh, bvh, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
+    // A closed convex room whose lights lie inside it (or on its walls) and shine into it is
+    // traced through its planes, as the sound tracer does.
+    let shines_in = |r: &ConvexRoom, e: &Emitter| {
+        let [a, b, c] = e.corners;
+        let inward = (a + b + c) / 3.0 + (b - a).cross(c - a).normalize() * epsilon;
+        e.corners.iter().all(|&p| r.holds(p, epsilon)) && r.contains(inward)
+    };
+    let room = ConvexRoom::new(mesh).filter(|r| emitters.iter().all(|e| shines_in(r, e)));
+    let scene = LightScene { mesh, bvh, room, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
     let (tallies, cancelled) = run_chunks(
         settings.end - settings.first,
         4096,
@@ -185,6 +194,7 @@ pub fn trace_light(
 struct LightScene<'a> {
     mesh: &'a Mesh,
     bvh: &'a Bvh,
+    room: Option<ConvexRoom>,
     optics: &'a Optics,
     emitters: &'a [Emitter],
     choose: &'a Discrete,
@@ -215,15 +225,21 @@ fn trace_particle(sc: &LightScene, index: u64, tally: &mut Tally) {
 
     for _ in 0..sc.settings.max_bounces {
         // Find where the particle lands.
-        let Some(hit) = sc.bvh.closest_hit(&Ray::new(pos.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY) else {
+        let hit = match &sc.room {
+            Some(room) => {
+                let exit = room.exit(pos, dir);
+                Some((exit.t, exit.triangle as usize))
+            }
+            None => sc.bvh.closest_hit(&Ray::new(pos.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY).map(|h| (h.t as f64, h.triangle as usize)),
+        };
+        let Some((t, tri)) = hit else {
             tally.escaped_particles += 1;
             tally.add(ESCAPED, w);
             return;
         };
         tally.bounces += 1;
-        let tri = hit.triangle as usize;
         let [v0, v1, v2] = sc.mesh.corners(tri).map(|v| v.as_dvec3());
-        let point = pos + dir * hit.t as f64;
+        let point = pos + dir * t;
         // Deposit the incident flux on the patch it lands on.
         let (s, t) = patches::barycentric(point, v0, v1, v2);
         sc.sums.add(sc.patches.index(tri, s, t), w, &mut rng);
