@@ -130,6 +130,8 @@ class PartitionedConvolver:
         # Each input spectrum is stored twice, in columns s and s + P of [bins, 2P], so the
         # last P spectra, oldest first, are one slice: ring[:, s + 1 : s + 1 + P].
         self._ring = np.zeros((bins, 2 * self.partitions), self.dtype)
+        # The same spectra partition-major, [2P, bins], for filters laid out channels-first.
+        self._ring_rows = np.zeros((2 * self.partitions, bins), self.dtype)
         self._slot = -1
 
     def push(self, x: np.ndarray) -> None:
@@ -144,6 +146,8 @@ class PartitionedConvolver:
         spec = sfft.rfft(buf, workers=1)
         self._ring[:, self._slot] = spec
         self._ring[:, self._slot + self.partitions] = spec
+        self._ring_rows[self._slot] = spec
+        self._ring_rows[self._slot + self.partitions] = spec
 
     def apply(self, spectra: np.ndarray) -> np.ndarray:
         """complex[channel, K/2 + 1]: Σ_p X[i − p] · H[p] for filter spectra [bins, channel, P]
@@ -164,7 +168,7 @@ class PartitionedConvolver:
             raise SonoluxError(f"filter spectra {spectra.shape} do not fit the convolver "
                                f"({self.partitions} partitions, {self._ring.shape[0]} bins)")
         s = self._slot
-        return (spectra * self._ring[:, s + 1: s + 1 + self.partitions].T).sum(axis=1)
+        return (spectra * self._ring_rows[s + 1: s + 1 + self.partitions]).sum(axis=1)
 
     def output(self, spectra: np.ndarray) -> np.ndarray:
         """float[channel, B]: the block's output through the filters (apply + inverse FFT)."""

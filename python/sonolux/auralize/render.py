@@ -195,13 +195,15 @@ class BinauralSpatializer:
         return out
 
     def _spectra(self, heading_deg: float, fft_size: int) -> np.ndarray:
-        """complex64[ear, direction, bins]: the HRIR spectra for a heading (cached)."""
+        """complex64[bins, ear, direction]: the HRIR spectra for a heading (cached), laid out
+        for :meth:`combine`'s batched matrix product."""
         key = (round(heading_deg % 360.0, 6), fft_size)
         hit = self._cache.get(key)
         if hit is not None:
             self._cache.move_to_end(key)
             return hit
-        spec = np.stack(self._direction_spectra(heading_deg, fft_size), axis=1)
+        spec = np.ascontiguousarray(np.stack(self._direction_spectra(heading_deg, fft_size),
+                                             axis=1).transpose(2, 0, 1))
         self._cache[key] = spec
         if len(self._cache) > self._cache_entries:
             self._cache.popitem(last=False)
@@ -211,8 +213,7 @@ class BinauralSpatializer:
         """Filter spectra [bins, ear, P] for a still head: the HRIRs multiplied into the
         direction filters [bins, direction, P] and summed, exact since K ≥ 2B + taps − 1."""
         # [bins, ear, direction], contiguous: matmul's batched BLAS path, 3x faster than a view.
-        m = np.ascontiguousarray(self._spectra(heading_deg, fft_size).transpose(2, 0, 1))
-        return np.matmul(m, filters)  # batched over bins: [ear, direction] @ [direction, P]
+        return np.matmul(self._spectra(heading_deg, fft_size), filters)  # [ear, dir] @ [dir, P]
 
     def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
         b = heading_deg.size
