@@ -79,7 +79,7 @@ def check_direct_sound():
     rcv = [(src[0] + x, src[1], src[2]) for x in d]
     scene = box_scene((20.0, 20.0, 10.0), dict.fromkeys(WALLS, 1.0), 0.0, rcv, 0.25, src)
     expected = sphere_mean_inverse_square(d, 0.25) / (4 * math.pi)
-    rain = traced(scene, rays=20_000, air_absorption=False)
+    rain = traced(scene, rays=20_000, air_absorption=False, estimator="rain")
     got_rain = np.array([rain.omni_energy(k)[0].sum() for k in range(3)])
     paper = traced(scene, rays=400_000, air_absorption=False, estimator="paper")
     got_paper = np.array([paper.omni_energy(k)[0].sum() for k in range(3)])
@@ -108,7 +108,7 @@ def diffuse_box():
     size, alpha = (6.0, 5.0, 4.0), 0.1
     scene = box_scene(size, dict.fromkeys(WALLS, alpha), 1.0,
                       [(2.0, 2.0, 1.5), (4.5, 3.5, 2.5)], 0.5, (1.7, 1.3, 1.4))
-    return scene, traced(scene, rays=20_000, air_absorption=False), size, alpha
+    return scene, traced(scene, rays=20_000, air_absorption=False, estimator="rain"), size, alpha
 
 
 def check_free_path_and_eyring(box):
@@ -168,7 +168,8 @@ def check_paper_rooms():
         scene = sonolux.load_scene(name)
         receivers = replace(scene.receivers, positions_m=np.array([scene.sources[0].position_m]),
                             radius_m=0.5)
-        field = traced(replace(scene, receivers=receivers), rays=150_000, air_absorption=False)
+        field = traced(replace(scene, receivers=receivers), rays=150_000, air_absorption=False,
+                       estimator="rain")
         t30[name] = decay_times(field.omni_energy(0).sum(axis=0), field.bin_start_s,
                                 field.bin_width_s)["t30_s"]
     names = list(t30)
