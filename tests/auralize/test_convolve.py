@@ -17,6 +17,7 @@ from sonolux.auralize.convolve import (
 from sonolux.auralize.layouts import loudspeaker_layout
 from sonolux.auralize.offline import AuralizeSettings, auralize
 from sonolux.auralize.render import field_directions, head_frame
+from sonolux.errors import SonoluxError
 from sonolux.sound.synthesis import pressure_ir, weighted_sequences
 
 from .conftest import FS, synthetic_field
@@ -33,6 +34,22 @@ def run_convolver(x, h, block, dtype, fft_size=None):
         conv.push(xp[i * block:(i + 1) * block])
         out.append(conv.output(spectra))
     return np.concatenate(out, axis=-1)
+
+
+def test_channels_first_filters_give_the_same_block_output():
+    # The two filter layouts the convolver takes ([bins, channel, P] and [channel, P, bins])
+    # hold the same numbers: block by block the outputs agree to float64 rounding.
+    rng = np.random.default_rng(4)
+    h = rng.standard_normal((3, 700))
+    conv = PartitionedConvolver(128, 6, None, np.complex128)
+    spectra = partition(h, 128, conv.fft_size, np.complex128)
+    rows = np.ascontiguousarray(spectra.transpose(1, 2, 0))
+    for _ in range(9):
+        conv.push(rng.standard_normal(128))
+        np.testing.assert_allclose(conv.apply_channels_first(rows), conv.apply(spectra),
+                                   rtol=0, atol=1e-12 * np.abs(conv.apply(spectra)).max())
+    with pytest.raises(SonoluxError, match="do not fit"):
+        conv.apply_channels_first(spectra)
 
 
 @pytest.mark.parametrize("block", [64, 256, 1024])

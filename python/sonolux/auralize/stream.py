@@ -113,6 +113,10 @@ class StreamRenderer:
     turning head; precision: "float32" (default) or "float64".
     """
 
+    #: Folded filters are laid out channels-first up to this many partitions (measured faster
+    #: there; with more, smaller partitions, one matrix product per bin is faster).
+    channels_first_partitions = 64
+
     def __init__(self, field, layout: str = "binaural", block: int = 256, *, order: int = 1,
                  hrtf: str | None = None, fade_s: float = 0.03, seed: int = 0,
                  heading_step_deg: float = 2.0, precision: str = "float32",
@@ -238,7 +242,7 @@ class StreamRenderer:
         frames = []
         # Folded filters have few channels: with few partitions (a large block) they are kept
         # channels-first, where the convolver streams through them 2x faster.
-        channels_first = self.convolver.partitions <= 64
+        channels_first = self.convolver.partitions <= self.channels_first_partitions
         for q in ends:
             if q not in v.combined:
                 if len(v.combined) >= 3:
