@@ -4,9 +4,12 @@
 //!
 //! The triangles of each plane are kept so that a hit still names its triangle (and so its
 //! material): a point on a plane is located among that plane's few triangles by their edges.
+//! [`Surfaces`] is what both tracers ask: these planes when they apply, the BVH otherwise.
 
 use glam::DVec3;
 
+use crate::bvh::Bvh;
+use crate::geometry::Ray;
 use crate::mesh::Mesh;
 
 /// Rooms with more planes than this are left to the BVH: a linear scan would cost more.
@@ -164,13 +167,45 @@ impl ConvexRoom {
     }
 }
 
+/// What a tracer asks for the nearest surface along a ray: a convex room's planes when every
+/// ray of it starts inside the room, else the BVH. Both tracers hold one.
+pub struct Surfaces<'a> {
+    mesh: &'a Mesh,
+    bvh: &'a Bvh,
+    room: Option<ConvexRoom>,
+}
+
+impl<'a> Surfaces<'a> {
+    /// `convex`: whether the mesh is closed and convex (known to the caller); `starts_inside`:
+    /// whether the tracer's rays all start inside the room (its sources or lights).
+    pub fn new(mesh: &'a Mesh, bvh: &'a Bvh, convex: bool, starts_inside: impl Fn(&ConvexRoom) -> bool) -> Surfaces<'a> {
+        let room = if convex { ConvexRoom::of_convex(mesh) } else { None };
+        Surfaces { mesh, bvh, room: room.filter(starts_inside) }
+    }
+
+    /// The nearest surface along origin + t·dir (unit dir): its distance, mesh triangle and unit
+    /// normal (facing either way; the planes' is precomputed).
+    #[inline]
+    pub fn nearest(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+        match &self.room {
+            Some(room) => {
+                let exit = room.exit(origin, dir);
+                Some((exit.t, exit.triangle as usize, exit.normal))
+            }
+            None => {
+                let hit = self.bvh.closest_hit(&Ray::new(origin.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
+                let tri = hit.triangle as usize;
+                Some((hit.t as f64, tri, self.mesh.normal(tri).as_dvec3()))
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use glam::Vec3;
 
     use super::*;
-    use crate::bvh::Bvh;
-    use crate::geometry::Ray;
     use crate::rng::Stream;
     use crate::sampling::uniform_sphere;
 

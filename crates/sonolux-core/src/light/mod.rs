@@ -14,9 +14,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 
 use crate::bvh::Bvh;
-use crate::convex::ConvexRoom;
+use crate::convex::{ConvexRoom, Surfaces};
 use crate::error::CoreError;
-use crate::geometry::Ray;
 use crate::mesh::Mesh;
 use crate::parallel::{run_chunks, Progress};
 use crate::rng::Stream;
@@ -158,8 +157,8 @@ pub fn trace_light(
         let inward = (a + b + c) / 3.0 + (b - a).cross(c - a).normalize() * epsilon;
         e.corners.iter().all(|&p| r.holds(p, epsilon)) && r.contains(inward)
     };
-    let room = ConvexRoom::new(mesh).filter(|r| emitters.iter().all(|e| shines_in(r, e)));
-    let scene = LightScene { mesh, bvh, room, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
+    let surfaces = Surfaces::new(mesh, bvh, mesh.is_closed_convex(), |r| emitters.iter().all(|e| shines_in(r, e)));
+    let scene = LightScene { mesh, surfaces, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
     let (tallies, cancelled) = run_chunks(
         settings.end - settings.first,
         4096,
@@ -193,8 +192,7 @@ pub fn trace_light(
 
 struct LightScene<'a> {
     mesh: &'a Mesh,
-    bvh: &'a Bvh,
-    room: Option<ConvexRoom>,
+    surfaces: Surfaces<'a>,
     optics: &'a Optics,
     emitters: &'a [Emitter],
     choose: &'a Discrete,
@@ -225,14 +223,7 @@ fn trace_particle(sc: &LightScene, index: u64, tally: &mut Tally) {
 
     for _ in 0..sc.settings.max_bounces {
         // Find where the particle lands.
-        let hit = match &sc.room {
-            Some(room) => {
-                let exit = room.exit(pos, dir);
-                Some((exit.t, exit.triangle as usize))
-            }
-            None => sc.bvh.closest_hit(&Ray::new(pos.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY).map(|h| (h.t as f64, h.triangle as usize)),
-        };
-        let Some((t, tri)) = hit else {
+        let Some((t, tri, _)) = sc.surfaces.nearest(pos, dir) else {
             tally.escaped_particles += 1;
             tally.add(ESCAPED, w);
             return;

@@ -19,7 +19,7 @@ mod trace;
 use glam::DVec3;
 
 use crate::bvh::Bvh;
-use crate::convex::ConvexRoom;
+use crate::convex::Surfaces;
 use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::{run_chunks, Progress};
@@ -158,9 +158,9 @@ pub(crate) struct Scene<'a> {
     pub layout: Layout,
     /// Whether the room is one closed convex volume: then nothing can block a rain connection.
     pub convex: bool,
-    /// The room's planes, when it is convex, small and holds every source: then rays find
-    /// their next wall without the BVH.
-    pub room: Option<ConvexRoom>,
+    /// The nearest surface of a ray: the room's planes when it is convex, small and holds every
+    /// source, else the BVH.
+    pub surfaces: Surfaces<'a>,
     /// Whether the air absorbs at all (its exponentials are skipped when not).
     pub air: bool,
     /// Probability of a diffuse bounce on each material: its scattering averaged over bands.
@@ -212,8 +212,6 @@ pub fn trace_sound(
     }
     let layout = settings.layout(receivers.len(), nb);
     let convex = mesh.is_closed_convex();
-    let room = if convex { ConvexRoom::of_convex(mesh) } else { None };
-    let room = room.filter(|r| sources.iter().all(|s| r.contains(s.position)));
     let scattering: Vec<&[f64]> = acoustics.scattering.chunks(nb).collect();
     let scene = Scene {
         mesh,
@@ -224,7 +222,7 @@ pub fn trace_sound(
         settings,
         layout: layout.clone(),
         convex,
-        room,
+        surfaces: Surfaces::new(mesh, bvh, convex, |r| sources.iter().all(|s| r.contains(s.position))),
         air: settings.air_attenuation.iter().any(|&a| a > 0.0),
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),

@@ -36,23 +36,6 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
     (dir, source.power_w / rays as f64)
 }
 
-/// The nearest surface along a ray from `pos`: its distance, triangle and unit normal (facing
-/// either way). Convex rooms answer from their planes, any other scene from the BVH.
-#[inline]
-fn nearest_surface(scene: &Scene, pos: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
-    match &scene.room {
-        Some(room) => {
-            let exit = room.exit(pos, dir);
-            Some((exit.t, exit.triangle as usize, exit.normal))
-        }
-        None => {
-            let hit = scene.bvh.closest_hit(&Ray::new(pos.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
-            let tri = hit.triangle as usize;
-            Some((hit.t as f64, tri, scene.mesh.normal(tri).as_dvec3()))
-        }
-    }
-}
-
 /// Traces ray `index` of source `s` to its end, depositing into `acc` and tallying `st`.
 /// `stamp` is the worker's scratch for [`super::Receivers::crossings`], one entry a receiver;
 /// `buf` its batch of deposits (flushed by the caller).
@@ -90,7 +73,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 
     loop {
         // Find the nearest surface along the ray.
-        let hit = nearest_surface(scene, pos, dir);
+        let hit = scene.surfaces.nearest(pos, dir);
         let length = hit.map_or(f64::INFINITY, |h| h.0);
         st.segments += 1;
 
