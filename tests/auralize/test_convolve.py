@@ -12,6 +12,8 @@ from sonolux.auralize.convolve import (
     band_kernels,
     broadband_response,
     convolve_bands,
+    fft_size_for,
+    fold,
     partition,
 )
 from sonolux.auralize.layouts import loudspeaker_layout
@@ -23,9 +25,9 @@ from sonolux.sound.synthesis import pressure_ir, weighted_sequences
 from .conftest import FS, synthetic_field
 
 
-def run_convolver(x, h, block, dtype, fft_size=None):
-    conv = PartitionedConvolver(block, -(-h.shape[-1] // block), fft_size, dtype)
-    spectra = partition(h, block, conv.fft_size, dtype)
+def run_convolver(x, h, block, precision, fft_size=None):
+    conv = PartitionedConvolver(block, -(-h.shape[-1] // block), fft_size, precision)
+    spectra = partition(h, block, conv.fft_size, precision)
     n_blocks = -(-(x.size + h.shape[-1] - 1) // block)
     xp = np.zeros(n_blocks * block)
     xp[: x.size] = x
@@ -36,55 +38,83 @@ def run_convolver(x, h, block, dtype, fft_size=None):
     return np.concatenate(out, axis=-1)
 
 
-def test_channels_first_filters_give_the_same_block_output():
-    # The two filter layouts the convolver takes ([bins, channel, P] and [channel, P, bins])
-    # hold the same numbers: block by block the outputs agree to float64 rounding.
+def test_the_core_engine_agrees_with_the_numpy_reference_block_by_block():
+    # float32 runs in the Rust core (SIMD, its own FFTs), float64 in numpy: the same spectra,
+    # block outputs and folds to float32 rounding (1e-6 of the largest value).
     rng = np.random.default_rng(4)
     h = rng.standard_normal((3, 700))
-    conv = PartitionedConvolver(128, 6, None, np.complex128)
-    spectra = partition(h, 128, conv.fft_size, np.complex128)
-    rows = np.ascontiguousarray(spectra.transpose(1, 2, 0))
+    mix = rng.standard_normal((2, 3, 2, 257))
+    convs = [PartitionedConvolver(128, 6, 512, p) for p in ("float32", "float64")]
+    spectra = [partition(h, 128, 512, c.precision) for c in convs]
+    np.testing.assert_allclose(spectra[0], spectra[1], atol=1e-6 * np.abs(spectra[1]).max())
+    folds = [fold(s, mix.astype(s.dtype)) for s in spectra]
+    np.testing.assert_allclose(folds[0], folds[1], atol=1e-6 * np.abs(folds[1]).max())
     for _ in range(9):
-        conv.push(rng.standard_normal(128))
-        np.testing.assert_allclose(conv.apply_channels_first(rows), conv.apply(spectra),
-                                   rtol=0, atol=1e-12 * np.abs(conv.apply(spectra)).max())
+        x = rng.standard_normal(128)
+        outs = []
+        for c, s, f in zip(convs, spectra, folds):
+            c.push(x)
+            outs.append((c.apply(s), c.output(f)))
+        for a, b in zip(*outs):
+            np.testing.assert_allclose(a, b, atol=1e-5 * np.abs(b).max())
     with pytest.raises(SonoluxError, match="do not fit"):
-        conv.apply_channels_first(spectra)
+        convs[0].apply(spectra[0][:, :5])
+    with pytest.raises(SonoluxError, match="precision"):
+        PartitionedConvolver(128, 6, 512, "float16")
+    with pytest.raises(ValueError, match="mix"):
+        fold(spectra[0], mix[:, :2].astype(np.float32))
 
 
 @pytest.mark.parametrize("block", [64, 256, 1024])
-@pytest.mark.parametrize("dtype", [np.complex128, np.complex64])
-def test_partitioned_convolution_equals_numpy_convolve(block, dtype):
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_partitioned_convolution_equals_numpy_convolve(block, precision):
     # Tolerance 1e-6 relative (L2), the issue's: float64 spectra are ~1e-15 off, float32
     # spectra ~1e-7 (single-precision FFTs of a few thousand points).
     rng = np.random.default_rng(1)
     x = rng.standard_normal(5000)
     h = rng.standard_normal((3, 2345)) * np.exp(-np.arange(2345) / 600)
-    y = run_convolver(x, h, block, dtype)
+    y = run_convolver(x, h, block, precision)
     for c in range(3):
         ref = np.convolve(x, h[c])
         err = np.linalg.norm(y[c, : ref.size] - ref) / np.linalg.norm(ref)
-        assert err < 1e-6, (block, dtype, c, err)
+        assert err < 1e-6, (block, precision, c, err)
         assert np.max(np.abs(y[c, ref.size:])) < 1e-6 * np.max(np.abs(ref))
 
 
-def test_a_larger_fft_leaves_room_for_a_short_filter():
-    # K = 2B + 63: a 64-tap filter multiplied into the spectra stays exact (see convolve.py).
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_larger_fft_leaves_room_for_a_short_filter(precision):
+    # K = 2B + 63: a 64-tap filter folded into the spectra stays exact (see convolve.py).
     rng = np.random.default_rng(2)
     x, h, g = rng.standard_normal(3000), rng.standard_normal((1, 900)), rng.standard_normal(64)
     block, k = 256, 2 * 256 + 63
-    conv = PartitionedConvolver(block, 4, k, np.complex128)
-    spectra = partition(h, block, k, np.complex128) * np.fft.rfft(g, k)[:, None, None]
+    conv = PartitionedConvolver(block, 4, k, precision)
+    spectra = partition(h, block, k, precision)
+    gz = np.fft.rfft(g, k)
+    spectra = fold(spectra, np.stack([gz.real, gz.imag])[None, None].astype(spectra.dtype))
     out = []
     for i in range(-(-3000 // block)):
         xb = np.zeros(block)
         chunk = x[i * block:(i + 1) * block]
         xb[: chunk.size] = chunk
         conv.push(xb)
-        out.append(np.fft.irfft(conv.apply(spectra), k)[..., -block:])
+        out.append(conv.output(spectra))
     y = np.concatenate(out, axis=-1)[0]
     ref = np.convolve(np.convolve(x, h[0]), g)[: y.size]
-    assert np.linalg.norm(y - ref) / np.linalg.norm(ref) < 1e-9
+    tol = 1e-9 if precision == "float64" else 1e-6
+    assert np.linalg.norm(y - ref) / np.linalg.norm(ref) < tol
+
+
+def test_fft_sizes_are_even_and_5_smooth():
+    assert fft_size_for(16511) == 17280  # 2^7 3^3 5, not 16875 = 3^3 5^4 (odd)
+    assert fft_size_for(255) == 256
+    for n in range(2, 3000, 7):
+        k = fft_size_for(n)
+        m = k
+        for f in (2, 3, 5):
+            while m % f == 0:
+                m //= f
+        assert k >= n and k % 2 == 0 and m == 1
+        assert all(fft_size_for(j) == k for j in range(n, k + 1))
 
 
 def test_bands_of_the_signal_or_one_broadband_response_give_the_same_sound():

@@ -71,17 +71,15 @@ def test_bad_use_is_named():
         r.move_to(10.0, 10.0)
 
 
-@pytest.mark.parametrize("channels_first", [True, False])
-def test_a_slow_binaural_turn_folded_into_the_filters_equals_the_keyframes(channels_first):
+def test_a_slow_binaural_turn_folded_into_the_filters_equals_the_keyframes():
     # Turning at 30°/s with blocks of 256: the renderer folds the HRIRs of the block's two
-    # grid headings into the filters (2 channels; stored channels-first or per bin); the
+    # grid headings into the filters (2 channels); the
     # direction path (8 directions, HRIRs per keyframe) must give the same samples: float32
     # rounding, 1e-5 relative.
     x = np.random.default_rng(2).standard_normal(256 * 40)
     outs = []
     for fold in (True, False):
         r = StreamRenderer(field(), "binaural", 256)
-        r.channels_first_partitions = 10**6 if channels_first else 0
         r.spatializer.grid_keyframes = fold
         r.set_cell(0)
         heading = 30.0 * np.arange(x.size) / 48000

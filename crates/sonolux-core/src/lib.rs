@@ -4,7 +4,8 @@
 //! the watertight ray–triangle test ([`geometry`]), the bounding-volume hierarchy that both tracers
 //! share ([`bvh`]) and its shortcut for closed convex rooms ([`convex`]), the samplers that emit
 //! rays and choose bounces ([`sampling`]) and the random streams that make every ray replayable
-//! from (seed, source, ray) alone ([`rng`]).
+//! from (seed, source, ray) alone ([`rng`]), and the partitioned convolver that
+//! auralization runs on ([`convolver`]).
 //!
 //! Conventions, the same in every module and in the Python package:
 //! - lengths in metres, z up; azimuth 0° is +x and grows counter-clockwise seen from above;
@@ -16,6 +17,7 @@
 
 pub mod bvh;
 pub mod convex;
+pub mod convolver;
 pub mod error;
 pub mod geometry;
 pub mod light;

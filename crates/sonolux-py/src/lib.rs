@@ -10,6 +10,7 @@ use pyo3::types::PyDict;
 use sonolux_core::glam_export::Vec3;
 use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
+mod convolve;
 mod light;
 mod sound;
 
@@ -185,6 +186,9 @@ fn vec3s_to_array<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>>
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", sonolux_core::VERSION)?;
     m.add_class::<Geometry>()?;
+    m.add_class::<convolve::Convolver>()?;
+    m.add_function(wrap_pyfunction!(convolve::partition, m)?)?;
+    m.add_function(wrap_pyfunction!(convolve::fold, m)?)?;
     m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
     m.add_function(wrap_pyfunction!(light::trace_light, m)?)?;
     m.add_function(wrap_pyfunction!(light::patch_index, m)?)?;

@@ -23,7 +23,13 @@ input samples (K ≥ 2B, an FFT size) joins a ring of P spectra; a filter cut in
 of B taps, each FFT'd at K, gives the block's output spectrum Σ_p X[i − p] · H[p], whose last B
 samples after the inverse FFT are exact. The output of a block needs no input after it: no
 latency beyond the block. K > 2B leaves room for a short filter (L ≤ K − 2B + 1 taps, e.g. an
-HRIR) to be multiplied in before the inverse FFT, still exactly (see render.py).
+HRIR) to be multiplied in before the inverse FFT, still exactly (:func:`fold`, render.py).
+
+In float32 (the default) the core's engine does the work (``sonolux_core::convolver``: SIMD
+multiply-adds and FFTs chosen for the CPU at run time). Its spectra are *planar*: the last two
+axes of every spectrum array are [2, bins], real parts then imaginary parts. float64 runs the
+same arithmetic in numpy, with the same layouts: a slower reference that the tests hold the
+core against.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft as sfft
 
+from sonolux import _core
 from sonolux.errors import SonoluxError
 from sonolux.sound.synthesis import _PAD_PERIODS, band_split_weights, pressure_ir
 
@@ -89,88 +96,125 @@ def cell_responses(field, receiver: int, seed: int = 0) -> np.ndarray:
 
 
 # --- the partitioned convolver ---------------------------------------------------------------
-def partition(filters: np.ndarray, block: int, fft_size: int, dtype=np.complex64,
+def fft_size_for(samples: int) -> int:
+    """The smallest even 5-smooth number ≥ samples: FFT sizes that both the core's FFTs and
+    scipy's handle fastest (an odd size or a large prime factor costs 2x or more)."""
+    k = max(2, int(samples))
+    while True:
+        m = k
+        for f in (2, 3, 5):
+            while m % f == 0:
+                m //= f
+        if m == 1 and k % 2 == 0:
+            return k
+        k += 1
+
+
+def _planar(z: np.ndarray) -> np.ndarray:
+    """complex[..., bins] -> float[..., 2, bins] (real parts, then imaginary parts)."""
+    return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-2))
+
+
+def _complex(a: np.ndarray) -> np.ndarray:
+    return a[..., 0, :] + 1j * a[..., 1, :]
+
+
+def partition(filters: np.ndarray, block: int, fft_size: int, precision: str = "float32",
               partitions: int | None = None) -> np.ndarray:
-    """Spectra [K/2 + 1, channel, P] of filters float[channel, n] cut into P = ceil(n / B)
-    partitions of B taps (or ``partitions``, zero-padded), each zero-padded to the FFT size K.
-    Bins first and partitions last, newest-input partition last (p reversed): the layout
-    :meth:`PartitionedConvolver.apply` multiplies with one batched matrix product."""
+    """Planar spectra float[channel, P, 2, K/2 + 1] of filters float[channel, n] cut into
+    P = ceil(n / B) partitions of B taps (or ``partitions``, zero-padded), each zero-padded to
+    the FFT size K; partition 0 holds the first B taps."""
     h = np.atleast_2d(np.asarray(filters))
     c, n = h.shape
     p = partitions or max(1, -(-n // block))
     if p * block < n:
         raise SonoluxError(f"filters of {n} taps do not fit in {p} partitions of {block}")
-    padded = np.zeros((c, p * block), h.dtype)
+    if precision == "float32":
+        return _core.partition(np.ascontiguousarray(h, np.float32), block, fft_size, p)
+    padded = np.zeros((c, p * block))
     padded[:, :n] = h
-    parts = padded.reshape(c, p, block)[:, ::-1]
-    spectra = sfft.rfft(parts, fft_size, axis=2, workers=1).astype(dtype)
-    return np.ascontiguousarray(spectra.transpose(2, 0, 1))
+    return _planar(sfft.rfft(padded.reshape(c, p, block), fft_size, axis=2, workers=1))
+
+
+def fold(filters: np.ndarray, mix: np.ndarray) -> np.ndarray:
+    """Planar float[channel, P, 2, bins]: out[e, p] = Σ_d mix[e, d] · filters[d, p], complex,
+    bin by bin, for filters float[direction, P, 2, bins] and mix float[channel, direction, 2,
+    bins] (e.g. HRIR spectra per ear and direction): exact while the FFT has room for them."""
+    if filters.dtype == np.float32:
+        return _core.fold(filters, np.ascontiguousarray(mix, np.float32))
+    out = np.einsum("edf,dpf->epf", _complex(mix), _complex(filters))
+    return _planar(out)
 
 
 class PartitionedConvolver:
     """Uniformly partitioned overlap-save convolution (FDL) of one input signal.
 
     block: B samples per call; partitions: P, of every filter applied; fft_size: K ≥ 2B;
-    dtype: complex64 (fast, ~1e-7 relative error) or complex128.
+    precision: "float32" (the core's engine, ~1e-7 relative error) or "float64" (numpy).
+    Filters are planar spectra float[channel, P, 2, K/2 + 1] from :func:`partition` or
+    :func:`fold`.
     """
 
     def __init__(self, block: int, partitions: int, fft_size: int | None = None,
-                 dtype=np.complex64):
+                 precision: str = "float32"):
         if not (isinstance(block, (int, np.integer)) and block >= 1):
             raise SonoluxError(f"block size {block!r} is not allowed: a whole number ≥ 1")
+        if precision not in ("float32", "float64"):
+            raise SonoluxError(f"precision {precision!r} is not allowed: float32 or float64")
         self.block = int(block)
-        self.fft_size = int(fft_size or 2 * block)
+        self.fft_size = int(fft_size or fft_size_for(2 * block))
         if self.fft_size < 2 * self.block:
             raise SonoluxError(f"FFT size {self.fft_size} is below twice the block ({block})")
         self.partitions = int(partitions)
-        self.dtype = np.dtype(dtype)
-        self.real = np.float32 if self.dtype == np.complex64 else np.float64
-        bins = self.fft_size // 2 + 1
-        self._input = np.zeros(self.fft_size, self.real)
-        # Each input spectrum is stored twice, in columns s and s + P of [bins, 2P], so the
-        # last P spectra, oldest first, are one slice: ring[:, s + 1 : s + 1 + P].
-        self._ring = np.zeros((bins, 2 * self.partitions), self.dtype)
-        # The same spectra partition-major, [2P, bins], for filters laid out channels-first.
-        self._ring_rows = np.zeros((2 * self.partitions, bins), self.dtype)
-        self._slot = -1
+        self.precision = precision
+        self.real = np.float32 if precision == "float32" else np.float64
+        self.bins = self.fft_size // 2 + 1
+        if precision == "float32":
+            self._core = _core.Convolver(self.block, self.partitions, self.fft_size)
+        else:  # the numpy reference: the last K samples and a ring of P spectra
+            self._core = None
+            self._input = np.zeros(self.fft_size)
+            self._ring = np.zeros((self.partitions, self.bins), np.complex128)
+            self._slot = self.partitions - 1
 
     def push(self, x: np.ndarray) -> None:
         """Takes the next B input samples."""
-        x = np.asarray(x, self.real)
+        x = np.ascontiguousarray(x, self.real)
         if x.shape != (self.block,):
             raise SonoluxError(f"expected a block of {self.block} samples, got {x.shape}")
-        buf = self._input
-        buf[: -self.block] = buf[self.block:]
-        buf[-self.block:] = x
+        if self._core is not None:
+            return self._core.push(x)
+        self._input[: -self.block] = self._input[self.block:]
+        self._input[-self.block:] = x
         self._slot = (self._slot + 1) % self.partitions
-        spec = sfft.rfft(buf, workers=1)
-        self._ring[:, self._slot] = spec
-        self._ring[:, self._slot + self.partitions] = spec
-        self._ring_rows[self._slot] = spec
-        self._ring_rows[self._slot + self.partitions] = spec
+        self._ring[self._slot] = sfft.rfft(self._input, workers=1)
 
-    def apply(self, spectra: np.ndarray) -> np.ndarray:
-        """complex[channel, K/2 + 1]: Σ_p X[i − p] · H[p] for filter spectra [bins, channel, P]
-        from :func:`partition`. Its inverse FFT's last B samples are the block's output."""
-        if spectra.shape[2] != self.partitions or spectra.shape[0] != self._ring.shape[0]:
-            raise SonoluxError(f"filter spectra {spectra.shape} do not fit the convolver "
-                               f"({self._ring.shape[0]} bins, {self.partitions} partitions)")
-        s = self._slot
-        x = self._ring[:, s + 1: s + 1 + self.partitions, None]
-        # One small matrix-vector product per frequency bin, batched: BLAS does the sums.
-        return np.matmul(spectra, x)[:, :, 0].T
+    def _check(self, filters: np.ndarray) -> None:
+        if filters.ndim != 4 or filters.shape[1:] != (self.partitions, 2, self.bins):
+            raise SonoluxError(f"filter spectra {filters.shape} do not fit the convolver: "
+                               f"(channel, {self.partitions}, 2, {self.bins})")
 
-    def apply_channels_first(self, spectra: np.ndarray) -> np.ndarray:
-        """As :meth:`apply` for filter spectra laid out [channel, P, bins] (bins contiguous):
-        faster with few partitions of many bins (large blocks, few channels), where it streams
-        once through the filters instead of one small matrix product per bin."""
-        if spectra.ndim != 3 or spectra.shape[1:] != (self.partitions, self._ring.shape[0]):
-            raise SonoluxError(f"filter spectra {spectra.shape} do not fit the convolver "
-                               f"({self.partitions} partitions, {self._ring.shape[0]} bins)")
-        s = self._slot
-        return (spectra * self._ring_rows[s + 1: s + 1 + self.partitions]).sum(axis=1)
+    def apply(self, filters: np.ndarray) -> np.ndarray:
+        """Planar float[channel, 2, bins]: Σ_p X[i − p] · H[p], the block's output spectra."""
+        self._check(filters)
+        if self._core is not None:
+            return self._core.apply(filters)
+        newest_first = (self._slot - np.arange(self.partitions)) % self.partitions
+        return _planar((_complex(filters) * self._ring[newest_first]).sum(axis=1))
 
-    def output(self, spectra: np.ndarray) -> np.ndarray:
+    def inverse(self, spectra: np.ndarray) -> np.ndarray:
+        """float[channel, B]: the last B samples of the inverse FFT of planar spectra
+        float[channel, 2, bins]."""
+        if spectra.ndim != 3 or spectra.shape[1:] != (2, self.bins):
+            raise SonoluxError(f"spectra {spectra.shape} do not fit the convolver: "
+                               f"(channel, 2, {self.bins})")
+        if self._core is not None:
+            return self._core.inverse(np.ascontiguousarray(spectra, np.float32))
+        return sfft.irfft(_complex(spectra), self.fft_size, axis=-1, workers=1)[:, -self.block:]
+
+    def output(self, filters: np.ndarray) -> np.ndarray:
         """float[channel, B]: the block's output through the filters (apply + inverse FFT)."""
-        return sfft.irfft(self.apply(spectra), self.fft_size, axis=-1,
-                          workers=1)[..., -self.block:]
+        if self._core is not None:
+            self._check(filters)
+            return self._core.output(filters)
+        return self.inverse(self.apply(filters))

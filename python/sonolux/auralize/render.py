@@ -6,18 +6,19 @@ elevation bands at the middle of their range of sin(elevation). A listener facin
 (0° = +x, 90° = +y) hears a source at world azimuth φ at head-relative azimuth φ − θ, so
 :func:`head_frame` rotates by −θ about z. Facing +x, "left" (+y) is at the left ear.
 
-A spatializer turns the convolver's output spectra O[direction, bins] of one block (see
-:class:`~sonolux.auralize.convolve.PartitionedConvolver`) into float[channel, B] samples, for a
-heading that may change within the block (``heading_deg``: float[B]):
+A spatializer turns the convolver's output spectra O[direction, 2, bins] of one block (planar,
+see :class:`~sonolux.auralize.convolve.PartitionedConvolver`) into float[channel, B] samples,
+for a heading that may change within the block (``heading_deg``: float[B]):
 
 - :class:`GainSpatializer` (stereo, 5.1, 7.1, cube8, ambisonics): inverse FFT of each direction,
   then a gain matrix G(θ)[channel, direction], interpolated linearly between keyframes at most
   ``heading_step_deg`` apart (per sample, so a turn is smooth).
 - :class:`BinauralSpatializer`: the HRIR spectra of the rotated directions multiplied into the
-  direction spectra, summed per ear, one inverse FFT per ear and keyframe, keyframes cross-faded
-  linearly. Keyframe headings are rounded to ``heading_step_deg`` so that HRIR spectra repeat
-  and are cached, by heading and by head-frame direction (by ear angle for the spherical
-  head), so a turn computes each HRIR spectrum once; all keyframes share one inverse FFT call.
+  direction spectra and summed per ear (:func:`~sonolux.auralize.convolve.fold`), one inverse
+  FFT per ear and keyframe, keyframes cross-faded linearly. Keyframe headings are rounded to
+  ``heading_step_deg`` so that HRIR spectra repeat and are cached, by heading and by
+  head-frame direction (by ear angle for the spherical head), so a turn computes each HRIR
+  spectrum once; all keyframes share one inverse FFT call.
 
 While the head is still, :meth:`combine` folds the spatialization into a cell's partitioned
 filters once (channels instead of directions: 2 ears instead of 8 directions for binaural),
@@ -34,6 +35,7 @@ from scipy import fft as sfft
 
 from sonolux.auralize import ambisonics
 from sonolux.auralize.binaural import load_hrtf
+from sonolux.auralize.convolve import fold
 from sonolux.auralize.layouts import LAYOUTS, loudspeaker_layout, unit_vectors
 from sonolux.errors import SonoluxError, close_matches
 
@@ -113,23 +115,24 @@ class GainSpatializer:
         return self.gain_fn(head_frame(self.world, heading_deg)).astype(np.float32)
 
     def combine(self, filters: np.ndarray, heading_deg: float, fft_size: int) -> np.ndarray:
-        """Filter spectra [bins, channel, P] of the channels for a still head: the gains mixed
-        into the direction filters [bins, direction, P] (worth it with fewer channels)."""
-        g = self.gains(heading_deg).astype(filters.real.dtype)
-        return np.matmul(g, filters)  # [channel, direction] @ [bins][direction, P]
+        """Filter spectra [channel, P, 2, bins] of the channels for a still head: the gains
+        mixed into the direction filters [direction, P, 2, bins] (worth it with fewer
+        channels). Real gains act alike on real and imaginary parts: one matrix product."""
+        g = self.gains(heading_deg).astype(filters.dtype)
+        return np.tensordot(g, filters, axes=1)
 
-    def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
+    def render(self, spectra: np.ndarray, convolver, heading_deg: np.ndarray) -> np.ndarray:
         b = heading_deg.size
-        s = sfft.irfft(spectra, fft_size, axis=-1, workers=1)[:, -b:]
+        s = convolver.inverse(spectra)
         keys = _keyframes(heading_deg, self.step)
-        return _crossfade([self.gains(heading_deg[k]) @ s for k in keys], keys, b)
+        return _crossfade([self.gains(heading_deg[k]).astype(s.dtype) @ s for k in keys], keys, b)
 
 
 class BinauralSpatializer:
     """HRIRs of the rotated virtual sources, applied in the convolver's frequency domain."""
 
     def __init__(self, world: np.ndarray, hrtf, heading_step_deg: float = 2.0,
-                 cache_entries: int = 2048):
+                 cache_entries: int = 64):
         self.world = world
         self.hrtf = hrtf
         self.channel_names = ["left", "right"]
@@ -150,7 +153,7 @@ class BinauralSpatializer:
     min_keyframe_spacing = 1024
 
     def _direction_spectra(self, heading_deg: float, fft_size: int) -> list[np.ndarray]:
-        """[complex64[ear, bins] per direction]: the HRIR spectra for a heading, each cached by
+        """[planar float32[ear, 2, bins] per direction]: the HRIR spectra for a heading, each cached by
         its head-frame direction: turning the head by a multiple of the grid step brings
         another world direction to the same head-frame direction (e.g. the field's azimuth
         bins 90° apart), so a turn computes each HRIR spectrum once."""
@@ -163,7 +166,7 @@ class BinauralSpatializer:
         missing = [i for i, k in enumerate(keys) if k not in cache]
         if missing:
             h = self.hrtf.hrirs(dirs[missing])  # [direction, ear, taps]
-            new = sfft.rfft(h, fft_size, axis=-1, workers=1).astype(np.complex64)
+            new = _planar32(sfft.rfft(h, fft_size, axis=-1, workers=1))
             for j, i in enumerate(missing):
                 cache[keys[i]] = new[j]
         out = []
@@ -184,7 +187,7 @@ class BinauralSpatializer:
         missing = {k: t for k, t in zip(keys, theta.ravel()) if k not in cache}  # key -> an angle
         if missing:
             h = np.array([self.hrtf.ear_hrir(t) for t in missing.values()])  # [ear IR, taps]
-            new = sfft.rfft(h, fft_size, axis=-1, workers=1).astype(np.complex64)
+            new = _planar32(sfft.rfft(h, fft_size, axis=-1, workers=1))
             for k, spec in zip(missing, new):
                 cache[k] = spec
         for k in keys:
@@ -195,43 +198,42 @@ class BinauralSpatializer:
         return out
 
     def _spectra(self, heading_deg: float, fft_size: int) -> np.ndarray:
-        """complex64[bins, ear, direction]: the HRIR spectra for a heading (cached), laid out
-        for :meth:`combine`'s batched matrix product."""
+        """Planar float32[ear, direction, 2, bins]: the HRIR spectra for a heading (cached),
+        laid out for :func:`~sonolux.auralize.convolve.fold`."""
         key = (round(heading_deg % 360.0, 6), fft_size)
         hit = self._cache.get(key)
         if hit is not None:
             self._cache.move_to_end(key)
             return hit
-        spec = np.ascontiguousarray(np.stack(self._direction_spectra(heading_deg, fft_size),
-                                             axis=1).transpose(2, 0, 1))
+        spec = np.stack(self._direction_spectra(heading_deg, fft_size), axis=1)
         self._cache[key] = spec
         if len(self._cache) > self._cache_entries:
             self._cache.popitem(last=False)
         return spec
 
     def combine(self, filters: np.ndarray, heading_deg: float, fft_size: int) -> np.ndarray:
-        """Filter spectra [bins, ear, P] for a still head: the HRIRs multiplied into the
-        direction filters [bins, direction, P] and summed, exact since K ≥ 2B + taps − 1."""
-        # [bins, ear, direction], contiguous: matmul's batched BLAS path, 3x faster than a view.
-        return np.matmul(self._spectra(heading_deg, fft_size), filters)  # [ear, dir] @ [dir, P]
+        """Filter spectra [ear, P, 2, bins] for a still head: the HRIRs multiplied into the
+        direction filters [direction, P, 2, bins] and summed, exact since K ≥ 2B + taps − 1."""
+        return fold(filters, self._spectra(heading_deg, fft_size).astype(filters.dtype, copy=False))
 
-    def render(self, spectra: np.ndarray, fft_size: int, heading_deg: np.ndarray) -> np.ndarray:
+    def render(self, spectra: np.ndarray, convolver, heading_deg: np.ndarray) -> np.ndarray:
         b = heading_deg.size
         keys = _keyframes(heading_deg, self.step, self.min_keyframe_spacing)
-        ears = np.empty((keys.size, 2, spectra.shape[-1]), np.result_type(spectra, np.complex64))
-        for i, k in enumerate(keys):
+        ears = []
+        for k in keys:
             # A still head keeps its exact heading; a turning one is sampled on a grid of
             # step_deg so that the spectra are found again in the cache.
             q = heading_deg[k] if keys.size == 1 else self.step * np.round(heading_deg[k] / self.step)
-            e = ears[i]
-            for d, m in enumerate(self._direction_spectra(q, fft_size)):  # Σ_d HRIR_d · O_d
-                if d == 0:
-                    np.multiply(m, spectra[0], out=e)
-                else:
-                    e += m * spectra[d]
-        # One inverse FFT for every keyframe and ear.
-        frames = sfft.irfft(ears, fft_size, axis=-1, workers=1)[:, :, -b:]
+            mix = self._spectra(float(q), convolver.fft_size).astype(spectra.dtype, copy=False)
+            ears.append(fold(spectra[:, None], mix)[:, 0])  # Σ_d HRIR_d · O_d: [ear, 2, bins]
+        # One inverse FFT call for every keyframe and ear.
+        frames = convolver.inverse(np.concatenate(ears)).reshape(keys.size, 2, b)
         return _crossfade(list(frames), keys, b)
+
+
+def _planar32(z: np.ndarray) -> np.ndarray:
+    """complex[..., bins] -> planar float32[..., 2, bins]."""
+    return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-2), np.float32)
 
 
 def spatializer(field, layout: str, order: int = 1, hrtf: str | None = None,

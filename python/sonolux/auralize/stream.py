@@ -31,9 +31,8 @@ from dataclasses import dataclass
 from dataclasses import field as dataclass_field
 
 import numpy as np
-from scipy import fft as sfft
 
-from sonolux.auralize.convolve import PartitionedConvolver, cell_responses, partition
+from sonolux.auralize.convolve import PartitionedConvolver, cell_responses, fft_size_for, partition
 from sonolux.auralize.render import spatializer as make_spatializer
 from sonolux.errors import SonoluxError
 
@@ -41,16 +40,16 @@ STREAM_BLOCKS = (64, 128, 256, 512, 1024)
 
 
 class CellFilters:
-    """Partitioned spectra of the cells' responses, complex[K/2 + 1, direction, P] (see
+    """Partitioned spectra of the cells' responses, planar float[direction, P, 2, K/2 + 1] (see
     :func:`~sonolux.auralize.convolve.partition`), made on first use and kept for the
     ``capacity`` most recently used cells. ``responses``: a dict shared between renderers
     (e.g. of several layouts) that keeps the synthesised responses themselves."""
 
     def __init__(self, field, block: int, fft_size: int, partitions: int, seed: int = 0,
-                 capacity: int = 32, dtype=np.complex64, responses: dict | None = None):
+                 capacity: int = 32, precision: str = "float32", responses: dict | None = None):
         self.field, self.block, self.fft_size = field, int(block), int(fft_size)
         self.partitions, self.responses = int(partitions), responses
-        self.seed, self.capacity, self.dtype = int(seed), int(capacity), dtype
+        self.seed, self.capacity, self.precision = int(seed), int(capacity), precision
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
         self.prepared = 0  # cells synthesised so far (statistics)
         self.prepare_s = 0.0
@@ -68,7 +67,7 @@ class CellFilters:
             h = cell_responses(self.field, receiver, self.seed)
             if self.responses is not None:
                 self.responses[(receiver, self.seed)] = h
-        spectra = partition(h, self.block, self.fft_size, self.dtype, self.partitions)
+        spectra = partition(h, self.block, self.fft_size, self.precision, self.partitions)
         self.prepare_s += time.perf_counter() - t0
         self.prepared += 1
         self._cache[receiver] = spectra
@@ -113,10 +112,6 @@ class StreamRenderer:
     turning head; precision: "float32" (default) or "float64".
     """
 
-    #: Folded filters are laid out channels-first up to this many partitions (measured faster
-    #: there; with more, smaller partitions, one matrix product per bin is faster).
-    channels_first_partitions = 64
-
     def __init__(self, field, layout: str = "binaural", block: int = 256, *, order: int = 1,
                  hrtf: str | None = None, fade_s: float = 0.03, seed: int = 0,
                  heading_step_deg: float = 2.0, precision: str = "float32",
@@ -135,12 +130,11 @@ class StreamRenderer:
         self.layout = layout
         # Room for the spatializer's filter (an HRIR) in the FFT: K ≥ 2B + taps − 1.
         extra = getattr(self.spatializer, "extra_taps", 0)
-        self.fft_size = sfft.next_fast_len(2 * self.block + max(extra - 1, 0), real=True)
+        self.fft_size = fft_size_for(2 * self.block + max(extra - 1, 0))
         n = int(np.ceil((field.bin_start_s[-1] + field.bin_width_s[-1]) * self.fs))
-        dtype = np.complex64 if precision == "float32" else np.complex128
         p = -(-n // self.block)
-        self.convolver = PartitionedConvolver(self.block, p, self.fft_size, dtype)
-        self.cells = CellFilters(field, self.block, self.fft_size, p, seed, cache_cells, dtype,
+        self.convolver = PartitionedConvolver(self.block, p, self.fft_size, precision)
+        self.cells = CellFilters(field, self.block, self.fft_size, p, seed, cache_cells, precision,
                                  responses)
         self.fade = max(1, int(round(fade_s * self.fs)))
         self._voices: list[_Voice] = []
@@ -220,9 +214,9 @@ class StreamRenderer:
         return out
 
     def _render_voice(self, v: _Voice, h: np.ndarray) -> np.ndarray:
-        sp = self.spatializer
-        if sp.n_channels >= v.spectra.shape[1]:  # as many channels as directions: no folding
-            return sp.render(self.convolver.apply(v.spectra), self.fft_size, h)
+        sp, conv = self.spatializer, self.convolver
+        if sp.n_channels >= v.spectra.shape[0]:  # as many channels as directions: no folding
+            return sp.render(conv.apply(v.spectra), conv, h)
         # Still (less than a micro-degree: smoothing leaves rounding noise): the exact heading.
         # Binaural turning slowly (the block's ends within one keyframe step): the keyframes
         # that render() would use, on the grid of heading_step_deg, cross-faded across the
@@ -231,27 +225,21 @@ class StreamRenderer:
         if np.ptp(h) <= 1e-6:
             ends = [round(float(h[0]), 6)]
         elif not sp.grid_keyframes:
-            return sp.render(self.convolver.apply(v.spectra), self.fft_size, h)
+            return sp.render(conv.apply(v.spectra), conv, h)
         else:
             step = sp.step
             ends = [round(step * float(np.round(x / step)), 6) for x in (h[0], h[-1])]
             if abs(ends[1] - ends[0]) > step + 1e-9:  # a fast turn: keyframes per direction
-                return sp.render(self.convolver.apply(v.spectra), self.fft_size, h)
+                return sp.render(conv.apply(v.spectra), conv, h)
             if ends[0] == ends[1]:
                 ends = ends[:1]
         frames = []
-        # Folded filters have few channels: with few partitions (a large block) they are kept
-        # channels-first, where the convolver streams through them 2x faster.
-        channels_first = self.convolver.partitions <= self.channels_first_partitions
         for q in ends:
             if q not in v.combined:
                 if len(v.combined) >= 3:
                     v.combined.pop(next(iter(v.combined)))
-                c = sp.combine(v.spectra, q, self.fft_size)
-                v.combined[q] = np.ascontiguousarray(c.transpose(1, 2, 0)) if channels_first else c
-            o = (self.convolver.apply_channels_first(v.combined[q]) if channels_first
-                 else self.convolver.apply(v.combined[q]))
-            frames.append(sfft.irfft(o, self.fft_size, axis=-1, workers=1)[:, -self.block:])
+                v.combined[q] = sp.combine(v.spectra, q, self.fft_size)
+            frames.append(conv.output(v.combined[q]))
         if len(frames) == 1:
             return frames[0]
         r = np.arange(self.block, dtype=np.float32) / max(self.block - 1, 1)  # as render()
