@@ -102,31 +102,44 @@ _CORNERS = np.array([[sx, sy, sz] for sz in (-1, 1) for sx, sy in
                      ((1, 1), (-1, 1), (-1, -1), (1, -1))], float) / np.sqrt(3.0)
 
 
-def _cube_gains(d: np.ndarray) -> np.ndarray:
-    """VBAP on the cube's faces, both triangulations of each face averaged; float[8, n]."""
-    gains = np.zeros((8, d.shape[0]))
-    axis = np.argmax(np.abs(d), axis=1)
-    sign = np.sign(d[np.arange(d.shape[0]), axis])
+def _cube_faces() -> list:
+    """Per face of the cube (axis, sign): its two triangulations, each a list of (corner
+    indices, inverse of the corners' matrix), so that gains are one matrix product."""
+    faces = []
     for ax in range(3):
         for sg in (-1.0, 1.0):
-            rows = np.flatnonzero((axis == ax) & (sign == sg))
-            if rows.size == 0:
-                continue
             # The face's corners, in order around the square.
             face = np.flatnonzero(np.isclose(_CORNERS[:, ax] * np.sqrt(3.0), sg))
             other = [a for a in range(3) if a != ax]
             ang = np.arctan2(_CORNERS[face, other[1]], _CORNERS[face, other[0]])
             face = face[np.argsort(ang)]
-            g = np.zeros((8, rows.size))
-            for triangulation in (((0, 1, 2), (0, 2, 3)), ((1, 2, 3), (1, 3, 0))):
-                done = np.zeros(rows.size, bool)  # a point on the diagonal counts once
-                for tri in triangulation:
-                    idx = face[list(tri)]
-                    w = np.linalg.solve(_CORNERS[idx].T, d[rows].T)  # p = Σ w_i l_i
-                    inside = ~done & np.all(w >= -_EPS, axis=0)
-                    g[np.ix_(idx, np.flatnonzero(inside))] += np.clip(w[:, inside], 0, None)
-                    done |= inside
-            gains[:, rows] = g
+            tris = [[(face[list(t)], np.linalg.inv(_CORNERS[face[list(t)]].T)) for t in tri]
+                    for tri in (((0, 1, 2), (0, 2, 3)), ((1, 2, 3), (1, 3, 0)))]
+            faces.append((ax, sg, tris))
+    return faces
+
+
+_CUBE_FACES = _cube_faces()
+
+
+def _cube_gains(d: np.ndarray) -> np.ndarray:
+    """VBAP on the cube's faces, both triangulations of each face averaged; float[8, n]."""
+    gains = np.zeros((8, d.shape[0]))
+    axis = np.argmax(np.abs(d), axis=1)
+    sign = np.sign(d[np.arange(d.shape[0]), axis])
+    for ax, sg, triangulations in _CUBE_FACES:
+        rows = np.flatnonzero((axis == ax) & (sign == sg))
+        if rows.size == 0:
+            continue
+        g = np.zeros((8, rows.size))
+        for triangulation in triangulations:
+            done = np.zeros(rows.size, bool)  # a point on the diagonal counts once
+            for idx, inverse in triangulation:
+                w = inverse @ d[rows].T  # p = Σ w_i l_i
+                inside = ~done & np.all(w >= -_EPS, axis=0)
+                g[np.ix_(idx, np.flatnonzero(inside))] += np.clip(w[:, inside], 0, None)
+                done |= inside
+        gains[:, rows] = g
     gains = np.clip(gains, 0.0, None)
     return gains / np.sqrt(np.sum(gains**2, axis=0, keepdims=True))
 

@@ -106,13 +106,25 @@ class GainSpatializer:
         self.name = name
         self.step = float(heading_step_deg)
         self.delay_samples = 0
+        self._gains: OrderedDict = OrderedDict()
 
     @property
     def n_channels(self) -> int:
         return len(self.channel_names)
 
     def gains(self, heading_deg: float) -> np.ndarray:
-        return self.gain_fn(head_frame(self.world, heading_deg)).astype(np.float32)
+        """float32[channel, direction] for a heading; the last 256 headings are kept (a still
+        head asks for the same one every block, and VBAP solves a small system per source)."""
+        key = round(float(heading_deg) % 360.0, 6)
+        hit = self._gains.get(key)
+        if hit is None:
+            hit = self.gain_fn(head_frame(self.world, heading_deg)).astype(np.float32)
+            self._gains[key] = hit
+            if len(self._gains) > 256:
+                self._gains.popitem(last=False)
+        else:
+            self._gains.move_to_end(key)
+        return hit
 
     def combine(self, filters: np.ndarray, heading_deg: float, fft_size: int) -> np.ndarray:
         """Filter spectra [channel, P, 2, bins] of the channels for a still head: the gains
