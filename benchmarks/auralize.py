@@ -217,6 +217,13 @@ def main() -> int:
         results = {"walk": bench_walk(field, path, dry, args.block),
                    "static_vs_peer": bench_peer(field, dry, args.block),
                    "stream": bench_stream(field)}
+    # The walk against the peer of the same run: this ratio holds when the machine's speed
+    # swings, the absolute real-time factor does not.
+    peer_s = results["static_vs_peer"]["peer_s"]
+    for name, row in results["walk"]["layouts"].items():
+        row["walk_vs_peer"] = peer_s / row["render_s"]
+        log(f"walk {name:12s}: {row['walk_vs_peer']:.2f}x the speed of one plain fftconvolve of "
+            f"a cell's 8 responses ({row['render_s']:.2f} s against {peer_s:.2f} s)")
     results["settings"] = {"offline_block": args.block, "response_samples": n_resp,
                            "rays": field.settings.get("rays"), "python": platform.python_version(),
                            "numpy": np.__version__, "scipy": scipy.__version__,
