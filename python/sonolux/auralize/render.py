@@ -164,8 +164,8 @@ class BinauralSpatializer:
     # rate of common dynamic binaural renderers; each keyframe costs two inverse FFTs.
     min_keyframe_spacing = 1024
 
-    def _direction_spectra(self, heading_deg: float, fft_size: int) -> list[np.ndarray]:
-        """[planar float32[ear, 2, bins] per direction]: the HRIR spectra for a heading, each cached by
+    def _direction_spectra(self, heading_deg: float, fft_size: int) -> np.ndarray:
+        """Planar float32[ear, direction, 2, bins]: the HRIR spectra for a heading, each cached by
         its head-frame direction: turning the head by a multiple of the grid step brings
         another world direction to the same head-frame direction (e.g. the field's azimuth
         bins 90° apart), so a turn computes each HRIR spectrum once."""
@@ -181,15 +181,15 @@ class BinauralSpatializer:
             new = _planar32(sfft.rfft(h, fft_size, axis=-1, workers=1))
             for j, i in enumerate(missing):
                 cache[keys[i]] = new[j]
-        out = []
-        for k in keys:
+        out = np.empty((2, len(keys), 2, fft_size // 2 + 1), np.float32)
+        for d, k in enumerate(keys):
             cache.move_to_end(k)
-            out.append(cache[k])
+            out[:, d] = cache[k]
         while len(cache) > self._dir_cache_entries:
             cache.popitem(last=False)
         return out
 
-    def _ear_spectra(self, dirs: np.ndarray, fft_size: int) -> list[np.ndarray]:
+    def _ear_spectra(self, dirs: np.ndarray, fft_size: int) -> np.ndarray:
         """As :meth:`_direction_spectra` for an HRTF whose ears depend on one angle each
         (the spherical head): each ear's spectrum is cached by that angle, which the two ears
         and mirrored directions (front/back, up/down) share."""
@@ -202,9 +202,10 @@ class BinauralSpatializer:
             new = _planar32(sfft.rfft(h, fft_size, axis=-1, workers=1))
             for k, spec in zip(missing, new):
                 cache[k] = spec
-        for k in keys:
+        out = np.empty((2, len(dirs), 2, fft_size // 2 + 1), np.float32)
+        for i, k in enumerate(keys):  # keys run [direction][ear]
             cache.move_to_end(k)
-        out = [np.stack([cache[keys[2 * d]], cache[keys[2 * d + 1]]]) for d in range(len(dirs))]
+            out[i % 2, i // 2] = cache[k]
         while len(cache) > self._dir_cache_entries:
             cache.popitem(last=False)
         return out
@@ -217,7 +218,7 @@ class BinauralSpatializer:
         if hit is not None:
             self._cache.move_to_end(key)
             return hit
-        spec = np.stack(self._direction_spectra(heading_deg, fft_size), axis=1)
+        spec = self._direction_spectra(heading_deg, fft_size)
         self._cache[key] = spec
         if len(self._cache) > self._cache_entries:
             self._cache.popitem(last=False)
