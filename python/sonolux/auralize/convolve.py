@@ -110,9 +110,9 @@ def fft_size_for(samples: int) -> int:
         k += 1
 
 
-def _planar(z: np.ndarray) -> np.ndarray:
+def planar(z: np.ndarray, dtype=None) -> np.ndarray:
     """complex[..., bins] -> float[..., 2, bins] (real parts, then imaginary parts)."""
-    return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-2))
+    return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-2), dtype)
 
 
 def _complex(a: np.ndarray) -> np.ndarray:
@@ -133,7 +133,7 @@ def partition(filters: np.ndarray, block: int, fft_size: int, precision: str = "
         return _core.partition(np.ascontiguousarray(h, np.float32), block, fft_size, p)
     padded = np.zeros((c, p * block))
     padded[:, :n] = h
-    return _planar(sfft.rfft(padded.reshape(c, p, block), fft_size, axis=2, workers=1))
+    return planar(sfft.rfft(padded.reshape(c, p, block), fft_size, axis=2, workers=1))
 
 
 def fold(filters: np.ndarray, mix: np.ndarray) -> np.ndarray:
@@ -143,7 +143,7 @@ def fold(filters: np.ndarray, mix: np.ndarray) -> np.ndarray:
     if filters.dtype == np.float32:
         return _core.fold(filters, np.ascontiguousarray(mix, np.float32))
     out = np.einsum("edf,dpf->epf", _complex(mix), _complex(filters))
-    return _planar(out)
+    return planar(out)
 
 
 class PartitionedConvolver:
@@ -200,7 +200,7 @@ class PartitionedConvolver:
         if self._core is not None:
             return self._core.apply(filters)
         newest_first = (self._slot - np.arange(self.partitions)) % self.partitions
-        return _planar((_complex(filters) * self._ring[newest_first]).sum(axis=1))
+        return planar((_complex(filters) * self._ring[newest_first]).sum(axis=1))
 
     def inverse(self, spectra: np.ndarray) -> np.ndarray:
         """float[channel, B]: the last B samples of the inverse FFT of planar spectra

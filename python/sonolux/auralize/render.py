@@ -35,7 +35,7 @@ from scipy import fft as sfft
 
 from sonolux.auralize import ambisonics
 from sonolux.auralize.binaural import load_hrtf
-from sonolux.auralize.convolve import fold
+from sonolux.auralize.convolve import fold, planar
 from sonolux.auralize.layouts import LAYOUTS, loudspeaker_layout, unit_vectors
 from sonolux.errors import SonoluxError, close_matches
 
@@ -178,7 +178,7 @@ class BinauralSpatializer:
         missing = [i for i, k in enumerate(keys) if k not in cache]
         if missing:
             h = self.hrtf.hrirs(dirs[missing])  # [direction, ear, taps]
-            new = _planar32(sfft.rfft(h, fft_size, axis=-1, workers=1))
+            new = planar(sfft.rfft(h, fft_size, axis=-1, workers=1), np.float32)
             for j, i in enumerate(missing):
                 cache[keys[i]] = new[j]
         out = np.empty((2, len(keys), 2, fft_size // 2 + 1), np.float32)
@@ -199,7 +199,7 @@ class BinauralSpatializer:
         missing = {k: t for k, t in zip(keys, theta.ravel()) if k not in cache}  # key -> an angle
         if missing:
             h = np.array([self.hrtf.ear_hrir(t) for t in missing.values()])  # [ear IR, taps]
-            new = _planar32(sfft.rfft(h, fft_size, axis=-1, workers=1))
+            new = planar(sfft.rfft(h, fft_size, axis=-1, workers=1), np.float32)
             for k, spec in zip(missing, new):
                 cache[k] = spec
         out = np.empty((2, len(dirs), 2, fft_size // 2 + 1), np.float32)
@@ -242,11 +242,6 @@ class BinauralSpatializer:
         # One inverse FFT call for every keyframe and ear.
         frames = convolver.inverse(np.concatenate(ears)).reshape(keys.size, 2, b)
         return _crossfade(list(frames), keys, b)
-
-
-def _planar32(z: np.ndarray) -> np.ndarray:
-    """complex[..., bins] -> planar float32[..., 2, bins]."""
-    return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-2), np.float32)
 
 
 def spatializer(field, layout: str, order: int = 1, hrtf: str | None = None,
