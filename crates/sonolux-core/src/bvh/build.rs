@@ -6,9 +6,8 @@
 //! sides' boxes, triangle counts) is the split (MacDonald and Booth, "Heuristics for ray
 //! tracing using space subdivision", 1990; binning as in Wald, "On fast construction of
 //! SAH-based bounding volume hierarchies", 2007). A node becomes a leaf when it holds at most
-//! [`LEAF_TRIANGLES`] triangles and the split would not pay for the extra box test, measured in
-//! packets: one packet test costs as much as one node test (both are a handful of 8-lane
-//! operations). Large nodes bin in parallel and subtrees build in parallel; both merge in a
+//! [`LEAF_TRIANGLES`] triangles and the split would not pay for itself, costs counted in packet
+//! tests (see [`NODE_COST`]). Large nodes bin in parallel and subtrees build in parallel; both merge in a
 //! fixed order, so the tree never depends on the thread count.
 //!
 //! Collapse: a wide node starts with a binary node's two children and opens the child of largest
@@ -28,8 +27,10 @@ const BINS: usize = 32;
 const LANES: usize = 8;
 /// At most this many triangles in a leaf (one packet).
 pub(crate) const LEAF_TRIANGLES: usize = LANES;
-/// Cost of a node test against one packet test, for the SAH.
-const NODE_COST: f32 = 1.0;
+/// Cost of a binary split against one packet test, for the SAH: an 8-wide node test costs
+/// about one packet test and stands for three binary levels (2³ = 8 children), so a binary
+/// split costs about a third of one.
+const NODE_COST: f32 = 1.0 / 3.0;
 /// Nodes larger than this bin in parallel, and their children build in parallel.
 const PARALLEL_MIN: usize = 4096;
 /// Past this depth the binary tree splits in the middle of the list (balanced, whatever the
