@@ -68,6 +68,7 @@ demo: build ## the paper's experiment: three rooms checked, baked, compared (out
 bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomacoustics), results in benchmarks/results
 	$(PY) benchmarks/bvh.py
 	$(PY) benchmarks/sound.py
+	$(PY) benchmarks/mesh_room.py
 	$(PY) benchmarks/light.py
 	$(PY) benchmarks/auralize.py
 
