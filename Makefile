@@ -56,7 +56,7 @@ test-all: build $(VENV)/.peers-stamp test-web ## every test, the slow statistica
 	$(PY) -m pytest -q -m "slow or not slow"
 
 lint: $(STAMP) ## ruff and clippy
-	$(VENV)/bin/ruff check python tests benchmarks
+	$(VENV)/bin/ruff check python tests benchmarks examples
 	cargo clippy --release --workspace --quiet -- -D warnings
 
 ci: test lint ## what .ci/run does

@@ -100,8 +100,10 @@ def segment_rate(scene, seconds: float) -> dict:
         out["gross_segments_per_s"][str(th)] = long.stats["segments_per_second"]
         out["segments_per_ray"] = long.stats["segments"] / long.stats["rays"]
         out["surface_hits_per_ray"] = long.stats["surface_hits"] / long.stats["rays"]
-        log(f"    {th} thread(s), {rays:,} rays: {out['segments_per_s'][str(th)] / 1e6:.2f} M segments/s net "
-            f"({long.stats['segments_per_second'] / 1e6:.2f} gross), {out['segments_per_ray']:.1f} segments/ray")
+        net = out["segments_per_s"][str(th)]
+        log(f"    {th} thread(s), {rays:,} rays: {net / 1e6:.2f} M segments/s net "
+            f"({long.stats['segments_per_second'] / 1e6:.2f} gross), "
+            f"{out['segments_per_ray']:.1f} segments/ray")
     return out
 
 
@@ -154,7 +156,8 @@ def main(argv: list[str] | None = None) -> int:
                              **segment_rate(scene, args.seconds)}
             if name != "box":
                 results[name]["bvh"] = bvh_cost(scene, origins, rng)
-                log(f"    BVH alone: {results[name]['bvh']['ns_per_ray_1t']:.0f} ns per closest hit (1 thread)")
+                ns = results[name]["bvh"]["ns_per_ray_1t"]
+                log(f"    BVH alone: {ns:.0f} ns per closest hit (1 thread)")
     box = results["box"]
     print()
     print(f"{'room':<12} {'tris':>8} {'seg/ray':>7} | {'1T Mseg/s':>9} {'box':>6} {'ratio':>6} | "
@@ -167,8 +170,8 @@ def main(argv: list[str] | None = None) -> int:
         r["target_ratio"] = TARGETS[name]
         cols = " | ".join(f"{r['segments_per_s'][th] / 1e6:>9.2f} {box['segments_per_s'][th] / 1e6:>6.2f} "
                           f"{r['ratio_box_over_room'][th]:>6.2f}" for th in ("1", "2"))
-        print(f"{name:<12} {r['triangles']:>8,} {r['segments_per_ray']:>7.1f} | {cols} | {TARGETS[name]:>6.1f} | "
-              f"{r['ns_per_segment_1t']:>9.0f} {r['bvh']['ns_per_ray_1t']:>6.0f}")
+        print(f"{name:<12} {r['triangles']:>8,} {r['segments_per_ray']:>7.1f} | {cols} | "
+              f"{TARGETS[name]:>6.1f} | {r['ns_per_segment_1t']:>9.0f} {r['bvh']['ns_per_ray_1t']:>6.0f}")
     box["ns_per_segment_1t"] = 1e9 / box["segments_per_s"]["1"]
     print(f"{'box':<12} {box['triangles']:>8,} {box['segments_per_ray']:>7.1f} | convex path: "
           f"{box['ns_per_segment_1t']:.0f} ns per segment on 1 thread")

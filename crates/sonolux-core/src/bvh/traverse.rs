@@ -303,3 +303,23 @@ pub(super) fn any<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Past its fixed array the stack spills to the heap and still pops last in, first out.
+    #[test]
+    fn stack_spills_past_its_array_and_keeps_its_order() {
+        let mut s = Stack::new();
+        let n = 3 * STACK as u32 + 5;
+        for i in 0..n {
+            s.push(i, i as f32 * 0.5);
+        }
+        assert_eq!(s.spill.len(), n as usize - STACK);
+        for i in (0..n).rev() {
+            assert_eq!(s.pop(), Some((i, i as f32 * 0.5)));
+        }
+        assert_eq!(s.pop(), None);
+    }
+}
