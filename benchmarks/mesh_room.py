@@ -29,8 +29,6 @@ benchmarks/results/mesh_room.json.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import tempfile
 import time
@@ -38,7 +36,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from common import other_cpu_use, write_json
+from common import machine_and_load, other_cpu_use, write_json
 
 import sonolux
 
@@ -177,16 +175,12 @@ def main(argv: list[str] | None = None) -> int:
           f"{box['ns_per_segment_1t']:.0f} ns per segment on 1 thread")
     print("\nratio = box segments/s / room segments/s (how many times slower a segment is in the mesh "
           "room; target at most the 'target' column). BVH ns: one closest hit alone from the room's air.")
-    busy_end = other_cpu_use()
-    if max(busy_start, busy_end) > 0.15:
-        print(f"WARNING: other processes kept {busy_start:.0%} of the CPUs busy at the start, "
-              f"{busy_end:.0%} at the end: the rates are noisy, run again on an idle machine.")
+    machine = machine_and_load(busy_start, other_cpu_use())
     elapsed = time.perf_counter() - t_start
     write_json(args.out, {
         "benchmark": "mesh_room", "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "sonolux_version": sonolux.__version__,
-        "machine": {"platform": platform.platform(), "python": platform.python_version(),
-                    "cpus": os.cpu_count(), "other_cpu_use_start_end": [busy_start, busy_end]},
+        "machine": machine,
         "settings": {"seconds": args.seconds, "estimator": "paper", "air_absorption": False,
                      "threads": list(THREAD_COUNTS), "bvh_rays": BVH_RAYS},
         "elapsed_s": elapsed, "rooms": results})
