@@ -39,6 +39,7 @@ import numpy as np
 from common import machine_and_load, other_cpu_use, write_json
 
 import sonolux
+import sonolux._core as core
 
 HERE = Path(__file__).resolve().parent
 EXAMPLE = HERE.parent / "examples" / "l-room"
@@ -114,17 +115,20 @@ def air_points(scene, n: int, rng: np.random.Generator) -> np.ndarray:
     while len(out) < n:
         p = lo + rng.random((2 * n, 3)) * (hi - lo)
         p = p[np.linalg.norm(p - make_l_room.SCULPTURE_CENTRE_M, axis=1) > clear_m]
-        w = scene.geometry._g.winding_numbers(p)
+        w = scene.geometry.winding_numbers(p)
         # In the room's air: inside the room (winding -1: it faces inwards) and in no obstacle.
         out = np.concatenate([out, p[np.abs(w + 1.0) < 0.5]])
     return np.ascontiguousarray(out[:n])
 
 
 def bvh_cost(scene, origins: np.ndarray, rng: np.random.Generator) -> dict:
-    """ns per closest hit, 1 thread, from `origins` in uniform directions."""
+    """ns per closest hit, 1 thread, from `origins` in uniform directions: the core's Geometry
+    on the scene's triangles, as benchmarks/bvh.py times it."""
     d = rng.standard_normal(origins.shape)
     d /= np.linalg.norm(d, axis=1)[:, None]
-    g = scene.geometry._g
+    g = core.Geometry(np.ascontiguousarray(scene.vertices_m, dtype=np.float64),
+                      np.ascontiguousarray(scene.triangles, dtype=np.uint32),
+                      np.zeros(len(scene.triangles), dtype=np.uint32))
     g.closest_hit(origins, d, threads=1)
     times = []
     for _ in range(3):

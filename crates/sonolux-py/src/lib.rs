@@ -198,9 +198,11 @@ fn xyz_rows<'a>(name: &str, a: &'a PyReadonlyArray2<'_, f64>) -> PyResult<std::b
     if v.ncols() != 3 {
         return Err(InvalidInputError::new_err(format!("{name}: expected shape (n, 3), got {:?}", v.shape())));
     }
-    Ok(match a.as_slice() {
-        Ok(flat) => std::borrow::Cow::Borrowed(flat),
-        Err(_) => std::borrow::Cow::Owned(v.iter().copied().collect()),
+    // ndarray's as_slice, not numpy's: the latter also accepts Fortran order, whose memory
+    // order is not x, y, z in a row.
+    Ok(match v.to_slice() {
+        Some(flat) => std::borrow::Cow::Borrowed(flat),
+        None => std::borrow::Cow::Owned(v.iter().copied().collect()),
     })
 }
 
