@@ -249,3 +249,82 @@ fn phase_velocity_is_exact_along_diagonals_and_1_percent_slow_along_axes_at_10_p
     let axial = phase_velocity_ratio([1.0, 0.0, 0.0], 10.0, COURANT_LIMIT);
     assert!((axial - 0.98896).abs() < 1e-4, "{axial}");
 }
+
+/// A furnished room with absorbing walls, two sources and three receivers: the same bits on one
+/// thread and on two.
+#[test]
+fn one_and_two_threads_give_the_same_bits() {
+    let room = common::shoebox(2.0, 1.5, 1.2, [0, 1, 2, 2, 2, 2]);
+    let table = common::cuboid(Vec3::new(0.5, 0.4, 0.5), Vec3::new(1.2, 0.9, 0.55), [3; 6], false);
+    let mesh = common::merge(&[room, table]);
+    let materials = WaveMaterials {
+        band_centres_hz: vec![125.0, 250.0, 500.0],
+        absorption: vec![0.02, 0.03, 0.04, 0.5, 0.7, 0.9, 0.1, 0.2, 0.3, 0.2, 0.2, 0.2],
+    };
+    let sources = [DVec3::new(0.3, 0.3, 1.0), DVec3::new(1.7, 1.2, 0.3)];
+    let receivers = [DVec3::new(1.0, 0.7, 0.9), DVec3::new(1.9, 0.1, 0.1), DVec3::new(0.77, 0.61, 0.2)];
+    let run = |threads| {
+        let mut s = settings(0.05, 0.05, threads);
+        s.absorption_kind = AbsorptionKind::RandomIncidence;
+        simulate_waves(&mesh, &materials, &sources, &receivers, &s, |_| true).unwrap()
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(a.pressure_pa.iter().any(|&p| p != 0.0));
+    assert_eq!(a.pressure_pa.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.pressure_pa.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+    assert_eq!(a.velocity_m_s.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.velocity_m_s.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+}
+
+#[test]
+fn what_does_not_fit_is_refused_with_the_frequency_that_would() {
+    let mesh = common::shoebox(24.0, 10.0, 8.0, [0; 6]);
+    let mut s = settings(0.05, 2.0, 1);
+    s.memory_limit_bytes = 100 << 20;
+    let err = build_solver(&mesh, &rigid(1), &s, 10).unwrap_err().to_string();
+    assert!(err.contains("largest max_frequency_hz that fits is"), "{err}");
+    // The frequency it names fits, and 5% more does not.
+    let scene = sonolux_core::wave::SceneSize::of(&mesh);
+    let f = s.max_frequency_within(&scene, 10, &rigid(1).band_centres_hz, s.memory_limit_bytes).unwrap();
+    let centres = rigid(1).band_centres_hz;
+    let at = |f: f64| {
+        let fitted = sonolux_core::wave::settings::bands_fitted(&centres, f);
+        WaveSettings { max_frequency_hz: f, ..s.clone() }.memory_estimate(&scene, 10, fitted).total_bytes
+    };
+    assert!(at(f) <= s.memory_limit_bytes && at(1.05 * f) > s.memory_limit_bytes, "{f}");
+}
+
+#[test]
+fn bad_inputs_are_errors_naming_what_is_wrong() {
+    let mesh = common::shoebox(1.0, 1.0, 1.0, [0; 6]);
+    let good = settings(0.1, 0.01, 1);
+    let inside = [DVec3::splat(0.5)];
+    let try_run = |s: &WaveSettings, m: &WaveMaterials, src: &[DVec3], rcv: &[DVec3]| simulate_waves(&mesh, m, src, rcv, s, |_| true).unwrap_err().to_string();
+    let e = try_run(&WaveSettings { courant: 0.6, ..good.clone() }, &rigid(1), &inside, &inside);
+    assert!(e.contains("courant"), "{e}");
+    let e = try_run(&WaveSettings { max_frequency_hz: f64::NAN, ..good.clone() }, &rigid(1), &inside, &inside);
+    assert!(e.contains("max_frequency_hz"), "{e}");
+    let e = try_run(&good, &WaveMaterials { band_centres_hz: vec![125.0, 250.0, 500.0, 1000.0], absorption: vec![0.0, 1.5, 0.0, 0.0] }, &inside, &inside);
+    assert!(e.contains("absorption") && e.contains("1.5"), "{e}");
+    let e = try_run(&good, &rigid(2), &inside, &inside);
+    assert!(e.contains("materials"), "{e}");
+    let e = try_run(&good, &rigid(1), &[DVec3::new(3.0, 0.5, 0.5)], &inside);
+    assert!(e.contains("source 0") && e.contains("not in the room"), "{e}");
+    let e = try_run(&good, &rigid(1), &inside, &[DVec3::splat(0.5), DVec3::new(0.5, f64::INFINITY, 0.5)]);
+    assert!(e.contains("receiver 1"), "{e}");
+    let e = try_run(&good, &rigid(1), &[], &inside);
+    assert!(e.contains("at least one source"), "{e}");
+}
+
+#[test]
+fn a_cancelled_run_returns_what_it_computed() {
+    let mesh = common::shoebox(1.0, 1.0, 1.0, [0; 6]);
+    let s = settings(0.05, 1.0, 1);
+    let mut calls = 0;
+    let r = simulate_waves(&mesh, &rigid(1), &[DVec3::splat(0.3)], &[DVec3::splat(0.6)], &s, |p| {
+        calls += 1;
+        assert!(p.done <= p.total);
+        calls < 2
+    })
+    .unwrap();
+    assert!(r.cancelled && r.n_samples < s.n_steps() as usize && r.n_samples > 0);
+    assert_eq!(r.pressure_pa.len(), r.n_samples);
+}

@@ -22,9 +22,17 @@
 //! 61(1/2), 2013; the intensity as the estimate of direction is that of DirAC, Pulkki, JAES
 //! 55(6), 2007).
 //!
-//! Energy. A band's sample energy is p_b²·Δt/(ρc) (J/m², the fluence of a plane wave), divided by
-//! the band fluence of the source's pulse at 1 m and by 4π: the field per joule of source energy
-//! in every band, the tracer's convention (a free field gives 1/(4πr²)).
+//! Impulse responses first. The responses are to the source's pulse, whose spectrum falls by
+//! 7 dB across the top octave below f_max and rises as f at the bottom: band energies taken
+//! straight from them would weigh each band's frequencies by that spectrum. So each response is
+//! divided, frequency by frequency, by the spectrum of the pulse's free-field pressure at 1 m:
+//! what remains is the impulse response h, with h = δ(t − r/c)/r in free field, and time 0 at
+//! emission. Frequencies where the pulse is more than 120 dB below its peak are left out (far
+//! above f_max, where the grid is not valid anyway).
+//!
+//! Energy. A band's energy is Σ h_b², divided by 4π times Σ δ_b² (the band's filter applied to a
+//! unit impulse): the field per joule of source energy in every band, the tracer's convention
+//! (a free field gives 1/(4πr²)).
 
 use std::sync::Arc;
 
@@ -84,7 +92,7 @@ impl BandFilters {
     }
 
     /// The spectrum of a signal (zero-padded).
-    fn spectrum(&self, signal: &[f64]) -> Vec<realfft::num_complex::Complex<f64>> {
+    pub fn spectrum(&self, signal: &[f64]) -> Vec<realfft::num_complex::Complex<f64>> {
         let mut x = vec![0.0; self.fft_len];
         x[..signal.len()].copy_from_slice(signal);
         let mut s = self.r2c.make_output_vec();
@@ -93,7 +101,7 @@ impl BandFilters {
     }
 
     /// Band `b` of a signal whose spectrum is `s`, `n` samples long.
-    fn band_of(&self, s: &[realfft::num_complex::Complex<f64>], b: usize, n: usize) -> Vec<f64> {
+    pub fn band_of(&self, s: &[realfft::num_complex::Complex<f64>], b: usize, n: usize) -> Vec<f64> {
         let mut y: Vec<_> = s.iter().zip(&self.gains[b]).map(|(x, g)| x * (g / self.fft_len as f64)).collect();
         // The inverse of a real signal's spectrum: DC and Nyquist bins are real.
         y[0].im = 0.0;
@@ -103,6 +111,32 @@ impl BandFilters {
         self.c2r.process(&mut y, &mut out).expect("buffer sizes come from the plan");
         out.truncate(n);
         out
+    }
+
+    /// 1/S of the spectrum S of the source's pulse, 0 where S is more than 120 dB below its peak.
+    pub fn inverse_of(&self, pulse: &[f64]) -> Vec<realfft::num_complex::Complex<f64>> {
+        let s = self.spectrum(pulse);
+        let peak = s.iter().map(|x| x.norm()).fold(0.0, f64::max);
+        s.iter().map(|x| if x.norm() > 1e-6 * peak { 1.0 / x } else { 0.0.into() }).collect()
+    }
+
+    /// The spectrum of a response divided by the pulse's (`inverse` from [`Self::inverse_of`]):
+    /// the impulse response's spectrum.
+    pub fn deconvolved(&self, response: &[f64], inverse: &[realfft::num_complex::Complex<f64>]) -> Vec<realfft::num_complex::Complex<f64>> {
+        let mut s = self.spectrum(response);
+        for (x, i) in s.iter_mut().zip(inverse) {
+            *x *= i;
+        }
+        s
+    }
+
+    /// Σ δ_b²: the energy band `b` lets through of a unit impulse (Parseval, over the whole
+    /// filter: a zero-phase filter rings on both sides of the impulse).
+    pub fn impulse_energy(&self, b: usize) -> f64 {
+        let g = &self.gains[b];
+        let last = g.len() - 1;
+        let inner: f64 = g[1..last].iter().map(|x| x * x).sum();
+        (g[0] * g[0] + 2.0 * inner + g[last] * g[last]) / self.fft_len as f64
     }
 
     /// Every band of a signal: `[band][time]`.
@@ -121,7 +155,8 @@ fn transition(x: f64) -> (f64, f64) {
 /// Energy per band, time bin and arrival direction at every receiver of `result`, in `layout`
 /// (`[time][receiver][direction][band]`, J/m² per joule of source energy in each band), with the
 /// air's energy attenuation `air_attenuation_per_m` per band. `layout` must have the result's
-/// receivers and `band_centres_hz`'s bands.
+/// receivers and `band_centres_hz`'s bands; bands beyond the grid's maximum frequency come back
+/// with what little the grid carries there, and should not be asked.
 pub fn direction_energies(
     result: &WaveResult,
     band_centres_hz: &[f64],
@@ -139,20 +174,9 @@ pub fn direction_energies(
     let ns = result.n_samples;
     let fs = result.sample_rate_hz;
     let dt = 1.0 / fs;
-    let rho_c = result.pulse.air_density_kg_m3 * speed_of_sound_m_s;
     let filters = BandFilters::new(band_centres_hz, fs, ns)?;
-    let source = filters.split(&result.source_pressure_1m_pa);
-    let norm: Vec<f64> = source
-        .iter()
-        .map(|s| {
-            let fluence: f64 = s.iter().map(|x| x * x).sum::<f64>() * dt / rho_c;
-            if fluence > 0.0 {
-                1.0 / (4.0 * std::f64::consts::PI * fluence)
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let inverse = filters.inverse_of(&result.source_pressure_1m_pa);
+    let unit: Vec<f64> = (0..nb).map(|b| filters.impulse_energy(b)).collect();
     let per_receiver = layout.n_time() * layout.n_directions() * nb;
     let mut out = vec![0.0; layout.len()];
     let chunk = 4 * rayon::current_num_threads();
@@ -162,19 +186,20 @@ pub fn direction_energies(
             .into_par_iter()
             .map(|r| {
                 let mut field = vec![0.0; per_receiver];
-                let p: Vec<f64> = result.pressure_pa[r * ns..(r + 1) * ns].iter().map(|&x| x as f64).collect();
-                let v: Vec<Vec<f64>> =
-                    (0..3).map(|a| result.velocity_m_s[(3 * r + a) * ns..(3 * r + a + 1) * ns].iter().map(|&x| x as f64).collect()).collect();
-                let (sp, sv) = (filters.spectrum(&p), v.iter().map(|x| filters.spectrum(x)).collect::<Vec<_>>());
+                let channel = |c: usize| -> Vec<f64> { result.pressure_or_velocity(r, c).iter().map(|&x| x as f64).collect() };
+                let spectra: Vec<_> = (0..4).map(|c| filters.deconvolved(&channel(c), &inverse)).collect();
+                let len = filters.fft_len;
                 for b in 0..nb {
-                    let pb = filters.band_of(&sp, b, ns);
-                    let vb: Vec<Vec<f64>> = sv.iter().map(|s| filters.band_of(s, b, ns)).collect();
+                    // The whole circular buffer: samples past len − ns/2 are the zero-phase
+                    // filter's ringing before time 0, given to the first bin.
+                    let [h, vx, vy, vz] = [0, 1, 2, 3].map(|c| filters.band_of(&spectra[c], b, len));
                     let window = (fs / band_centres_hz[b]).round().max(1.0) as usize;
-                    let intensity = smoothed_intensity(&pb, &vb, window);
-                    for n in 0..ns {
-                        let t = (n as f64 * dt - result.pulse.delay_s).max(0.0);
+                    let intensity = smoothed_intensity(&h, &[vx, vy, vz], window);
+                    let norm = if unit[b] > 0.0 { 1.0 / (4.0 * std::f64::consts::PI * unit[b]) } else { 0.0 };
+                    for n in (0..ns).chain(len - ns / 2..len) {
+                        let t = if n < ns { n as f64 * dt } else { 0.0 };
                         let Some(bin) = layout.time_bin(t) else { continue };
-                        let e = pb[n] * pb[n] * dt / rho_c * norm[b] * (-air_attenuation_per_m[b] * speed_of_sound_m_s * t).exp();
+                        let e = h[n] * h[n] * norm * (-air_attenuation_per_m[b] * speed_of_sound_m_s * t).exp();
                         let from = -intensity[n];
                         let dir = layout.direction_bin(if from.length_squared() > 0.0 { from.normalize() } else { DVec3::X });
                         field[(bin * layout.n_directions() + dir) * nb + b] += e;

@@ -36,7 +36,7 @@ use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::Progress;
 pub use boundary::BoundaryStats;
-pub use fit::{Admittance, Branch, MaterialFit};
+pub use fit::{Admittance, Branch, Discretisation, MaterialFit};
 pub use grid::Grid;
 pub use scheme::WaveSolver;
 pub use settings::{AbsorptionKind, MemoryEstimate, SceneSize, WaveSettings, COURANT_LIMIT, COURANT_MAX};
@@ -122,6 +122,17 @@ pub struct WaveResult {
     pub cancelled: bool,
 }
 
+impl WaveResult {
+    /// Receiver `r`'s pressure (`channel` 0) or velocity along x, y, z (1, 2, 3), over time.
+    pub fn pressure_or_velocity(&self, r: usize, channel: usize) -> &[f32] {
+        let n = self.n_samples;
+        match channel {
+            0 => &self.pressure_pa[r * n..(r + 1) * n],
+            c => &self.velocity_m_s[(3 * r + c - 1) * n..(3 * r + c) * n],
+        }
+    }
+}
+
 /// Slabs are about this many: enough to share among threads, independent of their number.
 const TARGET_SLABS: usize = 64;
 
@@ -147,10 +158,12 @@ pub fn build_solver(
     let (faces, voxels) = voxel::voxelise(mesh, &mut grid)?;
 
     let nb = materials.n_bands();
+    let (a2, _) = scheme::coefficients(settings.courant);
+    let scheme = fit::Discretisation { time_step_s: dt, courant: (a2 as f64).sqrt() };
     let fits = materials
         .absorption
         .chunks(nb)
-        .map(|a| fit::fit_material(&materials.band_centres_hz, a, settings.absorption_kind, settings.max_frequency_hz))
+        .map(|a| fit::fit_material(&materials.band_centres_hz, a, settings.absorption_kind, settings.max_frequency_hz, Some(scheme)))
         .collect::<Result<Vec<_>, _>>()?;
     let walls: Vec<boundary::DiscreteWall> = fits.iter().map(|f| boundary::DiscreteWall::new(&f.admittance, dt)).collect();
 
@@ -159,7 +172,6 @@ pub fn build_solver(
     let plane = grid.strides()[0];
     let n_slabs = nx.div_ceil(thickness);
     let slab_of = |index: usize| index / plane / thickness;
-    let (a2, _) = scheme::coefficients(settings.courant);
     let (boundaries, boundary_stats) = boundary::build(&grid, mesh, &faces, &walls, a2 as f64, slab_of, n_slabs);
     let strides = grid.strides();
     let mut shells: Vec<Vec<u32>> = vec![Vec::new(); n_slabs];

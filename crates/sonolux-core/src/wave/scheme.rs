@@ -85,6 +85,12 @@ pub struct WaveSolver {
     steps: u64,
 }
 
+impl std::fmt::Debug for WaveSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WaveSolver").field("dims", &self.grid.dims).field("steps", &self.steps).finish_non_exhaustive()
+    }
+}
+
 impl WaveSolver {
     /// Assembles a solver from a voxelised grid, its boundary slabs and walls (see
     /// [`super::build_solver`]); `slab_planes` is the thickness the slabs were cut with.
