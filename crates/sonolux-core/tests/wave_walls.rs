@@ -8,7 +8,7 @@ use glam::{DVec3, Vec3};
 use sonolux_core::wave::scheme::mode_omega_dt;
 use num_complex::Complex64 as C64;
 use sonolux_core::wave::bands::BandFilters;
-use sonolux_core::wave::fit::{admittance_from_random, normal_absorption_of};
+use sonolux_core::wave::admittance::{admittance_from_random, band_edges, normal_absorption_of};
 use sonolux_core::wave::{build_solver, simulate_waves, AbsorptionKind, Admittance, WaveMaterials, WaveSettings};
 
 const C: f64 = 343.0;
@@ -83,7 +83,7 @@ fn plane_waves_reflect_off_each_material_as_its_bands_ask() {
     let mut worst = 0.0f64;
     for m in models() {
         let nb = m.centres.len();
-        let edges = sonolux_core::wave::fit::band_edges(&m.centres);
+        let edges = band_edges(&m.centres);
         let run = |wall: &[f64]| {
             let mut absorption = vec![0.0; nb];
             absorption.extend_from_slice(wall);
@@ -214,7 +214,7 @@ fn solve3(a: [[C64; 3]; 3], b: [C64; 3]) -> [C64; 3] {
 }
 
 /// The continuous wall that reflects a normally incident plane wave exactly as the grid's wall
-/// with admittance `y` does (see `fit::Discretisation`): the grid's R at the boundary node,
+/// with admittance `y` does (see `admittance::Discretisation`): the grid's R at the boundary node,
 /// moved half a cell to the wall, as an admittance. At complex ω too.
 fn grid_wall(y: &Admittance, omega: C64, dt: f64, lambda: f64) -> C64 {
     let j = C64::new(0.0, 1.0);

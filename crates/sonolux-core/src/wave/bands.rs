@@ -9,10 +9,12 @@
 //! outer edges, and no energy is lost or counted twice at the crossovers.
 //!
 //! Air. The air absorbs a band's energy as exp(−m·c·t) after a flight of duration t (m per
-//! metre, as ISO 9613-1 gives it per band: the numbers the tracer receives). The solver's walls
-//! and grid carry no air loss, so each band's energy is multiplied by exp(−m·c·t) with t the
-//! time since emission (the sample's time minus the pulse's centre): exact for every path,
-//! since all energy arriving at time t has flown c·t.
+//! metre, as ISO 9613-1 gives it per band: the numbers the tracer receives). The solver's grid
+//! carries no air loss, so each band's energy in the impulse response is multiplied by
+//! exp(−m·c·t), t the time since emission: exact for every path, since all energy arriving at
+//! time t has flown c·t (diffraction and scattering included). Applying it to band energies,
+//! not inside the scheme, keeps the scheme lossless in its interior and the air's absorption
+//! exactly the tracer's, band by band.
 //!
 //! Direction. Energy flows along the intensity I = p·v; sound arrives from −I. Each sample's
 //! band energy goes to the direction bin of −I_b (the band's intensity, averaged over one period
@@ -40,7 +42,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 
-use super::fit::band_edges;
+use super::admittance::band_edges;
 use super::WaveResult;
 use crate::error::CoreError;
 use crate::sound::Layout;

@@ -28,7 +28,7 @@
 
 use glam::DVec3;
 
-use super::fit::Admittance;
+use super::admittance::Admittance;
 use super::grid::Grid;
 use super::voxel::Face;
 use crate::mesh::Mesh;
@@ -79,9 +79,12 @@ struct Entry {
 /// The boundary nodes of one slab of the grid, in index order, with their walls' state.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct BoundarySlab {
-    pub nodes: Vec<u32>,
-    /// (6 − K)·λ²: the sweep's missing-neighbour correction.
-    rigid_gain: Vec<f64>,
+    /// Nodes whose walls are all rigid, and their (6 − K)·λ²: the sweep's missing-neighbour
+    /// correction, all they need.
+    rigid: Vec<(u32, f32)>,
+    /// Nodes with lossy walls, and their (6 − K)·λ².
+    lossy: Vec<u32>,
+    lossy_gain: Vec<f64>,
     /// γ of the node's walls, and 1/(1 + γ).
     gamma: Vec<f64>,
     inverse: Vec<f64>,
@@ -89,7 +92,7 @@ pub(crate) struct BoundarySlab {
     entry_start: Vec<u32>,
     entries: Vec<Entry>,
     state: Vec<f64>,
-    /// u⁻ of each node, kept before the sweep overwrites it.
+    /// u⁻ of each lossy node, kept before the sweep overwrites it.
     saved: Vec<f32>,
 }
 
@@ -141,9 +144,8 @@ pub(crate) fn build(
         }
         areas.sort_by_key(|a| a.0);
         let s = &mut slabs[slab_of(node as usize)];
-        s.nodes.push(node);
-        s.rigid_gain.push((end - i) as f64 * a2);
-        s.entry_start.push(s.entries.len() as u32);
+        let gain = (end - i) as f64 * a2;
+        let first_entry = s.entries.len();
         let mut gamma = 0.0;
         for (m, beta) in areas {
             stats.area_m2 += beta * h2;
@@ -157,23 +159,30 @@ pub(crate) fn build(
             s.state.extend(std::iter::repeat_n(0.0, 2 * wall.branches.len()));
             stats.lossy_entries += 1;
         }
-        s.gamma.push(gamma);
-        s.inverse.push(1.0 / (1.0 + gamma));
+        if s.entries.len() == first_entry {
+            s.rigid.push((node, gain as f32));
+        } else {
+            s.lossy.push(node);
+            s.lossy_gain.push(gain);
+            s.entry_start.push(first_entry as u32);
+            s.gamma.push(gamma);
+            s.inverse.push(1.0 / (1.0 + gamma));
+        }
         stats.nodes += 1;
         i = end;
     }
     for s in &mut slabs {
         s.entry_start.push(s.entries.len() as u32);
-        s.saved = vec![0.0; s.nodes.len()];
+        s.saved = vec![0.0; s.lossy.len()];
     }
     (slabs, stats)
 }
 
 impl BoundarySlab {
-    /// Keeps u⁻ of every node; `prev` is the slab's part of the previous field, starting at
+    /// Keeps u⁻ of every lossy node; `prev` is the slab's part of the previous field, starting at
     /// grid index `base`.
     pub fn save(&mut self, prev: &[f32], base: usize) {
-        for (s, &n) in self.saved.iter_mut().zip(&self.nodes) {
+        for (s, &n) in self.saved.iter_mut().zip(&self.lossy) {
             *s = prev[n as usize - base];
         }
     }
@@ -181,14 +190,14 @@ impl BoundarySlab {
     /// Finishes the boundary nodes after the sweep: `next` (the slab's part, from `base`) holds
     /// the sweep's values, `cur` the whole current field.
     pub fn update(&mut self, next: &mut [f32], cur: &[f32], base: usize, walls: &[DiscreteWall]) {
-        for i in 0..self.nodes.len() {
-            let n = self.nodes[i] as usize;
-            let rigid = next[n - base] as f64 + self.rigid_gain[i] * cur[n] as f64;
+        for &(n, gain) in &self.rigid {
+            let n = n as usize;
+            next[n - base] += gain * cur[n];
+        }
+        for i in 0..self.lossy.len() {
+            let n = self.lossy[i] as usize;
+            let rigid = next[n - base] as f64 + self.lossy_gain[i] * cur[n] as f64;
             let entries = &self.entries[self.entry_start[i] as usize..self.entry_start[i + 1] as usize];
-            if entries.is_empty() {
-                next[n - base] = rigid as f32;
-                continue;
-            }
             let prev = self.saved[i] as f64;
             // The walls' history term: Σ λβ Σ_m b (d·w − f·g/2).
             let mut history = 0.0;

@@ -2,7 +2,7 @@
 //! where rays are the wrong model.
 //!
 //! A run voxelises the scene's closed mesh once ([`voxel`]), fits each material's absorption per
-//! band to a passive wall admittance ([`fit`]), and advances the pressure with the 7-point
+//! band to a passive wall admittance ([`fit`], [`admittance`]), and advances the pressure with the 7-point
 //! leapfrog scheme ([`scheme`]) whose boundary nodes carry those walls in finite-volume form
 //! ([`boundary`]). Sources emit a band-limited pulse ([`source`]); receivers record pressure and
 //! particle velocity ([`receiver`]); [`bands`] turns them into energy per band, time bin and
@@ -18,6 +18,7 @@
 //! Results are the same bits for any thread count: every node's update is a fixed expression of
 //! the previous fields, and every sum runs in a fixed order.
 
+pub mod admittance;
 pub mod bands;
 pub mod boundary;
 pub mod fit;
@@ -36,7 +37,8 @@ use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::Progress;
 pub use boundary::BoundaryStats;
-pub use fit::{Admittance, Branch, Discretisation, MaterialFit};
+pub use admittance::{Admittance, Branch, Discretisation};
+pub use fit::MaterialFit;
 pub use grid::Grid;
 pub use scheme::WaveSolver;
 pub use settings::{AbsorptionKind, MemoryEstimate, SceneSize, WaveSettings, COURANT_LIMIT, COURANT_MAX};
@@ -159,7 +161,7 @@ pub fn build_solver(
 
     let nb = materials.n_bands();
     let (a2, _) = scheme::coefficients(settings.courant);
-    let scheme = fit::Discretisation { time_step_s: dt, courant: (a2 as f64).sqrt() };
+    let scheme = admittance::Discretisation { time_step_s: dt, courant: (a2 as f64).sqrt() };
     let fits = materials
         .absorption
         .chunks(nb)
@@ -220,7 +222,22 @@ pub fn simulate_waves(
     sources: &[DVec3],
     receivers: &[DVec3],
     settings: &WaveSettings,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<WaveResult, CoreError> {
+    simulate_waves_observed(mesh, materials, sources, receivers, settings, progress, |_| {})
+}
+
+/// [`simulate_waves`], with `observe` shown the solver after every step: the whole pressure field
+/// ([`WaveSolver::pressure`], every cell a receiver for free) for snapshots, pictures or
+/// checkpoints, at no cost when it returns at once.
+pub fn simulate_waves_observed(
+    mesh: &Mesh,
+    materials: &WaveMaterials,
+    sources: &[DVec3],
+    receivers: &[DVec3],
+    settings: &WaveSettings,
     mut progress: impl FnMut(&Progress) -> bool,
+    mut observe: impl FnMut(&WaveSolver),
 ) -> Result<WaveResult, CoreError> {
     let (mut solver, mut stats) = build_solver(mesh, materials, settings, receivers.len())?;
     let dt = settings.time_step_s();
@@ -244,6 +261,7 @@ pub fn simulate_waves(
         solver.install(|s| recorder.record(n as usize, s.pressure(), s.grid()));
         injector.at_step(n, &mut inject);
         solver.step(&inject);
+        observe(&solver);
         done += 1;
         if last_report.elapsed().as_millis() >= 100 || done == steps {
             last_report = Instant::now();

@@ -72,8 +72,10 @@ pub(crate) struct Slab {
 /// The state of a simulation and the machinery to advance it.
 pub struct WaveSolver {
     pub(crate) grid: Grid,
-    /// Per (i, j) row: the z-span [first, end) from the first to the last air node.
-    rows: Vec<[u32; 2]>,
+    /// Runs of the sweep per x-plane: `runs[plane_runs[i]..plane_runs[i + 1]]` are (start, length)
+    /// within plane i, in order.
+    runs: Vec<[u32; 2]>,
+    plane_runs: Vec<u32>,
     cur: Vec<f32>,
     prev: Vec<f32>,
     pub(crate) slabs: Vec<Slab>,
@@ -93,25 +95,16 @@ impl std::fmt::Debug for WaveSolver {
 
 impl WaveSolver {
     /// Assembles a solver from a voxelised grid, its boundary slabs and walls (see
-    /// [`super::build_solver`]); `slab_planes` is the thickness the slabs were cut with.
+    /// [`super::build_solver`]).
     pub(crate) fn assemble(grid: Grid, slabs: Vec<Slab>, walls: Vec<DiscreteWall>, courant: f64, threads: usize) -> Result<WaveSolver, CoreError> {
-        let [nx, ny, nz] = grid.dims;
-        let rows = (0..nx * ny)
-            .map(|r| {
-                let row = &grid.air[r * nz..(r + 1) * nz];
-                match (row.iter().position(|&a| a != 0), row.iter().rposition(|&a| a != 0)) {
-                    (Some(a), Some(b)) => [a as u32, b as u32 + 1],
-                    _ => [0, 0],
-                }
-            })
-            .collect();
+        let (runs, plane_runs) = sweep_runs(&grid);
         let (a2, a1) = coefficients(courant);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .map_err(|e| CoreError::invalid("threads", format!("cannot start {threads} threads: {e}")))?;
         let cells = grid.cells();
-        Ok(WaveSolver { grid, rows, cur: vec![0.0; cells], prev: vec![0.0; cells], slabs, walls, a1, a2, pool, arch: Arch::new(), steps: 0 })
+        Ok(WaveSolver { grid, runs, plane_runs, cur: vec![0.0; cells], prev: vec![0.0; cells], slabs, walls, a1, a2, pool, arch: Arch::new(), steps: 0 })
     }
 
     pub fn grid(&self) -> &Grid {
@@ -166,7 +159,7 @@ impl WaveSolver {
     pub fn step(&mut self, inject: &[(usize, f32)]) {
         let plane = self.grid.strides()[0];
         let [nx, ny, nz] = self.grid.dims;
-        let (cur, rows, walls, arch) = (&self.cur, &self.rows, &self.walls, self.arch);
+        let (cur, runs, plane_runs, walls, arch) = (&self.cur, &self.runs, &self.plane_runs, &self.walls, self.arch);
         let (a1, a2) = (self.a1, self.a2);
         let slabs = &mut self.slabs;
         let prev = &mut self.prev;
@@ -181,7 +174,7 @@ impl WaveSolver {
             parts.into_par_iter().for_each(|(slab, next)| {
                 let base = slab.first * plane;
                 slab.boundary.save(next, base);
-                let sweep = Sweep { next, cur, rows, base, first: slab.first, planes: slab.planes, dims: [nx, ny, nz], a1, a2 };
+                let sweep = Sweep { next, cur, runs, plane_runs, base, first: slab.first, planes: slab.planes, dims: [nx, ny, nz], a1, a2 };
                 arch.dispatch(sweep);
                 let end = base + slab.planes * plane;
                 let lo = inject.partition_point(|&(i, _)| i < base);
@@ -231,11 +224,47 @@ impl WaveSolver {
     }
 }
 
-/// The interior update of one slab's rows.
+/// Gaps of solid nodes up to this long between two rows' air spans are swept through rather
+/// than skipped: one long run vectorises better than many short ones.
+const MAX_SWEPT_GAP: usize = 64;
+
+/// The runs of nodes each plane's sweep covers: every row's span from its first to its last air
+/// node, with spans closer than [`MAX_SWEPT_GAP`] merged. Solid nodes swept through are either next
+/// to air (then reset after each sweep, see [`Slab::shell`]) or surrounded by solid nodes that
+/// are all 0, and so stay 0.
+fn sweep_runs(grid: &Grid) -> (Vec<[u32; 2]>, Vec<u32>) {
+    let [nx, ny, nz] = grid.dims;
+    let plane = ny * nz;
+    let (mut runs, mut plane_runs) = (Vec::new(), vec![0u32]);
+    for i in 0..nx {
+        let mut current: Option<[usize; 2]> = None;
+        for j in 0..ny {
+            let row = &grid.air[i * plane + j * nz..i * plane + (j + 1) * nz];
+            let (Some(a), Some(b)) = (row.iter().position(|&x| x != 0), row.iter().rposition(|&x| x != 0)) else { continue };
+            let (start, end) = (j * nz + a, j * nz + b + 1);
+            current = match current {
+                Some([s, e]) if start - e <= MAX_SWEPT_GAP => Some([s, end]),
+                Some([s, e]) => {
+                    runs.push([s as u32, (e - s) as u32]);
+                    Some([start, end])
+                }
+                None => Some([start, end]),
+            };
+        }
+        if let Some([s, e]) = current {
+            runs.push([s as u32, (e - s) as u32]);
+        }
+        plane_runs.push(runs.len() as u32);
+    }
+    (runs, plane_runs)
+}
+
+/// The interior update of one slab's runs.
 struct Sweep<'a> {
     next: &'a mut [f32],
     cur: &'a [f32],
-    rows: &'a [[u32; 2]],
+    runs: &'a [[u32; 2]],
+    plane_runs: &'a [u32],
     base: usize,
     first: usize,
     planes: usize,
@@ -249,17 +278,13 @@ impl WithSimd for Sweep<'_> {
 
     #[inline(always)]
     fn with_simd<S: Simd>(self, simd: S) {
-        let Sweep { next, cur, rows, base, first, planes, dims: [nx, ny, nz], a1, a2 } = self;
+        let Sweep { next, cur, runs, plane_runs, base, first, planes, dims: [nx, ny, nz], a1, a2 } = self;
         let (sx, sy) = (ny * nz, nz);
         let (va1, va2) = (simd.splat_f32s(a1), simd.splat_f32s(a2));
         for i in first.max(1)..(first + planes).min(nx - 1) {
-            for j in 1..ny - 1 {
-                let [z0, z1] = rows[i * ny + j];
-                if z0 >= z1 {
-                    continue;
-                }
-                let g = (i * ny + j) * nz + z0 as usize;
-                let len = (z1 - z0) as usize;
+            for &[start, len] in &runs[plane_runs[i] as usize..plane_runs[i + 1] as usize] {
+                let g = i * sx + start as usize;
+                let len = len as usize;
                 let c = &cur[g..g + len];
                 let (zm, zp) = (&cur[g - 1..g - 1 + len], &cur[g + 1..g + 1 + len]);
                 let (ym, yp) = (&cur[g - sy..g - sy + len], &cur[g + sy..g + sy + len]);
