@@ -95,7 +95,8 @@ fn the_direct_sound_lands_in_its_direction_bin_with_the_tracers_free_field_energ
     // upper edge (354 Hz) below the maximum frequency (429 Hz).
     let (src, rcv, r) = run(12.0, 0.08, receivers);
     let bands = [125.0, 250.0];
-    let air = [0.002, 0.004];
+    // Strong air (a tenth of its energy per 2 m and more), so that a missing or wrong factor shows.
+    let air = [0.03, 0.06];
     let layout = Layout {
         n_receivers: rcv.len(),
         n_azimuth: 8,
