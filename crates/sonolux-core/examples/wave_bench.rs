@@ -11,23 +11,12 @@
 
 use std::time::Instant;
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use rayon::prelude::*;
-use sonolux_core::wave::{build_solver, simulate_waves, AbsorptionKind, WaveMaterials, WaveSettings};
-use sonolux_core::Mesh;
+#[path = "../tests/common/mod.rs"]
+mod common;
 
-/// A box [0, l]×[0, w]×[0, h] with the given material per face (floor, ceiling, 4 walls).
-fn shoebox(l: f32, w: f32, h: f32, materials: [u32; 6]) -> Mesh {
-    let v: Vec<Vec3> = (0..8).map(|i| Vec3::new(if i & 1 == 1 { l } else { 0.0 }, if i & 2 == 2 { w } else { 0.0 }, if i & 4 == 4 { h } else { 0.0 })).collect();
-    let quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
-    let (mut t, mut m) = (Vec::new(), Vec::new());
-    for (q, mat) in quads.into_iter().zip(materials) {
-        t.push([q[0], q[1], q[2]]);
-        t.push([q[0], q[2], q[3]]);
-        m.extend([mat, mat]);
-    }
-    Mesh::new(v, t, m).expect("a valid box")
-}
+use sonolux_core::wave::{build_solver, simulate_waves, AbsorptionKind, WaveMaterials, WaveSettings};
 
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("threads")
@@ -58,7 +47,7 @@ fn triad(n: usize, threads: usize, repeats: usize) -> f64 {
 fn kernel(n: usize, threads: usize, steps: usize) -> (f64, u64) {
     let h = 0.05;
     let side = (n as f64 * h) as f32;
-    let mesh = shoebox(side, side, side, [0; 6]);
+    let mesh = common::shoebox(side, side, side, [0; 6]);
     let materials = WaveMaterials { band_centres_hz: vec![125.0], absorption: vec![0.0] };
     let s = WaveSettings { max_frequency_hz: 343.0 / (10.0 * h), threads, memory_limit_bytes: 16 << 30, ..WaveSettings::default() };
     let (mut solver, stats) = build_solver(&mesh, &materials, &s, 0).expect("solver");
@@ -84,7 +73,7 @@ fn room(name: &str, size: [f32; 3], max_frequency_hz: f64) -> String {
         band_centres_hz: vec![62.5, 125.0, 250.0, 500.0, 1000.0],
         absorption: vec![0.02, 0.08, 0.24, 0.57, 0.69, 0.3, 0.5, 0.7, 0.8, 0.85, 0.1, 0.1, 0.08, 0.05, 0.04],
     };
-    let mesh = shoebox(size[0], size[1], size[2], [0, 1, 2, 2, 2, 2]);
+    let mesh = common::shoebox(size[0], size[1], size[2], [0, 1, 2, 2, 2, 2]);
     let s = WaveSettings { max_frequency_hz, duration_s: 2.0, absorption_kind: AbsorptionKind::RandomIncidence, ..WaveSettings::default() };
     let src = DVec3::new(size[0] as f64 * 0.3, size[1] as f64 * 0.4, 1.5);
     let rcv = DVec3::new(size[0] as f64 * 0.7, size[1] as f64 * 0.6, 1.2);

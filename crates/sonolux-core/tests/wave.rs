@@ -13,17 +13,9 @@ use sonolux_core::Mesh;
 
 const C: f64 = 343.0;
 
-/// Settings whose grid spacing is `h` (10 points per wavelength at the maximum frequency).
+/// Settings whose grid spacing is `h` on `threads` threads.
 fn settings(h: f64, duration_s: f64, threads: usize) -> WaveSettings {
-    WaveSettings {
-        max_frequency_hz: C / (10.0 * h),
-        points_per_wavelength: 10.0,
-        duration_s,
-        speed_of_sound_m_s: C,
-        threads,
-        absorption_kind: AbsorptionKind::NormalIncidence,
-        ..WaveSettings::default()
-    }
+    WaveSettings { threads, ..common::wave_settings(h, duration_s) }
 }
 
 /// `n` materials that absorb nothing, in octaves 125..1000 Hz.

@@ -8,7 +8,7 @@ mod common;
 use glam::DVec3;
 use sonolux_core::sound::Layout;
 use sonolux_core::wave::bands::direction_energies;
-use sonolux_core::wave::{simulate_waves, AbsorptionKind, WaveMaterials, WaveResult, WaveSettings};
+use sonolux_core::wave::{simulate_waves, WaveMaterials, WaveResult};
 
 const C: f64 = 343.0;
 const H: f64 = 0.1;
@@ -33,13 +33,7 @@ fn run(side: f64, h: f64, rcv_offset: impl Fn(DVec3) -> Vec<DVec3>) -> (DVec3, V
     let rcv = rcv_offset(src);
     let mesh = common::shoebox(side as f32, side as f32, side as f32, [0; 6]);
     let materials = WaveMaterials { band_centres_hz: vec![125.0, 250.0], absorption: vec![0.0, 0.0] };
-    let s = WaveSettings {
-        max_frequency_hz: C / (10.0 * h),
-        duration_s: 0.0045 * side,
-        speed_of_sound_m_s: C,
-        absorption_kind: AbsorptionKind::NormalIncidence,
-        ..WaveSettings::default()
-    };
+    let s = common::wave_settings(h, 0.0045 * side);
     let r = simulate_waves(&mesh, &materials, &[src], &rcv, &s, |_| true).unwrap();
     (src, rcv, r)
 }

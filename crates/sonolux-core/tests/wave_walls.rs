@@ -14,14 +14,7 @@ use sonolux_core::wave::{build_solver, simulate_waves, AbsorptionKind, Admittanc
 const C: f64 = 343.0;
 
 fn settings(h: f64, duration_s: f64, kind: AbsorptionKind) -> WaveSettings {
-    WaveSettings {
-        max_frequency_hz: C / (10.0 * h),
-        points_per_wavelength: 10.0,
-        duration_s,
-        speed_of_sound_m_s: C,
-        absorption_kind: kind,
-        ..WaveSettings::default()
-    }
+    WaveSettings { absorption_kind: kind, ..common::wave_settings(h, duration_s) }
 }
 
 const OCTAVES: [f64; 4] = [62.5, 125.0, 250.0, 500.0];

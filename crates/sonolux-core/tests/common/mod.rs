@@ -55,3 +55,17 @@ pub fn merge(parts: &[Mesh]) -> Mesh {
 pub fn transformed(mesh: &Mesh, f: impl Fn(Vec3) -> Vec3) -> Mesh {
     Mesh::new(mesh.vertices.iter().map(|&v| f(v)).collect(), mesh.triangles.clone(), mesh.material.clone()).unwrap()
 }
+
+/// Wave settings whose grid spacing is `h` m (10 points per wavelength at the maximum frequency,
+/// c = 343 m/s) for `duration_s`, with normal-incidence absorption.
+#[allow(dead_code)]
+pub fn wave_settings(h: f64, duration_s: f64) -> sonolux_core::wave::WaveSettings {
+    sonolux_core::wave::WaveSettings {
+        max_frequency_hz: 343.0 / (10.0 * h),
+        points_per_wavelength: 10.0,
+        duration_s,
+        speed_of_sound_m_s: 343.0,
+        absorption_kind: sonolux_core::wave::AbsorptionKind::NormalIncidence,
+        ..Default::default()
+    }
+}
