@@ -12,6 +12,7 @@ use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
 mod convolve;
 mod light;
+mod light_sources;
 mod sound;
 
 create_exception!(_core, InvalidInputError, PyValueError, "An array or value handed to the core is malformed.");

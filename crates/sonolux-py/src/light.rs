@@ -6,9 +6,9 @@ use pyo3::types::PyDict;
 
 use sonolux_core::glam_export::DVec3;
 use sonolux_core::light::patches::barycentric;
-use sonolux_core::light::{trace_light as trace, Emitter, LightSettings, Optics, Patches};
+use sonolux_core::light::{trace_light_sources as trace, LightSettings, LightSource, Lighting, Optics, Patches};
 
-use crate::{to_py, Geometry, InvalidInputError};
+use crate::{light_sources, to_py, Geometry, InvalidInputError};
 
 fn patches_of(geometry: &Geometry, size: f64) -> Patches {
     let m = &geometry.mesh;
@@ -22,9 +22,14 @@ fn patches_of(geometry: &Geometry, size: f64) -> Patches {
 /// Returns a dict: patch_resolution uint32[T] (k: triangle t has k² patches), patch_offset
 /// uint64[T + 1], patch_area_m2 float64[P], flux_w float64[P, 3] (incident flux per patch),
 /// hits uint64[P] (particles that landed there), stats, cancelled.
+///
+/// Optional: `sources` (luminaires, sky, sun: see `light_sources::extra_sources`),
+/// `transmittance` float64[materials, 3], `work_plane` (a dict: height_m, origin_m, spacing_m,
+/// lo, count); then also plane_flux_w float64[cells, 3] and plane_hits uint64[cells].
 #[pyfunction]
 #[pyo3(signature = (geometry, rho, specular, roughness, emitters, emitter_flux, patch_size_m, *,
-                    particles, first, end, seed, threads, max_bounces = 10_000, progress = None))]
+                    particles, first, end, seed, threads, max_bounces = 10_000, progress = None,
+                    sources = None, transmittance = None, work_plane = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_light<'py>(
     py: Python<'py>,
@@ -42,6 +47,9 @@ pub(crate) fn trace_light<'py>(
     threads: usize,
     max_bounces: u32,
     progress: Option<Bound<'py, PyAny>>,
+    sources: Option<Bound<'py, PyDict>>,
+    transmittance: Option<PyReadonlyArray2<'py, f64>>,
+    work_plane: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let rho = rho.as_array();
     if rho.ncols() != 3 {
@@ -57,12 +65,17 @@ pub(crate) fn trace_light<'py>(
     if e.shape()[1..] != [3, 3] || f.shape() != [e.shape()[0], 3] {
         return Err(InvalidInputError::new_err("emitters: expected (E, 3, 3) corners and (E, 3) flux"));
     }
-    let ems: Vec<Emitter> = (0..e.shape()[0])
-        .map(|i| Emitter {
+    let mut ems: Vec<LightSource> = (0..e.shape()[0])
+        .map(|i| LightSource::Lambert {
             corners: std::array::from_fn(|k| DVec3::new(e[[i, k, 0]], e[[i, k, 1]], e[[i, k, 2]])),
             flux: [f[[i, 0]], f[[i, 1]], f[[i, 2]]],
         })
         .collect();
+    if let Some(d) = &sources {
+        ems.extend(light_sources::extra_sources(d)?);
+    }
+    let tau = transmittance.as_ref().map(light_sources::transmittance).transpose()?.unwrap_or_default();
+    let plane = work_plane.as_ref().map(light_sources::work_plane).transpose()?;
     if patch_size_m.is_nan() || patch_size_m <= 0.0 {
         return Err(InvalidInputError::new_err(format!("patch_size_m: {patch_size_m} is not a positive size")));
     }
@@ -71,7 +84,8 @@ pub(crate) fn trace_light<'py>(
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        trace(&geometry.mesh, &geometry.bvh, &optics, &ems, patches, &settings, |p| {
+        let lighting = Lighting { sources: &ems, transmittance: &tau, work_plane: plane.as_ref() };
+        trace(&geometry.mesh, &geometry.bvh, &optics, lighting, patches, &settings, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })
     });
@@ -86,6 +100,11 @@ pub(crate) fn trace_light<'py>(
     out.set_item("patch_area_m2", res.patches.area.clone().into_pyarray(py))?;
     out.set_item("flux_w", res.flux.iter().flatten().copied().collect::<Vec<f64>>().into_pyarray(py).reshape([n, 3])?)?;
     out.set_item("hits", res.hits.into_pyarray(py))?;
+    if plane.is_some() {
+        let cells = res.plane_flux.len();
+        out.set_item("plane_flux_w", res.plane_flux.into_iter().flatten().collect::<Vec<f64>>().into_pyarray(py).reshape([cells, 3])?)?;
+        out.set_item("plane_hits", res.plane_hits.into_pyarray(py))?;
+    }
     out.set_item("cancelled", res.cancelled)?;
     let st = &res.stats;
     let s = PyDict::new(py);

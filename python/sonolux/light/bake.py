@@ -20,6 +20,9 @@ import numpy as np
 from sonolux.errors import SonoluxError
 from sonolux.light.field import LightField
 from sonolux.light.options import LightOptions
+from sonolux.light.photometry import MAX_LUMINOUS_EFFICACY_LM_PER_W
+from sonolux.light.sources import other_sources
+from sonolux.light.workplane import plane_request, workplane_result
 from sonolux.scene.geometry_core import core_module
 from sonolux.scene.schema import Scene
 from sonolux.sound.bake import ProgressLine
@@ -53,6 +56,8 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
     emitters, flux, radiance, owner = [], [], [], []
     emitted = np.zeros((n_tri, 3))
     for i, light in enumerate(scene.lights):
+        if light.kind == "ies":
+            continue
         tris = np.asarray(light.triangles_m, float).reshape(-1, 3, 3)
         area = _areas(tris)
         total = float(area.sum())
@@ -67,10 +72,18 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
         if light.kind == "surface" and light.material in names:
             mine = scene.material_index == names.index(light.material)
             emitted[mine] += phi / (math.pi * total)
-    if not emitters:
+    sources, sky = other_sources(scene)
+    if not emitters and not sources:
         raise SonoluxError(f"{scene.origin}: the scene has no light that emits (add a [[lights]] "
-                           "entry with power_w > 0 and a colour that is not black)")
+                           "entry with power_w > 0 and a colour that is not black, or a "
+                           "[daylight] sky and glazing)")
+    if not emitters:
+        emitters, flux, radiance = [np.zeros((0, 3, 3))], [np.zeros((0, 3))], [np.zeros((0, 3))]
+        owner = [np.zeros(0, np.int32)]
     return {
+        "sources": sources, "sky": sky,
+        "transmittance": np.ascontiguousarray(
+            np.repeat([[m.transmittance] for m in scene.materials], 3, axis=1), float),
         "rho": np.ascontiguousarray([m.diffuse_rgb for m in scene.materials], float),
         "specular": np.array([m.specular for m in scene.materials], float),
         "roughness": np.array([m.roughness for m in scene.materials], float),
@@ -91,7 +104,9 @@ def _trace(scene: Scene, arrays: dict[str, Any], options: LightOptions, particle
         scene.geometry._g, arrays["rho"], arrays["specular"], arrays["roughness"],
         arrays["emitters"], arrays["emitter_flux"], float(options.patch_size_m),
         particles=particles, first=0, end=particles, seed=scene.settings.seed,
-        threads=scene.settings.threads, max_bounces=options.max_bounces, progress=progress)
+        threads=scene.settings.threads, max_bounces=options.max_bounces, progress=progress,
+        sources=arrays["sources"], transmittance=arrays["transmittance"],
+        work_plane=arrays["work_plane"])
 
 
 def auto_particles(scene: Scene, options: LightOptions, arrays: dict[str, Any]) -> tuple[int, str]:
@@ -123,9 +138,10 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
     bool`` (False stops the bake). ``log`` receives one-line notes (particle count and why).
     """
     options = replace(options or LightOptions(), **overrides).validate()
-    if not scene.lights:
+    if not scene.lights and scene.daylight is None:
         raise SonoluxError(f"{scene.origin}: the scene has no light to bake")
     arrays = light_arrays(scene)
+    arrays["work_plane"] = plane_request(scene.workplane) if scene.workplane is not None else None
     if options.particles == "auto":
         particles, why = auto_particles(scene, options, arrays)
         if log:
@@ -159,4 +175,16 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
         emitter_radiance=arrays["emitter_radiance"], emitter_light=arrays["emitter_light"],
         light_names=arrays["light_names"], light_kinds=arrays["light_kinds"],
         light_power_w=arrays["light_power_w"], settings=settings, stats=stats,
-        scene_name=scene.name, scene_origin=scene.origin)
+        scene_name=scene.name, scene_origin=scene.origin,
+        workplane=_workplane(scene, arrays, out))
+
+
+def _workplane(scene: Scene, arrays: dict[str, Any], out: dict[str, Any]) -> Any:
+    """The work-plane result; daylight factors when an overcast sky is the only light."""
+    if arrays["work_plane"] is None:
+        return None
+    sky = arrays["sky"]
+    df_base = (sky.sky_horizontal_lx if sky is not None and sky.kind == "overcast"
+               and not scene.lights else None)
+    return workplane_result(scene.workplane, arrays["work_plane"], np.asarray(out["plane_flux_w"]),
+                            np.asarray(out["plane_hits"]), MAX_LUMINOUS_EFFICACY_LM_PER_W, df_base)
