@@ -21,8 +21,8 @@ tracer needs to let sky and sun in through glazing.
   lit by sky and sun: L_g = ρ_g E_global,h / π (the externally reflected component of the
   daylight factor, CIE 171:2006 §5.12 style with no obstructions).
 
-Directions: x east, y north, z up (sonolux's axes, with the scene's ``north_deg`` the azimuth of
-north measured from +y counter-clockwise... see :func:`sun_direction`).
+Directions: z up; by default +y is north and +x east; the scene's ``north_deg`` turns north
+counter-clockwise from +y (see :func:`sun_direction`).
 """
 
 from __future__ import annotations
@@ -188,7 +188,8 @@ def make_sky(kind: str, *, sky_horizontal_lx: float | None = None, sun: np.ndarr
         sun_travel = -np.asarray(sun, float) if sun[2] > 0 else None
         if sun_travel is None:
             sun_normal_lx = 0.0
-    lz = e_h / _horizontal(relative, theta, phi)
+    # The overcast sky's horizontal illuminance is 7π Lz / 9 in closed form.
+    lz = e_h / (7 * math.pi / 9 if kind == "overcast" else _horizontal(relative, theta, phi))
     global_h = e_h + (sun_normal_lx * float(-sun_travel[2]) if sun_travel is not None else 0.0)
     ground = ground_reflectance * global_h / math.pi
     values = np.where(theta[None, :] > math.pi / 2, lz * relative, ground)

@@ -28,8 +28,8 @@ from sonolux.scene import builtin
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.geometry_core import CoreMissingError, Geometry
 from sonolux.scene.inside import RoomSpace
-from sonolux.scene.material_names import MaterialNames
 from sonolux.scene.lighting import place_workplane, read_daylight
+from sonolux.scene.material_names import MaterialNames
 from sonolux.scene.meshes import build_mesh
 from sonolux.scene.receivers import place_receivers, read_receivers
 from sonolux.scene.schema import (
