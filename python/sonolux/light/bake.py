@@ -49,7 +49,9 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
     rho float64[M, 3], specular and roughness float64[M]; emitters float64[E, 3, 3] with
     emitter_flux float64[E, 3] (W) and emitter_radiance float64[E, 3] (W/m²/sr),
     emitter_light int32[E]; emitted_radiance float64[T, 3] of the scene's own triangles
-    (surface lights); per light: names, kinds, power_w.
+    (surface lights); per light: names, kinds, power_w. Also ``sources`` (luminaires, sky and
+    sun: see :func:`sonolux.light.sources.other_sources`), ``sky``, ``transmittance``
+    float64[M, 3] and ``work_plane`` (the core's plane request, or None).
     """
     n_tri = scene.triangles.shape[0]
     names = [m.name for m in scene.materials]
@@ -82,6 +84,7 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
         owner = [np.zeros(0, np.int32)]
     return {
         "sources": sources, "sky": sky,
+        "work_plane": plane_request(scene.workplane) if scene.workplane is not None else None,
         "transmittance": np.ascontiguousarray(
             np.repeat([[m.transmittance] for m in scene.materials], 3, axis=1), float),
         "rho": np.ascontiguousarray([m.diffuse_rgb for m in scene.materials], float),
@@ -141,7 +144,6 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
     if not scene.lights and scene.daylight is None:
         raise SonoluxError(f"{scene.origin}: the scene has no light to bake")
     arrays = light_arrays(scene)
-    arrays["work_plane"] = plane_request(scene.workplane) if scene.workplane is not None else None
     if options.particles == "auto":
         particles, why = auto_particles(scene, options, arrays)
         if log:
