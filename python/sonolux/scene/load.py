@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from sonolux.errors import SceneError, SonoluxError, close_matches
-from sonolux.materials import Library
+from sonolux.scene.materials import Library
 from sonolux.scene import builtin
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.geometry_core import CoreMissingError, Geometry

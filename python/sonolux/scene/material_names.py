@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from sonolux.errors import SceneError, close_matches
-from sonolux.materials import Library
-from sonolux.materials import library as shipped_library
+from sonolux.scene.materials import Library
+from sonolux.scene.materials import library as shipped_library
 from sonolux.scene.schema import REQUIRED, Context, Material, Table
 
 MATERIAL_KEYS = ("base", "description", "absorption", "scattering", "diffuse_rgb", "specular",
