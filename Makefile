@@ -56,7 +56,7 @@ test-all: build $(VENV)/.peers-stamp test-web ## every test, the slow statistica
 	$(PY) -m pytest -q -m "slow or not slow"
 
 lint: $(STAMP) ## ruff and clippy
-	$(VENV)/bin/ruff check python tests benchmarks
+	$(VENV)/bin/ruff check python tests benchmarks examples
 	cargo clippy --release --workspace --quiet -- -D warnings
 
 ci: test lint ## what .ci/run does
@@ -65,11 +65,13 @@ demo: build ## the paper's experiment: three rooms checked, baked, compared (out
 	$(VENV)/bin/sonolux check paper-large
 	$(VENV)/bin/sonolux experiment -o out/demo
 
-bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomacoustics), results in benchmarks/results
+bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomacoustics, memory bandwidth), results in benchmarks/results
 	$(PY) benchmarks/bvh.py
 	$(PY) benchmarks/sound.py
+	$(PY) benchmarks/mesh_room.py
 	$(PY) benchmarks/light.py
 	$(PY) benchmarks/auralize.py
+	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
 
 validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md
 	$(PY) benchmarks/validation.py

@@ -25,6 +25,18 @@ def other_cpu_use(seconds: float = 0.5) -> float:
     return 1.0 - (i1 - i0) / max(t1 - t0, 1)
 
 
+def machine_and_load(busy_start: float, busy_end: float) -> dict:
+    """The results' "machine" entry: platform, Python, CPUs and how busy the others kept them;
+    prints a warning when that was enough to make the rates noisy."""
+    import platform
+
+    if max(busy_start, busy_end) > 0.15:
+        print(f"WARNING: other processes kept {busy_start:.0%} of the CPUs busy at the start, "
+              f"{busy_end:.0%} at the end: the rates are noisy, run again on an idle machine.")
+    return {"platform": platform.platform(), "python": platform.python_version(),
+            "cpus": os.cpu_count(), "other_cpu_use_start_end": [busy_start, busy_end]}
+
+
 def write_json(path: Path, data: dict) -> None:
     """Writes `data` as JSON to a temporary file beside `path`, then renames it into place."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -6,7 +6,7 @@
 //! material): a point on a plane is located among that plane's few triangles by their edges.
 //! [`Surfaces`] is what both tracers ask: these planes when they apply, the BVH otherwise.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 use crate::bvh::Bvh;
 use crate::geometry::Ray;
@@ -170,9 +170,10 @@ impl ConvexRoom {
 /// What a tracer asks for the nearest surface along a ray: a convex room's planes when every
 /// ray of it starts inside the room, else the BVH. Both tracers hold one.
 pub struct Surfaces<'a> {
-    mesh: &'a Mesh,
     bvh: &'a Bvh,
     room: Option<ConvexRoom>,
+    /// Unit normal of each mesh triangle, computed once (the BVH path asks for one a segment).
+    normals: Vec<Vec3>,
 }
 
 impl<'a> Surfaces<'a> {
@@ -180,7 +181,9 @@ impl<'a> Surfaces<'a> {
     /// whether the tracer's rays all start inside the room (its sources or lights).
     pub fn new(mesh: &'a Mesh, bvh: &'a Bvh, convex: bool, starts_inside: impl Fn(&ConvexRoom) -> bool) -> Surfaces<'a> {
         let room = if convex { ConvexRoom::of_convex(mesh) } else { None };
-        Surfaces { mesh, bvh, room: room.filter(starts_inside) }
+        let room = room.filter(starts_inside);
+        let normals = if room.is_some() { Vec::new() } else { (0..mesh.triangles.len()).map(|i| mesh.normal(i)).collect() };
+        Surfaces { bvh, room, normals }
     }
 
     /// The nearest surface along origin + t·dir (unit dir): its distance, mesh triangle and unit
@@ -195,7 +198,7 @@ impl<'a> Surfaces<'a> {
             None => {
                 let hit = self.bvh.closest_hit(&Ray::new(origin.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
                 let tri = hit.triangle as usize;
-                Some((hit.t as f64, tri, self.mesh.normal(tri).as_dvec3()))
+                Some((hit.t as f64, tri, self.normals[tri].as_dvec3()))
             }
         }
     }

@@ -17,12 +17,12 @@ pub struct Ray {
     /// a ray lying in a slab plane computes 0 · 1e30 = 0 (inside) instead of 0 · inf = NaN.
     pub inv_dir: Vec3,
     // Shear frame of the watertight test: kz is the axis of the largest |dir| component.
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    pub(crate) kx: usize,
+    pub(crate) ky: usize,
+    pub(crate) kz: usize,
+    pub(crate) sx: f32,
+    pub(crate) sy: f32,
+    pub(crate) sz: f32,
 }
 
 impl Ray {
@@ -113,6 +113,11 @@ pub fn intersect_triangle(ray: &Ray, v0: Vec3, v1: Vec3, v2: Vec3, t_min: f32, t
     }
 }
 
+/// 1 + 2γ(3), γ(n) = nε/(1 − nε) with ε half the f32 machine epsilon: the factor by which a
+/// slab test widens its exit distance to cover its own rounding (Ize, "Robust BVH Ray
+/// Traversal", JCGT 2013). `Aabb::hit` and the BVH's 8-wide box test both use it.
+pub(crate) const BOX_EXIT_WIDEN: f32 = 1.0 + 2.0 * 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
 /// An axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -160,13 +165,12 @@ impl Aabb {
     /// that rounding never culls a box that the watertight triangle test would hit.
     #[inline]
     pub fn hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        const WIDEN: f32 = 1.0 + 2.0 * 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let t0 = (self.min - ray.origin) * ray.inv_dir;
         let t1 = (self.max - ray.origin) * ray.inv_dir;
         let near = t0.min(t1);
         let far = t0.max(t1);
         let enter = near.x.max(near.y).max(near.z).max(t_min);
-        let exit = (far.x.min(far.y).min(far.z) * WIDEN).min(t_max);
+        let exit = (far.x.min(far.y).min(far.z) * BOX_EXIT_WIDEN).min(t_max);
         if enter <= exit {
             Some(enter)
         } else {

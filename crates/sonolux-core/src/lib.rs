@@ -5,7 +5,7 @@
 //! share ([`bvh`]) and its shortcut for closed convex rooms ([`convex`]), the samplers that emit
 //! rays and choose bounces ([`sampling`]) and the random streams that make every ray replayable
 //! from (seed, source, ray) alone ([`rng`]), and the partitioned convolver that
-//! auralization runs on ([`convolver`]).
+//! auralization runs on ([`convolver`]), and the wave solver for the low bands ([`wave`]).
 //!
 //! Conventions, the same in every module and in the Python package:
 //! - lengths in metres, z up; azimuth 0° is +x and grows counter-clockwise seen from above;
@@ -26,6 +26,7 @@ pub mod parallel;
 pub mod rng;
 pub mod sampling;
 pub mod sound;
+pub mod wave;
 
 pub use bvh::Bvh;
 pub use error::CoreError;

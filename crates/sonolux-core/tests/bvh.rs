@@ -60,32 +60,160 @@ fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// Rays through the corners and edge midpoints of random triangles of the mesh (and slightly
+/// beside them): where the watertight test is decided by its f64 fallback and where a box
+/// test that rounded the wrong way would cull the hit.
+fn rays_at_edges_and_vertices(mesh: &Mesh, n: usize, seed: u64) -> Vec<Ray> {
+    (0..n)
+        .map(|i| {
+            let mut s = Stream::new(seed, 2, i as u64);
+            let tri = (s.next_u64() % mesh.triangles.len() as u64) as usize;
+            let [a, b, c] = mesh.corners(tri);
+            let target = match i % 4 {
+                0 => [a, b, c][(s.next_u64() % 3) as usize],
+                1 => 0.5 * (a + b),
+                2 => 0.5 * (b + c),
+                _ => a + (b - a) * s.uniform_f32(),
+            };
+            let o = random_point(&mut s, 14.0) - Vec3::splat(2.0);
+            // Every other ray is nudged by an ulp-sized step so both sides of the edge are hit.
+            let d = if i % 2 == 0 { target - o } else { (target - o) * (1.0 + f32::EPSILON) };
+            Ray::new(o, d)
+        })
+        .collect()
+}
+
+/// How many rays the BVH and the brute-force oracle answer differently (distance compared to
+/// the bit; the triangle may differ only where two are hit at exactly the same t), with an
+/// example. Also checks that `occluded` agrees with the closest hit on a range that ends at a
+/// ray-dependent distance, for every ray.
+fn disagreements(mesh: &Mesh, bvh: &Bvh, rays: &[Ray]) -> (usize, String) {
+    let bad: Vec<String> = rays
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            let (a, b) = (bvh.closest_hit(r, 0.0, f32::INFINITY), brute_force(mesh, r));
+            let same = match (a, b) {
+                (None, None) => true,
+                (Some(x), Some(y)) => x.t.to_bits() == y.t.to_bits(),
+                _ => false,
+            };
+            let t_end = [0.5f32, 3.0, 12.0][i % 3];
+            let occluded_ok = bvh.occluded(r, 0.0, t_end) == b.is_some_and(|h| h.t < t_end);
+            (!same || !occluded_ok).then(|| format!("{:?} → {:?}: bvh {a:?} brute {b:?} occluded ok {occluded_ok}", r.origin, r.dir))
+        })
+        .collect();
+    (bad.len(), bad.first().cloned().unwrap_or_default())
+}
+
+fn assert_agrees(mesh: &Mesh, rays: &[Ray], what: &str) {
+    let bvh = Bvh::build(mesh).unwrap();
+    let (n, example) = disagreements(mesh, &bvh, rays);
+    assert_eq!(n, 0, "{what}: {n} of {} rays differ, e.g. {example}", rays.len());
+}
+
 #[test]
 fn bvh_agrees_with_brute_force_on_a_million_rays() {
-    for (n_tris, n_rays, seed) in [(300, 1_000_000, 1), (3000, 100_000, 2), (7, 100_000, 3)] {
+    for (n_tris, n_rays, seed) in [(300, 1_000_000, 1), (3000, 100_000, 2), (7, 100_000, 3), (2, 20_000, 4)] {
         let mesh = random_soup(n_tris, seed);
-        let bvh = Bvh::build(&mesh).unwrap();
-        let rays = random_rays(n_rays, seed);
-        let mismatches: Vec<String> = rays
-            .par_iter()
-            .filter_map(|r| {
-                let (a, b) = (bvh.closest_hit(r, 0.0, f32::INFINITY), brute_force(&mesh, r));
-                // Same distance; the triangle may differ only where two are hit at the same t.
-                let same = match (a, b) {
-                    (None, None) => true,
-                    (Some(x), Some(y)) => x.t == y.t,
-                    _ => false,
-                };
-                (!same).then(|| format!("{:?}: bvh {a:?} brute {b:?}", r.origin))
-            })
-            .collect();
-        assert!(mismatches.is_empty(), "{} of {n_rays} differ, e.g. {}", mismatches.len(), mismatches[0]);
-        // And any-hit agrees with closest-hit within a range.
-        for r in rays.iter().take(20_000) {
-            let t = brute_force(&mesh, r).map_or(f32::INFINITY, |h| h.t);
-            assert_eq!(bvh.occluded(r, 0.0, 5.0), t < 5.0);
-        }
+        assert_agrees(&mesh, &random_rays(n_rays, seed), &format!("{n_tris} triangles, random rays"));
+        assert_agrees(&mesh, &rays_at_edges_and_vertices(&mesh, n_rays / 4, seed), &format!("{n_tris} triangles, edge rays"));
     }
+}
+
+/// Several million rays, random and aimed at edges and vertices, on soups of several sizes.
+#[test]
+#[ignore = "slow: several million brute-force rays (make test-all)"]
+fn bvh_agrees_with_brute_force_on_millions_of_rays() {
+    for (n_tris, n_rays, seed) in [(200, 4_000_000, 11), (2000, 1_000_000, 12), (20_000, 200_000, 13)] {
+        let mesh = random_soup(n_tris, seed);
+        assert_agrees(&mesh, &random_rays(n_rays, seed), &format!("{n_tris} triangles, random rays"));
+        assert_agrees(&mesh, &rays_at_edges_and_vertices(&mesh, n_rays, seed), &format!("{n_tris} triangles, edge rays"));
+    }
+}
+
+/// Triangles from 1e-4 m to 1 km side by side (a room model's scale range), coincident
+/// triangles (which no split separates), and a chain of ever smaller nested triangles (a deep
+/// tree whose traversal stack outgrows its fixed part).
+#[test]
+fn huge_tiny_coincident_and_nested_triangles() {
+    let mut s = Stream::new(21, 0, 0);
+    let (mut v, mut t) = (Vec::new(), Vec::new());
+    let tri = |v: &mut Vec<Vec3>, t: &mut Vec<[u32; 3]>, a: Vec3, b: Vec3, c: Vec3| {
+        let k = v.len() as u32;
+        v.extend([a, b, c]);
+        t.push([k, k + 1, k + 2]);
+    };
+    // Two huge floor triangles and a huge wall.
+    tri(&mut v, &mut t, Vec3::new(-500.0, -500.0, 0.0), Vec3::new(500.0, -500.0, 0.0), Vec3::new(500.0, 500.0, 0.0));
+    tri(&mut v, &mut t, Vec3::new(-500.0, -500.0, 0.0), Vec3::new(500.0, 500.0, 0.0), Vec3::new(-500.0, 500.0, 0.0));
+    tri(&mut v, &mut t, Vec3::new(-500.0, 7.0, 0.0), Vec3::new(500.0, 7.0, 0.0), Vec3::new(0.0, 7.0, 300.0));
+    // Tiny triangles scattered near the origin.
+    for _ in 0..2000 {
+        let c = random_point(&mut s, 4.0);
+        let size = 1e-4 * (1.0 + 100.0 * s.uniform_f32());
+        let p = |s: &mut Stream| c + (random_point(s, 2.0) - Vec3::ONE) * size;
+        let (a, b, cc) = (p(&mut s), p(&mut s), p(&mut s));
+        tri(&mut v, &mut t, a, b, cc);
+    }
+    // Twenty copies of one triangle.
+    for _ in 0..20 {
+        tri(&mut v, &mut t, Vec3::new(1.0, 1.0, 1.0), Vec3::new(2.0, 1.0, 1.0), Vec3::new(1.0, 2.0, 1.5));
+    }
+    // Nested triangles halving in size towards (3, 3, 3): one split peels one off each level.
+    for k in 0..120 {
+        let h = 0.5f32.powi(k / 4) * 2.0;
+        let c = Vec3::splat(3.0);
+        tri(&mut v, &mut t, c + Vec3::new(h, 0.0, 0.1 * h), c + Vec3::new(0.0, h, 0.0), c + Vec3::new(-h, -h, 0.3 * h));
+    }
+    let n = t.len();
+    let mesh = Mesh::new(v, t, vec![0; n]).unwrap();
+    let mut rays = random_rays(100_000, 21);
+    // Rays from inside the nested chain, and at the tiny triangles' corners.
+    rays.extend((0..20_000).map(|i| {
+        let mut s = Stream::new(22, 0, i);
+        Ray::new(Vec3::splat(3.0) + (random_point(&mut s, 2.0) - Vec3::ONE) * 1e-3, uniform_sphere(s.uniform(), s.uniform()).as_vec3())
+    }));
+    rays.extend(rays_at_edges_and_vertices(&mesh, 50_000, 23));
+    assert_agrees(&mesh, &rays, "mixed scales");
+}
+
+/// The AVX2 path (where the CPU has it) and the portable one give the same bits.
+#[test]
+fn simd_and_portable_traversal_give_the_same_bits() {
+    let mesh = random_soup(3000, 31);
+    let bvh = Bvh::build(&mesh).unwrap();
+    let portable = bvh.clone().portable();
+    assert_eq!(portable.simd_name(), "portable");
+    let mut rays = random_rays(200_000, 31);
+    rays.extend(rays_at_edges_and_vertices(&mesh, 100_000, 31));
+    let differ = rays
+        .par_iter()
+        .filter(|r| {
+            let (a, b) = (bvh.closest_hit(r, 0.0, f32::INFINITY), portable.closest_hit(r, 0.0, f32::INFINITY));
+            a.map(|h| (h.t.to_bits(), h.triangle)) != b.map(|h| (h.t.to_bits(), h.triangle)) || bvh.occluded(r, 0.1, 4.0) != portable.occluded(r, 0.1, 4.0)
+        })
+        .count();
+    assert_eq!(differ, 0, "{} ({}) and portable traversal differ on {differ} rays", bvh.simd_name(), bvh.simd_name());
+}
+
+/// The same mesh gives the same tree, bit for bit, on one thread and on several.
+#[test]
+fn build_is_deterministic_whatever_the_thread_count() {
+    let mesh = random_soup(50_000, 41);
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| Bvh::build(&mesh).unwrap())
+    };
+    let (one, two, four) = (on(1), on(2), on(4));
+    assert!(one.node_count() > 100, "{} nodes", one.node_count());
+    assert_eq!(one.fingerprint(), two.fingerprint());
+    assert_eq!(one.fingerprint(), four.fingerprint());
+    assert_eq!(one.fingerprint(), on(1).fingerprint());
+    // And the fingerprint does see a change: a mesh with one vertex moved builds another tree.
+    let mut moved = mesh.clone();
+    moved.vertices[7].x += 0.25;
+    assert_ne!(Bvh::build(&moved).unwrap().fingerprint(), one.fingerprint());
 }
 
 /// A closed box of `k`×`k` quads a face, each split into two triangles along alternating diagonals.
@@ -171,4 +299,21 @@ fn closed_box_is_closed_and_rays_through_edges_and_vertices_never_leak() {
 fn empty_or_all_degenerate_geometry_is_an_error() {
     let m = Mesh::new(vec![Vec3::ZERO, Vec3::X], vec![[0, 1, 1]], vec![0]).unwrap();
     assert!(Bvh::build(&m).is_err());
+    let empty = Mesh::new(vec![], vec![], vec![]).unwrap();
+    assert!(Bvh::build(&empty).is_err());
+}
+
+#[test]
+fn one_triangle() {
+    let m = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]], vec![0]).unwrap();
+    let bvh = Bvh::build(&m).unwrap();
+    assert_eq!((bvh.node_count(), bvh.packet_count()), (1, 1));
+    let hit = bvh.closest_hit(&Ray::new(Vec3::new(0.25, 0.25, 2.0), Vec3::new(0.0, 0.0, -1.0)), 0.0, f32::INFINITY);
+    assert_eq!(hit, Some(Hit { t: 2.0, triangle: 0 }));
+    assert!(bvh.closest_hit(&Ray::new(Vec3::new(0.25, 0.25, 2.0), Vec3::new(0.0, 0.0, -1.0)), 0.0, 1.5).is_none());
+    assert!(bvh.closest_hit(&Ray::new(Vec3::new(0.75, 0.75, 2.0), Vec3::new(0.0, 0.0, -1.0)), 0.0, f32::INFINITY).is_none());
+    assert!(bvh.occluded(&Ray::new(Vec3::new(0.25, 0.25, -2.0), Vec3::Z), 0.0, 2.5));
+    assert!(!bvh.occluded(&Ray::new(Vec3::new(0.25, 0.25, -2.0), Vec3::Z), 2.5, 9.0));
+    assert_eq!(bvh.bounds().min, Vec3::ZERO);
+    assert_eq!(bvh.bounds().max, Vec3::new(1.0, 1.0, 0.0));
 }

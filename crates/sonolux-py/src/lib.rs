@@ -191,15 +191,29 @@ impl Geometry {
         t_max: f64,
         threads: usize,
     ) -> PyResult<HitArrays<'py>> {
-        let o = points("origins_m", &origins_m)?;
-        let d = points("directions", &directions)?;
+        let (o, d) = (xyz_rows("origins_m", &origins_m)?, xyz_rows("directions", &directions)?);
         if o.len() != d.len() {
-            return Err(invalid(format!("{} origins but {} directions", o.len(), d.len())));
+            return Err(invalid(format!("{} origins but {} directions", o.len() / 3, d.len() / 3)));
         }
-        let rays: Vec<Ray> = o.iter().zip(&d).map(|(&o, &d)| Ray::new(o, d)).collect();
-        let hits = on_pool(py, threads, || self.bvh.closest_hits(&rays, t_max as f32))?;
-        let t: Vec<f64> = hits.iter().map(|h| h.map_or(f64::INFINITY, |h| h.t as f64)).collect();
-        let tri: Vec<i64> = hits.iter().map(|h| h.map_or(-1, |h| h.triangle as i64)).collect();
+        // Rays are made, traced and written out in place by the pool's workers, in chunks:
+        // no per-ray list is built or converted on one thread.
+        let n = o.len() / 3;
+        let (mut t, mut tri) = (vec![f64::INFINITY; n], vec![-1i64; n]);
+        let t_max = t_max as f32;
+        on_pool(py, threads, || {
+            use rayon::prelude::*;
+            const CHUNK: usize = 1024;
+            t.par_chunks_mut(CHUNK).zip(tri.par_chunks_mut(CHUNK)).enumerate().for_each(|(c, (t, tri))| {
+                for (k, (t, tri)) in t.iter_mut().zip(tri).enumerate() {
+                    let i = 3 * (c * CHUNK + k);
+                    let (o, d) = (&o[i..i + 3], &d[i..i + 3]);
+                    let ray = Ray::new(Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32), Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
+                    if let Some(h) = self.bvh.closest_hit(&ray, 0.0, t_max) {
+                        (*t, *tri) = (h.t as f64, h.triangle as i64);
+                    }
+                }
+            })
+        })?;
         Ok((t.into_pyarray(py), tri.into_pyarray(py)))
     }
 
@@ -232,6 +246,21 @@ impl Geometry {
             .collect();
         Ok(out.into_pyarray(py))
     }
+}
+
+/// An (n, 3) float64 array as x, y, z in a row, borrowed when it is C-contiguous, copied
+/// otherwise; the error names the argument.
+fn xyz_rows<'a>(name: &str, a: &'a PyReadonlyArray2<'_, f64>) -> PyResult<std::borrow::Cow<'a, [f64]>> {
+    let v = a.as_array();
+    if v.ncols() != 3 {
+        return Err(invalid(format!("{name}: expected shape (n, 3), got {:?}", v.shape())));
+    }
+    // ndarray's as_slice, not numpy's: the latter also accepts Fortran order, whose memory
+    // order is not x, y, z in a row.
+    Ok(match v.to_slice() {
+        Some(flat) => std::borrow::Cow::Borrowed(flat),
+        None => std::borrow::Cow::Owned(v.iter().copied().collect()),
+    })
 }
 
 fn vec3s_to_array<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>> {

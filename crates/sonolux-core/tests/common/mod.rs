@@ -18,3 +18,54 @@ pub fn shoebox(l: f32, w: f32, h: f32, materials: [u32; 6]) -> Mesh {
     }
     Mesh::new(v, t, m).unwrap()
 }
+
+/// A box [lo, hi] with the material ids of its faces in the order of [`shoebox`]; its normals
+/// face into it when `facing_in` (a room), out of it otherwise (an obstacle standing in a room
+/// whose normals face the air).
+#[allow(dead_code)]
+pub fn cuboid(lo: Vec3, hi: Vec3, materials: [u32; 6], facing_in: bool) -> Mesh {
+    let e = hi - lo;
+    let mut m = shoebox(e.x, e.y, e.z, materials);
+    for v in &mut m.vertices {
+        *v += lo;
+    }
+    if !facing_in {
+        for t in &mut m.triangles {
+            t.swap(1, 2);
+        }
+    }
+    m
+}
+
+/// One mesh of several.
+#[allow(dead_code)]
+pub fn merge(parts: &[Mesh]) -> Mesh {
+    let (mut v, mut t, mut m) = (Vec::new(), Vec::new(), Vec::new());
+    for p in parts {
+        let base = v.len() as u32;
+        v.extend(&p.vertices);
+        t.extend(p.triangles.iter().map(|tri| tri.map(|i| i + base)));
+        m.extend(&p.material);
+    }
+    Mesh::new(v, t, m).unwrap()
+}
+
+/// The mesh with every vertex moved by `f`.
+#[allow(dead_code)]
+pub fn transformed(mesh: &Mesh, f: impl Fn(Vec3) -> Vec3) -> Mesh {
+    Mesh::new(mesh.vertices.iter().map(|&v| f(v)).collect(), mesh.triangles.clone(), mesh.material.clone()).unwrap()
+}
+
+/// Wave settings whose grid spacing is `h` m (10 points per wavelength at the maximum frequency,
+/// c = 343 m/s) for `duration_s`, with normal-incidence absorption.
+#[allow(dead_code)]
+pub fn wave_settings(h: f64, duration_s: f64) -> sonolux_core::wave::WaveSettings {
+    sonolux_core::wave::WaveSettings {
+        max_frequency_hz: 343.0 / (10.0 * h),
+        points_per_wavelength: 10.0,
+        duration_s,
+        speed_of_sound_m_s: 343.0,
+        absorption_kind: sonolux_core::wave::AbsorptionKind::NormalIncidence,
+        ..Default::default()
+    }
+}

@@ -1,0 +1,170 @@
+//! Bounding-volume hierarchy over a mesh's triangles, eight children a node, with closest-hit
+//! and any-hit queries. Both tracers, the camera and the Python `Geometry` share one.
+//!
+//! - Layout ([`Node8`], [`Packet`]): a flat array of 8-wide nodes in depth-first order, each
+//!   holding its eight children's boxes plane by plane (`[min x, max x, min y, …][child]`, so one
+//!   SIMD register holds one plane of all eight) and their references; and a flat array of
+//!   triangle packets, eight triangles each, corners laid out the same way, that the leaves
+//!   point at. A leaf is one to four packets (at most [`build::LEAF_TRIANGLES`] triangles).
+//! - Build ([`build`]): a binary tree by the binned surface-area heuristic, built in parallel,
+//!   then collapsed into 8-wide nodes by opening the largest child until eight remain (the
+//!   scheme of Wald, Benthin and Boulos, "Getting rid of packets", RT 2008, and of Embree's
+//!   BVH8). Deterministic: the same mesh gives the same tree whatever the thread count.
+//! - Traversal ([`traverse`]): one ray against the eight boxes of a node at once, the boxes it
+//!   meets visited nearest first through a small stack whose entries remember their entry
+//!   distance (so that those beyond the nearest hit found since are dropped unvisited); a leaf's
+//!   triangles are tested eight at a time with the watertight test of
+//!   [`crate::geometry::intersect_triangle`], operation for operation, so that the answers are
+//!   the scalar test's to the bit.
+//! - SIMD ([`lanes`]): AVX2 through `pulp` when the CPU has it (checked once, at build), else
+//!   plain arrays that round every value the same way.
+
+use rayon::prelude::*;
+
+use crate::error::CoreError;
+use crate::geometry::{Aabb, Hit, Ray};
+use crate::mesh::Mesh;
+
+pub(crate) mod build;
+pub(crate) mod lanes;
+mod traverse;
+
+/// Eight children: their boxes plane by plane and their references.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct Node8 {
+    /// `[min x, max x, min y, max y, min z, max z][slot]`; an empty slot has min = +∞ and
+    /// max = −∞, which no ray meets.
+    pub(crate) bounds: [[f32; 8]; 6],
+    /// Per slot: an interior node's index, or [`LEAF`] | packets − 1 << 29 | first packet.
+    pub(crate) child: [u32; 8],
+}
+
+/// Marks a child reference as a leaf.
+pub(crate) const LEAF: u32 = 1 << 31;
+/// Bits of a leaf reference that hold the index of its first packet.
+pub(crate) const PACKET_INDEX: u32 = (1 << 29) - 1;
+
+/// Eight triangles, their corners plane by plane: `corners[3·corner + axis][lane]`. A packet
+/// with fewer triangles repeats its last one (a duplicate changes no answer).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct Packet {
+    pub(crate) corners: [[f32; 8]; 9],
+    /// Mesh index of each lane's triangle.
+    pub(crate) ids: [u32; 8],
+}
+
+/// Which lanes traversal runs on, chosen when the BVH is built.
+#[derive(Clone, Copy, Debug)]
+enum Simd {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2(pulp::x86::V3),
+}
+
+/// The acceleration structure. Queries take `&self` and are safe to share between threads.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    nodes: Vec<Node8>,
+    packets: Vec<Packet>,
+    bounds: Aabb,
+    simd: Simd,
+}
+
+impl Bvh {
+    /// Builds the hierarchy over the mesh's non-degenerate triangles, on the current rayon pool.
+    pub fn build(mesh: &Mesh) -> Result<Bvh, CoreError> {
+        let built = build::build(mesh)?;
+        #[cfg(target_arch = "x86_64")]
+        let simd = pulp::x86::V3::try_new().map_or(Simd::Portable, Simd::Avx2);
+        #[cfg(not(target_arch = "x86_64"))]
+        let simd = Simd::Portable;
+        Ok(Bvh { nodes: built.nodes, packets: built.packets, bounds: built.bounds, simd })
+    }
+
+    /// The same hierarchy traversed without SIMD registers: the fallback for CPUs without
+    /// AVX2, kept reachable so that tests can check both give the same bits.
+    pub fn portable(mut self) -> Bvh {
+        self.simd = Simd::Portable;
+        self
+    }
+
+    /// "avx2" or "portable": the lanes the queries run on.
+    pub fn simd_name(&self) -> &'static str {
+        match self.simd {
+            Simd::Portable => "portable",
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2(_) => "avx2",
+        }
+    }
+
+    /// Number of 8-wide nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Number of 8-triangle packets in the leaves.
+    pub fn packet_count(&self) -> usize {
+        self.packets.len()
+    }
+
+    /// Bytes held by the nodes and the packets.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * size_of::<Node8>() + self.packets.len() * size_of::<Packet>()
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// A 64-bit FNV-1a hash of every bit of the tree (nodes, packets, bounds): equal trees
+    /// hash equal, so tests can check that a build is deterministic.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        let mut eat = |w: u32| {
+            for b in w.to_le_bytes() {
+                h = (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        for n in &self.nodes {
+            n.bounds.iter().flatten().for_each(|x| eat(x.to_bits()));
+            n.child.iter().for_each(|&c| eat(c));
+        }
+        for p in &self.packets {
+            p.corners.iter().flatten().for_each(|x| eat(x.to_bits()));
+            p.ids.iter().for_each(|&i| eat(i));
+        }
+        [self.bounds.min, self.bounds.max].iter().flat_map(|v| v.to_array()).for_each(|x| eat(x.to_bits()));
+        h
+    }
+
+    /// The nearest triangle hit with t in (t_min, t_max).
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2(v3) => {
+                v3.vectorize(|| traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, ray, t_min, t_max))
+            }
+            Simd::Portable => traverse::closest(lanes::Portable, &self.nodes, &self.packets, ray, t_min, t_max),
+        }
+    }
+
+    /// Whether any triangle is hit with t in (t_min, t_max): the visibility test.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2(v3) => {
+                v3.vectorize(|| traverse::any(lanes::Avx2(v3), &self.nodes, &self.packets, ray, t_min, t_max))
+            }
+            Simd::Portable => traverse::any(lanes::Portable, &self.nodes, &self.packets, ray, t_min, t_max),
+        }
+    }
+
+    /// Closest hits of many rays on the current rayon pool; one result per ray, in order.
+    pub fn closest_hits(&self, rays: &[Ray], t_max: f32) -> Vec<Option<Hit>> {
+        rays.par_iter().with_min_len(256).map(|r| self.closest_hit(r, 0.0, t_max)).collect()
+    }
+}

@@ -1,0 +1,501 @@
+//! A material's absorption per band fitted to a passive wall admittance ([`super::admittance`]).
+//!
+//! The fit. The target is a smooth curve: 10·lg(1 − α_n) interpolated linearly in log frequency
+//! between the band centres (flat beyond the outer ones), sampled 16 times per band, for the
+//! bands centred below [`FIT_LIMIT_RATIO`] × the grid's maximum frequency. A smooth curve, not
+//! band means, because a response of any spectrum must average to the band's value: a fit that
+//! met band means with peaks and dips inside bands would reflect a band-limited pulse wrongly.
+//! First, a convex step: non-negative least squares (Lawson and Hanson, "Solving Least Squares
+//! Problems", 1974, ch. 23) of Y(f) against the real admittance g(f) whose absorption the curve
+//! asks (weighted so that the residual is the error in R, relative to |R|), over a dictionary of
+//! a conductance and resonant branches every third of an octave from two octaves below the first
+//! band to above the last, each in three bandwidths (Q = 0.7, 2 and 5). Resonant branches
+//! vanish at DC, so the wall is rigid to static pressure, as real walls are. NNLS leaves only
+//! a few branches; then projected Levenberg–Marquardt refines their peak conductances against
+//! the curve in decibels of reflected energy, free to use the phase of Y (the absorption
+//! depends on |R| only). pffdtd fits one branch per octave to band values the same way in spirit
+//! (Hamilton, pffdtd, `fit_to_Sabs_oct_11`, Nelder–Mead on absorption); the dictionary and the
+//! smooth target are ours, for third-octave data and for flat reflection inside each band.
+//!
+//! The target α_n. Impedance-tube data is normal-incidence already ([`AbsorptionKind::NormalIncidence`]).
+//! The coefficients of room acoustics are random-incidence ("statistical"): for those the band
+//! is first given the real admittance g whose random-incidence absorption, by Paris' formula
+//! α_st = 8g[1 + g/(1 + g) − 2g·ln((1 + g)/g)] (E. T. Paris, "On the coefficient of sound
+//! absorption measured by the reverberation method", Phil. Mag. 5, 1928; also A. London, JASA 22,
+//! 1950), equals the coefficient, and α_n = 4g/(1 + g)² is its normal-incidence absorption.
+//! A locally reacting wall cannot absorb more than 0.951 at random incidence; higher values are
+//! clamped there, and the fit reports it. The wall then absorbs oblique waves as a locally
+//! reacting wall does, by itself: in a diffuse field it absorbs the material's coefficient.
+
+use num_complex::Complex64 as C64;
+
+use super::admittance::{admittance_from_normal, admittance_from_random, band_edges, normal_absorption_of, Admittance, Branch, Discretisation, Plane};
+use super::settings::AbsorptionKind;
+use crate::error::CoreError;
+
+/// Bands centred up to this multiple of the grid's maximum frequency are fitted (the top one's
+/// upper half and a quarter band beyond reach above it: the little energy the grid carries
+/// there meets walls that absorb sensibly).
+pub const FIT_LIMIT_RATIO: f64 = 1.0;
+
+/// A material's fit and how well it meets its targets, per fitted band.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialFit {
+    pub admittance: Admittance,
+    /// The bands fitted (the first `n` of the material's bands).
+    pub n_bands_fitted: usize,
+    /// Normal-incidence absorption asked for and obtained (band means of 1 − |R|², on the grid
+    /// when fitted for one).
+    pub target_normal: Vec<f64>,
+    pub fitted_normal: Vec<f64>,
+    /// 10·lg(mean |R|²) − 10·lg(1 − target) per band: the error in reflected level, dB.
+    pub error_db: Vec<f64>,
+    /// Whether a random-incidence coefficient was above what a locally reacting wall absorbs.
+    pub clamped: bool,
+}
+
+/// Samples of the target curve per band.
+const POINTS_PER_BAND: usize = 16;
+/// The reflected level is not asked below −23 dB (α_n up to 0.995).
+const MIN_REFLECTED_ENERGY: f64 = 0.005;
+/// The dictionary's branch bandwidths, and its spacing in octaves.
+const DICTIONARY_Q: [f64; 3] = [0.7, 2.0, 5.0];
+const DICTIONARY_STEP_OCTAVES: f64 = 1.0 / 3.0;
+/// Branches are dropped while the fit stays within this of the curve (RMS over its samples)
+/// and of every band's target, dB (or within 0.1 and 0.05 dB of the full dictionary's errors,
+/// if those are larger).
+const PRUNE_RMS_DB: f64 = 0.3;
+/// The weight of R's phase against the phase of the real admittance that absorbs as asked, in
+/// dB of level error per radian. Absorption data say nothing of phase, but a fit free to choose
+/// it can meet a level with a large reactance, a wall that is partly a pressure release and
+/// moves the room's modes by tens of percent. Real walls of low absorption are nearly rigid;
+/// the least reactance that meets the curve is the sensible choice.
+const PHASE_DB_PER_RAD: f64 = 2.0;
+const PRUNE_BAND_DB: f64 = 0.15;
+
+/// Fits one material: `absorption` per band at `centres_hz`, of the given kind, for a grid whose
+/// maximum frequency is `max_frequency_hz`.
+pub fn fit_material(
+    centres_hz: &[f64],
+    absorption: &[f64],
+    kind: AbsorptionKind,
+    max_frequency_hz: f64,
+    scheme: Option<Discretisation>,
+) -> Result<MaterialFit, CoreError> {
+    if centres_hz.is_empty() || centres_hz.len() != absorption.len() {
+        return Err(CoreError::invalid("absorption", format!("{} values for {} bands", absorption.len(), centres_hz.len())));
+    }
+    let mut clamped = false;
+    let target_all: Vec<f64> = absorption
+        .iter()
+        .map(|&a| match kind {
+            AbsorptionKind::NormalIncidence => a,
+            AbsorptionKind::RandomIncidence => {
+                let (g, c) = admittance_from_random(a);
+                clamped |= c;
+                normal_absorption_of(g)
+            }
+        })
+        .collect();
+    let n_fit = super::settings::bands_fitted(centres_hz, max_frequency_hz).max(1);
+    let target = target_all[..n_fit].to_vec();
+    let edges = band_edges(centres_hz);
+    let problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
+    let admittance = if target.iter().all(|&a| a <= 0.0) { Admittance::default() } else { problem.solve() };
+    let levels = problem.band_levels(&admittance);
+    let fitted_normal: Vec<f64> = levels.iter().map(|l| 1.0 - 10f64.powf(l / 10.0)).collect();
+    let error_db = levels.iter().zip(&problem.band_target_db).map(|(l, t)| l - t).collect();
+    Ok(MaterialFit { admittance, n_bands_fitted: n_fit, target_normal: target, fitted_normal, error_db, clamped })
+}
+
+/// A column of the dictionary: the conductance (`q` = 0) or a resonant branch of unit peak
+/// conductance centred at `centre_hz` with quality factor `q`.
+#[derive(Clone, Copy, Debug)]
+struct Column {
+    centre_hz: f64,
+    q: f64,
+}
+
+impl Column {
+    fn shape(&self, f: f64) -> C64 {
+        if self.q == 0.0 {
+            C64::new(1.0, 0.0)
+        } else {
+            1.0 / C64::new(1.0, self.q * (f / self.centre_hz - self.centre_hz / f))
+        }
+    }
+
+    /// The branch of peak conductance `y`: Z = D s + E + F/s with E = 1/y, bandwidth ω₀/Q.
+    fn branch(&self, y: f64) -> Branch {
+        let w0 = std::f64::consts::TAU * self.centre_hz;
+        let bandwidth = w0 / self.q;
+        Branch { mass_s: 1.0 / (y * bandwidth), resistance: 1.0 / y, stiffness_per_s: w0 * w0 / (y * bandwidth) }
+    }
+}
+
+/// One material's fit: the sampled target curve and the dictionary.
+struct Problem {
+    freqs: Vec<f64>,
+    planes: Vec<Plane>,
+    /// The target level at each sample frequency (dB), the real admittance that has it, and
+    /// that admittance's reflection.
+    target_db: Vec<f64>,
+    target_g: Vec<f64>,
+    target_r: Vec<C64>,
+    /// The band level targets, dB, and where each band's samples are.
+    band_target_db: Vec<f64>,
+    band_samples: Vec<std::ops::Range<usize>>,
+    columns: Vec<Column>,
+}
+
+impl Problem {
+    fn new(centres: &[f64], edges: &[(f64, f64)], target: &[f64], scheme: Option<Discretisation>) -> Problem {
+        let n = centres.len();
+        let band_target_db: Vec<f64> = target.iter().map(|&a| 10.0 * (1.0 - a).max(MIN_REFLECTED_ENERGY).log10()).collect();
+        let curve = |knots: &[f64], f: f64| {
+            let b = centres.partition_point(|&c| c <= f);
+            if b == 0 {
+                knots[0]
+            } else if b == n {
+                knots[n - 1]
+            } else {
+                let x = (f / centres[b - 1]).ln() / (centres[b] / centres[b - 1]).ln();
+                knots[b - 1] + x * (knots[b] - knots[b - 1])
+            }
+        };
+        let mut freqs = Vec::new();
+        let mut band_samples = Vec::new();
+        // An octave below the lowest band (the walls meet the room's lowest modes there) and a
+        // quarter band above the highest (where band filters' skirts reach), held flat.
+        let (lo, hi) = (edges[0].0, edges[n - 1].1);
+        let above = (hi / edges[n - 1].0).powf(0.25);
+        for i in 0..POINTS_PER_BAND / 2 {
+            freqs.push(lo / 2f64.powf(1.0 - (i as f64 + 0.5) / (POINTS_PER_BAND / 2) as f64));
+        }
+        for &(lo, hi) in edges {
+            let first = freqs.len();
+            for i in 0..POINTS_PER_BAND {
+                freqs.push(lo * (hi / lo).powf((i as f64 + 0.5) / POINTS_PER_BAND as f64));
+            }
+            band_samples.push(first..freqs.len());
+        }
+        for i in 0..POINTS_PER_BAND / 4 {
+            freqs.push(hi * above.powf((i as f64 + 0.5) / (POINTS_PER_BAND / 4) as f64));
+        }
+        // The curve's knots at the band centres, moved until each band's mean reflected energy
+        // is the band's target (a band mean leans half on its own knot: Jacobi converges).
+        let mut knots = band_target_db.clone();
+        let floor_db = 10.0 * MIN_REFLECTED_ENERGY.log10();
+        for _ in 0..100 {
+            for b in 0..n {
+                let r = band_samples[b].clone();
+                let mean = freqs[r.clone()].iter().map(|&f| 10f64.powf(curve(&knots, f) / 10.0)).sum::<f64>() / r.len() as f64;
+                knots[b] = (knots[b] + band_target_db[b] - 10.0 * mean.log10()).clamp(floor_db, 0.0);
+            }
+        }
+        let target_db: Vec<f64> = freqs.iter().map(|&f| curve(&knots, f)).collect();
+        let target_g: Vec<f64> = target_db.iter().map(|&l| admittance_from_normal(1.0 - 10f64.powf(l / 10.0))).collect();
+        let mut columns = vec![Column { centre_hz: 0.0, q: 0.0 }];
+        let (first, last) = (0.25 * lo, 1.5 * freqs[freqs.len() - 1]);
+        let steps = ((last / first).log2() / DICTIONARY_STEP_OCTAVES).ceil() as usize;
+        for k in 0..=steps {
+            for q in DICTIONARY_Q {
+                columns.push(Column { centre_hz: first * 2f64.powf(k as f64 * DICTIONARY_STEP_OCTAVES), q });
+            }
+        }
+        let planes: Vec<Plane> = freqs.iter().map(|&f| Plane::new(f, scheme)).collect();
+        let target_r = planes.iter().zip(&target_g).map(|(p, &g)| p.reflection(C64::new(g, 0.0))).collect();
+        Problem { freqs, planes, target_db, target_g, target_r, band_target_db, band_samples, columns }
+    }
+
+    /// NNLS on the admittance, then Levenberg–Marquardt on the levels with the columns it kept.
+    fn solve(&self) -> Admittance {
+        // Rows: real and imaginary parts of w·(Y − g), w = |dR/dY| / |R| = 2/((1 + g)²|R|).
+        let (m, k) = (2 * self.freqs.len(), self.columns.len());
+        let mut a = vec![0.0; m * k];
+        let mut b = vec![0.0; m];
+        for (i, (p, &g)) in self.planes.iter().zip(&self.target_g).enumerate() {
+            let r = ((1.0 - g) / (1.0 + g)).abs().max(MIN_REFLECTED_ENERGY.sqrt());
+            let w = 2.0 / ((1.0 + g) * (1.0 + g) * r);
+            for (j, c) in self.columns.iter().enumerate() {
+                let h = c.shape(p.f_eval) * w;
+                a[2 * i * k + j] = h.re;
+                a[(2 * i + 1) * k + j] = h.im;
+            }
+            b[2 * i] = w * g;
+        }
+        let theta = nnls(&a, &b, m, k);
+        // Refine on the whole dictionary (branches NNLS left at zero may enter), then drop the
+        // weakest branch while the fit stays within tolerance: every branch costs state and
+        // arithmetic at every boundary node and step.
+        let theta = self.refine(&self.columns, theta);
+        let mut kept: Vec<(Column, f64)> = self.columns.iter().cloned().zip(theta).filter(|(_, t)| *t > 0.0).collect();
+        let (cols, theta): (Vec<Column>, Vec<f64>) = kept.iter().cloned().unzip();
+        let (rms0, band0) = self.errors(&cols, &theta);
+        let (rms_tol, band_tol) = (PRUNE_RMS_DB.max(rms0 + 0.1), PRUNE_BAND_DB.max(band0 + 0.05));
+        'prune: loop {
+            // Try the three weakest branches, and drop the first whose loss the rest can make up.
+            let mut order: Vec<usize> = (0..kept.len()).filter(|&j| kept[j].0.q != 0.0).collect();
+            order.sort_by(|&i, &j| self.strength(&kept[i]).total_cmp(&self.strength(&kept[j])));
+            for &w in order.iter().take(3) {
+                let mut trial = kept.clone();
+                trial.remove(w);
+                let (cols, start): (Vec<Column>, Vec<f64>) = trial.into_iter().unzip();
+                let theta = self.refine(&cols, start);
+                let (rms, band) = self.errors(&cols, &theta);
+                if rms <= rms_tol && band <= band_tol {
+                    kept = cols.into_iter().zip(theta).filter(|(_, t)| *t > 0.0).collect();
+                    continue 'prune;
+                }
+            }
+            break;
+        }
+        let (kept, refined): (Vec<Column>, Vec<f64>) = kept.into_iter().unzip();
+        let mut y = Admittance::default();
+        for (c, &t) in kept.iter().zip(&refined) {
+            if c.q == 0.0 {
+                y.conductance += t;
+            } else if t > 1e-9 {
+                y.branches.push(c.branch(t));
+            }
+        }
+        y
+    }
+
+    /// Reflected level (dB) at each sample frequency of the columns `cols` weighted `theta`, and
+    /// when asked its derivatives by each weight.
+    fn levels(&self, cols: &[Column], theta: &[f64], jacobian: bool) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let mut levels = Vec::with_capacity(self.freqs.len());
+        let mut jac = Vec::new();
+        for p in &self.planes {
+            let shapes: Vec<C64> = cols.iter().map(|c| c.shape(p.f_eval)).collect();
+            let y: C64 = shapes.iter().zip(theta).map(|(h, t)| h * t).sum();
+            let r = p.reflection(y);
+            let e = r.norm_sqr();
+            levels.push(10.0 * e.log10());
+            if jacobian {
+                let dr_dy = p.slope(y);
+                let s = 10.0 / std::f64::consts::LN_10 / e;
+                jac.push(shapes.iter().map(|h| 2.0 * (r.conj() * dr_dy * h).re * s).collect());
+            }
+        }
+        (levels, jac)
+    }
+
+    /// The residuals of a fit, two per sample frequency: the reflected level's error (dB), and
+    /// [`PHASE_DB_PER_RAD`] × the phase of R against that of the real admittance with the target
+    /// level; with their derivatives by each weight when asked.
+    fn residuals(&self, cols: &[Column], theta: &[f64], jacobian: bool) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let mut res = Vec::with_capacity(2 * self.freqs.len());
+        let mut jac = Vec::new();
+        for ((p, t), rg) in self.planes.iter().zip(&self.target_db).zip(&self.target_r) {
+            let shapes: Vec<C64> = cols.iter().map(|c| c.shape(p.f_eval)).collect();
+            let y: C64 = shapes.iter().zip(theta).map(|(h, t)| h * t).sum();
+            let r = p.reflection(y);
+            let e = r.norm_sqr();
+            res.push(10.0 * e.log10() - t);
+            res.push(PHASE_DB_PER_RAD * (r / rg).arg());
+            if jacobian {
+                let dr_dy = p.slope(y);
+                let s = 10.0 / std::f64::consts::LN_10 / e;
+                jac.push(shapes.iter().map(|h| 2.0 * (r.conj() * dr_dy * h).re * s).collect());
+                jac.push(shapes.iter().map(|h| PHASE_DB_PER_RAD * (dr_dy * h / r).im).collect());
+            }
+        }
+        (res, jac)
+    }
+
+    /// The band means of |R|² of an admittance, as levels (dB).
+    fn band_levels(&self, y: &Admittance) -> Vec<f64> {
+        let e: Vec<f64> =
+            self.planes.iter().map(|p| p.reflection(y.at(C64::new(0.0, std::f64::consts::TAU * p.f_eval))).norm_sqr()).collect();
+        self.band_samples.iter().map(|r| 10.0 * (e[r.clone()].iter().sum::<f64>() / r.len() as f64).log10()).collect()
+    }
+
+    /// How much a weighted column adds to Y: its RMS magnitude over the sample frequencies.
+    fn strength(&self, column: &(Column, f64)) -> f64 {
+        column.1 * (self.planes.iter().map(|p| column.0.shape(p.f_eval).norm_sqr()).sum::<f64>() / self.planes.len() as f64).sqrt()
+    }
+
+    /// A fit's RMS level error over the curve's samples and its worst band error, dB.
+    fn errors(&self, cols: &[Column], theta: &[f64]) -> (f64, f64) {
+        let (l, _) = self.levels(cols, theta, false);
+        let rms = (l.iter().zip(&self.target_db).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / l.len() as f64).sqrt();
+        let band = self
+            .band_samples
+            .iter()
+            .zip(&self.band_target_db)
+            .map(|(r, t)| {
+                let mean = l[r.clone()].iter().map(|x| 10f64.powf(x / 10.0)).sum::<f64>() / r.len() as f64;
+                (10.0 * mean.log10() - t).abs()
+            })
+            .fold(0.0, f64::max);
+        (rms, band)
+    }
+
+    fn cost(&self, cols: &[Column], theta: &[f64]) -> f64 {
+        self.residuals(cols, theta, false).0.iter().map(|r| r * r).sum()
+    }
+
+    /// Projected Levenberg–Marquardt on the residuals, weights kept ≥ 0.
+    fn refine(&self, cols: &[Column], mut theta: Vec<f64>) -> Vec<f64> {
+        let k = theta.len();
+        let mut cost = self.cost(cols, &theta);
+        let mut mu = 1e-3;
+        for _ in 0..200 {
+            if cost < 1e-14 || k == 0 {
+                break;
+            }
+            let (r, j) = self.residuals(cols, &theta, true);
+            let mut jtj = vec![0.0; k * k];
+            let mut jtr = vec![0.0; k];
+            for (row, ri) in j.iter().zip(&r) {
+                for a in 0..k {
+                    jtr[a] += row[a] * ri;
+                    for b in 0..k {
+                        jtj[a * k + b] += row[a] * row[b];
+                    }
+                }
+            }
+            let mut improved = false;
+            while mu < 1e12 {
+                let mut m = jtj.clone();
+                for a in 0..k {
+                    m[a * k + a] += mu * jtj[a * k + a] + 1e-12;
+                }
+                let mut step: Vec<f64> = jtr.iter().map(|x| -x).collect();
+                if !solve_dense(&mut m, &mut step, k) {
+                    mu *= 10.0;
+                    continue;
+                }
+                let trial: Vec<f64> = theta.iter().zip(&step).map(|(t, s)| (t + s).max(0.0)).collect();
+                let c = self.cost(cols, &trial);
+                if c < cost {
+                    improved = cost - c > 1e-10 * cost;
+                    theta = trial;
+                    cost = c;
+                    mu = (mu / 3.0).max(1e-12);
+                    break;
+                }
+                mu *= 4.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        theta
+    }
+}
+
+/// Non-negative least squares, min ‖A x − b‖ with x ≥ 0 (A is m×k, row-major), by the active
+/// set method of Lawson and Hanson (1974, ch. 23).
+fn nnls(a: &[f64], b: &[f64], m: usize, k: usize) -> Vec<f64> {
+    let mut x = vec![0.0; k];
+    let mut passive = vec![false; k];
+    let gradient = |x: &[f64]| -> Vec<f64> {
+        let r: Vec<f64> = (0..m).map(|i| b[i] - (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>()).collect();
+        (0..k).map(|j| (0..m).map(|i| a[i * k + j] * r[i]).sum()).collect()
+    };
+    // Least squares restricted to the passive set, by the normal equations.
+    let restricted = |passive: &[bool]| -> Vec<f64> {
+        let idx: Vec<usize> = (0..k).filter(|&j| passive[j]).collect();
+        let n = idx.len();
+        let mut ata = vec![0.0; n * n];
+        let mut atb = vec![0.0; n];
+        for i in 0..m {
+            for (p, &jp) in idx.iter().enumerate() {
+                atb[p] += a[i * k + jp] * b[i];
+                for (q, &jq) in idx.iter().enumerate() {
+                    ata[p * n + q] += a[i * k + jp] * a[i * k + jq];
+                }
+            }
+        }
+        for p in 0..n {
+            ata[p * n + p] *= 1.0 + 1e-12;
+        }
+        let mut z = vec![0.0; k];
+        if solve_dense(&mut ata, &mut atb, n) {
+            for (p, &j) in idx.iter().enumerate() {
+                z[j] = atb[p];
+            }
+        }
+        z
+    };
+    let scale = a.iter().map(|v| v.abs()).fold(0.0, f64::max) * b.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    let tol = 1e-12 * scale.max(1e-300) * m as f64;
+    for _ in 0..3 * k {
+        let w = gradient(&x);
+        let Some(t) = (0..k).filter(|&j| !passive[j] && w[j] > tol).max_by(|&i, &j| w[i].total_cmp(&w[j])) else { break };
+        passive[t] = true;
+        loop {
+            let z = restricted(&passive);
+            if (0..k).all(|j| !passive[j] || z[j] > 0.0) {
+                x = z;
+                break;
+            }
+            let alpha = (0..k)
+                .filter(|&j| passive[j] && z[j] <= 0.0)
+                .map(|j| x[j] / (x[j] - z[j]))
+                .fold(f64::INFINITY, f64::min);
+            for j in 0..k {
+                x[j] += alpha * (z[j] - x[j]);
+                if passive[j] && x[j] <= 1e-15 {
+                    passive[j] = false;
+                    x[j] = 0.0;
+                }
+            }
+            if !passive.iter().any(|&p| p) {
+                break;
+            }
+        }
+    }
+    x
+}
+
+/// Solves the k×k system `a`·x = `b` in place (Gaussian elimination, partial pivoting); false
+/// when singular.
+fn solve_dense(a: &mut [f64], b: &mut [f64], k: usize) -> bool {
+    for col in 0..k {
+        let pivot = (col..k).max_by(|&i, &j| a[i * k + col].abs().total_cmp(&a[j * k + col].abs())).unwrap_or(col);
+        if !(a[pivot * k + col].abs() > 1e-300) {
+            return false;
+        }
+        if pivot != col {
+            for c in 0..k {
+                a.swap(pivot * k + c, col * k + c);
+            }
+            b.swap(pivot, col);
+        }
+        for row in col + 1..k {
+            let f = a[row * k + col] / a[col * k + col];
+            for c in col..k {
+                a[row * k + c] -= f * a[col * k + c];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    for row in (0..k).rev() {
+        let s: f64 = (row + 1..k).map(|c| a[row * k + c] * b[c]).sum();
+        b[row] = (b[row] - s) / a[row * k + row];
+    }
+    b.iter().all(|x| x.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_flat_target_is_a_conductance() {
+        let centres = [125.0, 250.0, 500.0, 1000.0];
+        let fit = fit_material(&centres, &[0.4; 4], AbsorptionKind::NormalIncidence, 1000.0, None).unwrap();
+        assert!(fit.error_db.iter().all(|e| e.abs() < 0.01), "{:?}", fit.error_db);
+        assert!((fit.admittance.normal_absorption(333.0) - 0.4).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_rigid_material_fits_to_a_rigid_wall() {
+        let fit = fit_material(&[125.0, 250.0], &[0.0, 0.0], AbsorptionKind::RandomIncidence, 500.0, None).unwrap();
+        assert!(fit.admittance.is_rigid(), "{:?}", fit.admittance);
+    }
+}
