@@ -29,8 +29,8 @@ EXIT_INTERRUPTED = 130
 
 def cmd_check(args: argparse.Namespace) -> int:
     # Imported here, not at the top, so that `sonolux --help` stays fast.
-    from sonolux.check import format_summary, summarize
     from sonolux.scene import load_scene
+    from sonolux.scene.summary import format_summary, summarize
 
     summary = summarize(load_scene(args.scene))
     if args.json:
@@ -130,7 +130,7 @@ def cmd_ir(args: argparse.Namespace) -> int:
     import numpy as np
 
     from sonolux.audio import write_wav
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import open_field
 
     field = open_field(args.field)
     r = field.cell_at(*args.at)

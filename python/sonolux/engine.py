@@ -28,21 +28,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sonolux.errors import CoreMissingError
+from sonolux.errors import CoreMissingError, InvalidInputError
 
 if TYPE_CHECKING:
     from sonolux._core import (
         Acoustics,
-        Convolver,
-        Directivity,
         Emitters,
         LightSettings,
         Optics,
         Receivers,
         SoundSettings,
         SoundSource,
-        fold,
-        partition,
     )
 
 #: The binding's names that this gateway hands out as they are.
@@ -85,8 +81,15 @@ def physical_memory_bytes() -> int:
         return 8 << 30
 
 
-def _points(points_m: Any) -> np.ndarray:
-    return np.ascontiguousarray(points_m, dtype=np.float64).reshape(-1, 3)
+def _points(points_m: Any, name: str = "points_m") -> np.ndarray:
+    """float64[k, 3], C-ordered; a single point [x, y, z] counts as k = 1. Any other shape is
+    an InvalidInputError naming the argument (never reshaped into other points)."""
+    p = np.asarray(points_m, dtype=np.float64)
+    if p.ndim == 1 and p.shape[0] == 3:
+        p = p[None]
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InvalidInputError(f"{name}: expected shape (k, 3), got {p.shape}")
+    return np.ascontiguousarray(p)
 
 
 class Geometry:
@@ -100,7 +103,7 @@ class Geometry:
 
     def __init__(self, vertices_m: np.ndarray, triangles: np.ndarray,
                  material_ids: np.ndarray | None = None) -> None:
-        v = _points(vertices_m)
+        v = _points(vertices_m, "vertices_m")
         t = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
         if material_ids is None:
             material_ids = np.zeros(t.shape[0], dtype=np.uint32)
@@ -149,7 +152,7 @@ class Geometry:
                     threads: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """(t float64[k], inf on a miss; triangle int64[k], -1 on a miss). Directions need not
         be unit length: t is in units of the direction."""
-        o, d = _points(origins_m), _points(directions)
+        o, d = _points(origins_m, "origins_m"), _points(directions, "directions")
         t, tri = self._native.closest_hit(o, d, t_max, threads)
         return np.asarray(t, dtype=np.float64), np.asarray(tri, dtype=np.int64)
 

@@ -13,9 +13,9 @@ import soundfile as sf
 from sonolux import cli
 from sonolux.audio import write_wav
 from sonolux.errors import SonoluxError
+from sonolux.fieldfile import save_fields
 from sonolux.report import extras
 from sonolux.report.build import ReportOptions, build_report
-from sonolux.sound.fieldfile import save
 from tests.analysis.fields import decaying_grid
 from tests.plots.test_plots import PNG
 
@@ -23,7 +23,7 @@ from tests.plots.test_plots import PNG
 @pytest.fixture
 def field_file(tmp_path):
     field, _, _ = decaying_grid((0.6, 1.3, 2.0), duration_s=2.5)
-    return save(field, tmp_path / "grid.h5")
+    return save_fields(tmp_path / "grid.h5", sound=field)
 
 
 def references(index):

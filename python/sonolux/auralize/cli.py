@@ -83,7 +83,7 @@ def cmd_auralize(args: argparse.Namespace) -> int:
     from sonolux.audio import write_wav
     from sonolux.auralize.offline import AuralizeSettings, auralize, load_dry
     from sonolux.errors import SonoluxError
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import open_field
 
     field = open_field(args.field)
     fs = field.sample_rate_hz

@@ -15,7 +15,7 @@ from pathlib import Path
 def cmd_params(args: argparse.Namespace) -> int:
     from sonolux.analysis.params import room_parameters
     from sonolux.analysis.tables import format_cell, format_grid, to_json
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import open_field
 
     field = open_field(args.field)
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"
