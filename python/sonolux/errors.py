@@ -3,8 +3,9 @@
 Every error that a user can cause by what they hand in (a scene file, a dict, a name, a field
 file, a setting) is a :class:`SonoluxError`, those raised by the compiled core included (it
 raises :class:`InvalidInputError` and :class:`GeometryError`, defined here). The command
-line turns each one into a single line, ``sonolux: error: <message>``, so the message must stand on its own: it names the file, the
-line when known, the dotted key, the value and what would have been allowed.
+line turns each one into a single line, ``sonolux: error: <message>``, so the message must
+stand on its own: it names the file, the line when known, the dotted key, the value and what
+would have been allowed.
 
 :class:`SceneError` is the error of the scene layer. Its ``str()`` is one sentence::
 

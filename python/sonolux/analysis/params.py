@@ -40,9 +40,8 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.errors import AnalysisError
-
 from sonolux.analysis.decay import c50, c80, centre_time_s, d50, decay_times, strength_g_db
+from sonolux.errors import AnalysisError
 from sonolux.sound.field import SoundField
 
 #: name: (label, unit, scale to the unit, ISO 3382-1 just-noticeable difference in that unit)
