@@ -22,13 +22,7 @@ from sonolux.scene import Scene, load_scene
 from sonolux.sound.bake import bake
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
-
-try:
-    from importlib.metadata import PackageNotFoundError, version
-
-    __version__ = version("sonolux")
-except PackageNotFoundError:  # running from the source tree (PYTHONPATH=python)
-    __version__ = "0.1.0"
+from sonolux.version import __version__
 
 __all__ = ["LightField", "LightOptions", "Scene", "SceneError", "SonoluxError", "SoundField",
            "SoundOptions", "__version__", "bake", "bake_light", "load_scene", "open",

@@ -79,7 +79,7 @@ def save_fields(path: str | Path, *, sound: SoundField | None = None,
     """Writes the fields given to ``path`` (a temporary file beside it, then renamed)."""
     import h5py
 
-    from sonolux import __version__
+    from sonolux.version import __version__
 
     if sound is None and light is None:
         raise SonoluxError(f"{path}: nothing to write (neither a sound nor a light field)")

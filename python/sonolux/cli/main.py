@@ -13,9 +13,9 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from sonolux import __version__
 from sonolux.cli import light, listen, measure, scene
 from sonolux.errors import SonoluxError
+from sonolux.version import __version__
 
 EXIT_USAGE = 2  # argparse's status for a bad command line, and ours for a bad scene
 EXIT_BUG = 1

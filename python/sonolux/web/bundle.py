@@ -150,7 +150,7 @@ def _write_responses(sound: SoundField, path: Path, options: WebExportOptions,
 
 def _index(sound: SoundField, options: WebExportOptions, cells: list[dict], gain: float,
            n_bytes: int, longest: int, tris: np.ndarray, head_z: float, glb) -> dict:
-    from sonolux import __version__
+    from sonolux.version import __version__
 
     pos = sound.positions_m
     if len(tris):
