@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import sonolux
-from sonolux.check import summarize
+from sonolux.scene.summary import summarize
 from sonolux.errors import SceneError
 from sonolux.light.bake import bake_light
 from sonolux.light.daylight import (

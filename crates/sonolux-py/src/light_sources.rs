@@ -12,10 +12,10 @@ use sonolux_core::glam_export::DVec3;
 use sonolux_core::light::{DirectionTable, LightSource, WorkPlane};
 use sonolux_core::sampling::Frame;
 
-use crate::{to_py, InvalidInputError};
+use crate::{invalid, to_py};
 
 fn bad(msg: String) -> PyErr {
-    InvalidInputError::new_err(msg)
+    invalid(msg)
 }
 
 /// Reads d[key] as T, None where the key is absent; the error names the key.
@@ -139,4 +139,27 @@ pub(crate) fn transmittance(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[f64;
         return Err(bad(format!("transmittance: expected shape (materials, 3), got {:?}", a.shape())));
     }
     Ok(a.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+}
+
+/// What a light bake has besides Lambertian triangles (keyword arguments only): sources (a dict,
+/// see [`extra_sources`]), transmittance float64[material, 3] (glazing; 0 = opaque) and
+/// work_plane (a dict, see [`work_plane`]). Validated here, once.
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct Lighting {
+    pub(crate) sources: Vec<LightSource>,
+    pub(crate) transmittance: Vec<[f64; 3]>,
+    pub(crate) work_plane: Option<WorkPlane>,
+}
+
+#[pymethods]
+impl Lighting {
+    #[new]
+    #[pyo3(signature = (*, sources = None, transmittance = None, work_plane = None))]
+    fn new(sources: Option<Bound<'_, PyDict>>, transmittance: Option<PyReadonlyArray2<'_, f64>>, work_plane: Option<Bound<'_, PyDict>>) -> PyResult<Self> {
+        Ok(Lighting {
+            sources: sources.as_ref().map(extra_sources).transpose()?.unwrap_or_default(),
+            transmittance: transmittance.as_ref().map(self::transmittance).transpose()?.unwrap_or_default(),
+            work_plane: work_plane.as_ref().map(self::work_plane).transpose()?,
+        })
+    }
 }
