@@ -27,6 +27,7 @@ __all__ = [
     "Optics",
     "Emitters",
     "LightSettings",
+    "Lighting",
     "trace_light",
     "Convolver",
     "partition",

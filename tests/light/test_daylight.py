@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 import sonolux
-from sonolux.scene.summary import summarize
 from sonolux.errors import SceneError
 from sonolux.light.bake import bake_light
 from sonolux.light.daylight import (
@@ -23,6 +22,7 @@ from sonolux.light.daylight import (
     sun_direction,
     sun_position,
 )
+from sonolux.scene.summary import summarize
 
 
 def test_sun_position_matches_the_spa_worked_example():
