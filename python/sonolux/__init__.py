@@ -19,9 +19,9 @@ from sonolux.light.bake import bake_light
 from sonolux.light.field import LightField
 from sonolux.light.options import LightOptions
 from sonolux.scene import Scene, load_scene
-from sonolux.sound.bake import bake
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.ranges import bake
 from sonolux.version import __version__
 
 __all__ = ["LightField", "LightOptions", "Scene", "SceneError", "SonoluxError", "SoundField",

@@ -3,6 +3,7 @@
 - :mod:`~sonolux.cli.main`: the parser, the error handling, :func:`main`;
 - :mod:`~sonolux.cli.args`: parsers of the values the commands share (X,Y, counts, ranges);
 - :mod:`~sonolux.cli.scene`: ``check``, ``bake``, ``info``, ``ir``, ``experiment``;
+- :mod:`~sonolux.cli.spread`: the checkpoint, resume and Dask flags of ``bake``; ``merge``;
 - :mod:`~sonolux.cli.light`: ``render`` and ``export`` (glTF and the web bundle);
 - :mod:`~sonolux.cli.measure`: ``params`` and ``report``;
 - :mod:`~sonolux.cli.listen`: ``auralize`` and ``serve``.

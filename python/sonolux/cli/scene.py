@@ -12,6 +12,7 @@ import json
 import sys
 
 from sonolux.cli import args as parse
+from sonolux.cli import spread
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -43,17 +44,21 @@ def cmd_bake(args: argparse.Namespace) -> int:
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
-    baked = bake_senses(
-        scene, sound=args.sound, light=args.light, load_s=load_s,
-        sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
-                                   azimuth_bands=args.azimuth_bands,
-                                   elevation_bands=args.elevation_bands, ray_range=args.range),
-        light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
-        progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
-    for field in (baked.sound, baked.light):
-        if field is not None and field.stats.get("cancelled"):
-            print("sonolux: stopped early: the field holds what was traced so far", file=sys.stderr)
-    path = save_fields(args.output, sound=baked.sound, light=baked.light, bake=baked.report)
+    with spread.sound_baker(args) as (sound_baker, written):
+        baked = bake_senses(
+            scene, sound=args.sound, light=args.light, load_s=load_s,
+            sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
+                                       azimuth_bands=args.azimuth_bands,
+                                       elevation_bands=args.elevation_bands, ray_range=args.range),
+            light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
+            progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
+            sound_baker=sound_baker)
+        for field in (baked.sound, baked.light):
+            if field is not None and field.stats.get("cancelled"):
+                print("sonolux: stopped early: the field holds what was traced so far",
+                      file=sys.stderr)
+        path = save_fields(args.output, sound=baked.sound, light=baked.light, bake=baked.report)
+        written()
     if baked.sound is not None:
         print(format_sound(baked.sound, path))
     if baked.light is not None:
@@ -177,6 +182,7 @@ def add_commands(sub) -> None:
     bake.add_argument("--patch-size", type=float, default=0.25, metavar="M",
                       help="size of the light's surface patches in metres (default 0.25)")
     bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    spread.add_bake_flags(bake)
     bake.set_defaults(func=cmd_bake)
 
     inf = sub.add_parser("info", help="summarise a field file (sound and light)",

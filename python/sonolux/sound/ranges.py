@@ -161,41 +161,57 @@ class SoundRanges:
         return part if total is None else total.add(part)
 
     def encode(self, total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        t = total.template
-        meta = {"settings": t.settings, "stats": total.stats, "theory": t.theory,
-                "scene_name": t.scene_name, "scene_origin": t.scene_origin,
-                "radius_m": t.radius_m, "grid_spacing_m": t.grid_spacing_m, "quantum": t.quantum}
-        arrays = {"counts": total.counts, **{k: getattr(t, k) for k in SMALL_ARRAYS}}
-        if t.grid_index is not None:
-            arrays["grid_index"] = np.asarray(t.grid_index)
-        return _jsonable(meta), arrays
+        return encode_sum(total)
 
     def decode(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
-        template = SoundField(
-            energy=np.zeros((0,), np.float32), **{k: arrays[k] for k in SMALL_ARRAYS},
-            radius_m=meta["radius_m"], grid_index=arrays.get("grid_index"),
-            grid_spacing_m=meta["grid_spacing_m"], settings=meta["settings"], stats={},
-            scene_name=meta["scene_name"], scene_origin=meta["scene_origin"],
-            quantum=meta["quantum"], theory=meta["theory"])
-        return SoundSum(np.array(arrays["counts"], np.uint64), meta["stats"], template)
+        return decode_sum(meta, arrays)
 
     def finish(self, total: SoundSum, done: list[ranges.Range]) -> SoundField:
-        """The field of the summed ranges. A whole bake looks as if done at once (no counts); a
-        part (``ray_range``) keeps its counts and says which ranges it holds, to be merged."""
-        t = total.template
-        parts = ranges.join(done)
-        settings = dict(t.settings, ray_range=[parts[0][0], parts[-1][1]],
-                        fingerprint=self.fingerprint)
-        settings.pop("ray_ranges", None)
-        whole = parts == [(0, self.total)]
-        if len(parts) > 1:
-            settings["ray_ranges"] = [list(r) for r in parts]
-        stats = dict(total.stats)
-        seconds = stats.get("seconds") or 0.0
-        for k, n in (("rays_per_second", "rays"), ("segments_per_second", "segments")):
-            stats[k] = stats.get(n, 0) / seconds if seconds > 0 else None
-        return replace(t, energy=energy_of(total.counts, t.quantum),
-                       counts=None if whole else total.counts, settings=settings, stats=stats)
+        return field_of_sum(total, done, self.total, self.fingerprint)
+
+
+def encode_sum(total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """A sum as JSON-able metadata and exact arrays (for the checkpoint)."""
+    t = total.template
+    meta = {"settings": t.settings, "stats": total.stats, "theory": t.theory,
+            "scene_name": t.scene_name, "scene_origin": t.scene_origin,
+            "radius_m": t.radius_m, "grid_spacing_m": t.grid_spacing_m, "quantum": t.quantum}
+    arrays = {"counts": total.counts, **{k: getattr(t, k) for k in SMALL_ARRAYS}}
+    if t.grid_index is not None:
+        arrays["grid_index"] = np.asarray(t.grid_index)
+    return _jsonable(meta), arrays
+
+
+def decode_sum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
+    """The sum that :func:`encode_sum` wrote."""
+    template = SoundField(
+        energy=np.zeros((0,), np.float32), **{k: arrays[k] for k in SMALL_ARRAYS},
+        radius_m=meta["radius_m"], grid_index=arrays.get("grid_index"),
+        grid_spacing_m=meta["grid_spacing_m"], settings=meta["settings"], stats={},
+        scene_name=meta["scene_name"], scene_origin=meta["scene_origin"],
+        quantum=meta["quantum"], theory=meta["theory"])
+    return SoundSum(np.array(arrays["counts"], np.uint64), meta["stats"], template)
+
+
+def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
+                 fingerprint: str | None) -> SoundField:
+    """The field of the summed ranges ``done`` of a bake of ``rays`` rays. A whole bake looks as
+    if done at once (no counts); a part keeps its counts and says which ranges it holds."""
+    t = total.template
+    parts = ranges.join(done)
+    settings = dict(t.settings, ray_range=[parts[0][0], parts[-1][1]])
+    if fingerprint:
+        settings["fingerprint"] = fingerprint
+    settings.pop("ray_ranges", None)
+    whole = parts == [(0, rays)]
+    if len(parts) > 1:
+        settings["ray_ranges"] = [list(r) for r in parts]
+    stats = dict(total.stats)
+    seconds = stats.get("seconds") or 0.0
+    for k, n in (("rays_per_second", "rays"), ("segments_per_second", "segments")):
+        stats[k] = stats.get(n, 0) / seconds if seconds > 0 else None
+    return replace(t, energy=energy_of(total.counts, t.quantum),
+                   counts=None if whole else total.counts, settings=settings, stats=stats)
 
 
 def _jsonable(value: Any) -> Any:

@@ -1,0 +1,134 @@
+"""Bakes that survive and spread: the flags of ``bake`` for checkpoints, resume and Dask, and the
+``merge`` command. Thin shells over :mod:`sonolux.sound.ranges`, :mod:`sonolux.distributed`
+and :mod:`sonolux.parts`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
+from typing import Any
+
+
+def _count(what: str) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value == int(value) and 1 <= value <= 10**12):
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}: a whole number ≥ 1")
+        return int(value)
+    return parse
+
+
+def _interval(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a checkpoint interval: seconds ≥ 0 "
+                                         "(0: after every range)")
+    return value
+
+
+def add_bake_flags(bake: argparse.ArgumentParser) -> None:
+    """Adds the checkpoint, resume and Dask flags to the ``bake`` parser."""
+    g = bake.add_argument_group("checkpoint and resume (sound)")
+    again = g.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true",
+                       help="continue from the checkpoint beside the output (OUTPUT.checkpoint)")
+    again.add_argument("--restart", action="store_true",
+                       help="discard that checkpoint and bake from the start")
+    g.add_argument("--checkpoint-every", type=_interval, default=60.0, metavar="S",
+                   help="write the checkpoint at most every S seconds (default 60; 0: after "
+                        "every range)")
+    g.add_argument("--no-checkpoint", dest="checkpoint", action="store_false",
+                   help="write no checkpoint (a killed bake then starts over)")
+    g.add_argument("--range-rays", type=_count("a number of rays"), default=None, metavar="N",
+                   help="rays per range in this process (default: 1/16 of the bake, then about "
+                        "one checkpoint interval's worth)")
+    d = bake.add_argument_group("Dask (sound)")
+    d.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="trace the rays as tasks on a Dask cluster: its scheduler's address "
+                        "(tcp://host:8786) or 'local' for a process pool on this machine")
+    d.add_argument("--dask-workers", type=_count("a number of workers"), default=None,
+                   metavar="N", help="worker processes of --dask local (default: the cores)")
+    d.add_argument("--tasks", type=_count("a number of tasks"), default=None, metavar="N",
+                   help="ray ranges to make tasks of (default: 2 per worker thread)")
+
+
+@contextmanager
+def sound_baker(args: argparse.Namespace) -> Iterator[tuple[Any, Callable[[], None]]]:
+    """(the sound baker for :func:`sonolux.multisensory.bake_senses`, the function to call once
+    the output is safely written: it removes the checkpoint). The plain bake when neither a
+    checkpoint nor Dask is asked for."""
+    from sonolux.checkpoint import side_file
+    from sonolux.errors import SonoluxError
+
+    if not args.checkpoint and (args.resume or args.restart):
+        raise SonoluxError("--resume and --restart need the checkpoint: drop --no-checkpoint")
+    if args.dask_workers is not None and args.dask is None:
+        raise SonoluxError("--dask-workers is for --dask local")
+    if not args.checkpoint and args.dask is None:
+        yield None, lambda: None
+        return
+    checkpoint = side_file(args.output) if args.checkpoint else None
+    context: Any = nullcontext(None)
+    if args.dask is not None:
+        from sonolux.distributed import connect
+
+        context = connect(args.dask, args.dask_workers)
+    with context as client:
+        def bake(scene: Any, options: Any, progress: Any = False, log: Any = None) -> Any:
+            from sonolux.sound.ranges import SoundRanges, bake_ranges
+
+            work = SoundRanges(scene, options, log=log)
+            field, report = bake_ranges(
+                work, client=client, checkpoint=checkpoint, resume=args.resume,
+                restart=args.restart, checkpoint_every_s=args.checkpoint_every,
+                range_rays=args.range_rays, tasks=args.tasks, progress=progress, log=log)
+            if log and report["restored"]:
+                log(f"{report['restored']:,} rays came from the checkpoint, "
+                    f"{sum(b - a for a, b in report['ranges']):,} were traced now")
+            return field
+
+        def done() -> None:
+            if checkpoint is not None:
+                checkpoint.unlink(missing_ok=True)
+
+        yield bake, done
+
+
+def cmd_merge(args: argparse.Namespace) -> int:
+    from sonolux.fieldfile import save_fields
+    from sonolux.parts import merge_parts
+    from sonolux.sound.info import format_info
+
+    field, report = merge_parts(args.parts, partial=args.partial)
+    path = save_fields(args.output, sound=field)
+    print(format_info(field, path))
+    state = ("complete" if not report["missing"] else "partial, missing rays "
+             + ", ".join(f"{a}..{b}" for a, b in report["missing"]))
+    print(f"merged {report['parts']} parts of a {report['rays']:,}-ray bake ({state}) -> {path}")
+    return 0
+
+
+def add_commands(sub: Any) -> None:
+    """Adds ``merge`` to the subcommand table ``sub``."""
+    merge = sub.add_parser(
+        "merge", help="add up the parts of a bake (ray ranges, checkpoints) into one field",
+        description="Add up the parts of one sound bake: field files baked with --range (on "
+                    "several machines, say) and checkpoints of stopped bakes. The parts must "
+                    "come from the same scene, settings and version and share no rays; the "
+                    "rays that no part holds are named. The sum is exact: a complete merge has "
+                    "the bits of the bake done at once.")
+    merge.add_argument("parts", nargs="+", metavar="PART",
+                       help="field files (.h5) with counts, or OUTPUT.checkpoint files")
+    merge.add_argument("-o", "--output", required=True, help="the field file to write (.h5)")
+    merge.add_argument("--partial", action="store_true",
+                       help="write the sum even when rays are missing (a part, to merge later)")
+    merge.set_defaults(func=cmd_merge)
