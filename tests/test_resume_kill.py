@@ -1,0 +1,104 @@
+"""Kill tests: ``sonolux bake`` killed with SIGKILL at random moments (and once in the middle of
+writing its checkpoint), resumed each time with ``--resume``, ends with the same bits as one
+uninterrupted bake."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import sonolux
+from sonolux import checkpoint as side
+
+pytestmark = pytest.mark.usefixtures("core")
+BAKE = ["bake", "paper-small", "--rays", "40000", "--no-light", "-q", "--range-rays", "2500",
+        "--checkpoint-every", "0"]
+KILLS = 5
+
+
+def sonolux_cmd(*argv):
+    return [sys.executable, "-c", "import sys; from sonolux.cli import main; sys.exit(main())",
+            *map(str, argv)]
+
+
+def start(out, env=None):
+    return subprocess.Popen(sonolux_cmd(*BAKE, "-o", out, "--resume"), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, env=env)
+
+
+def kill_at(proc, seconds):
+    """SIGKILL after ``seconds``; True if it was still running then."""
+    try:
+        proc.wait(timeout=seconds)
+        return False
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        return True
+
+
+def test_sigkill_at_random_moments_then_resume_gives_the_same_bits(tmp_path):
+    reference = tmp_path / "reference.h5"
+    started = time.perf_counter()
+    done = subprocess.run(sonolux_cmd(*BAKE, "-o", reference), capture_output=True, text=True)
+    uninterrupted_s = time.perf_counter() - started
+    assert done.returncode == 0, done.stderr
+    out = tmp_path / "killed.h5"
+    ckpt = side.side_file(out)
+    rng = random.Random(20)
+    kills, runs = 0, 0
+    while kills < KILLS and runs < 4 * KILLS:
+        runs += 1
+        if kill_at(start(out), rng.uniform(0.2, 0.9) * uninterrupted_s):
+            kills += 1
+            if ckpt.exists():
+                side.read(ckpt)  # whatever moment the kill came, the checkpoint is whole
+        elif out.exists():  # finished before the kill: start over, it must resume again
+            out.unlink()
+    assert kills == KILLS
+
+    # One kill in the middle of a checkpoint write: the write pauses after its header.
+    assert ckpt.exists() or not out.exists()
+    before = ckpt.read_bytes() if ckpt.exists() else None
+    proc = start(out, env=dict(os.environ, **{side.PAUSE_ENV: "30"}))
+    deadline = time.monotonic() + 60
+    while not list(tmp_path.glob(f".{ckpt.name}.*.tmp")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert list(tmp_path.glob(f".{ckpt.name}.*.tmp")), "the checkpoint write never started"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    if before is not None:
+        assert ckpt.read_bytes() == before  # the last good checkpoint is untouched
+
+    final = subprocess.run(sonolux_cmd(*BAKE, "-o", out, "--resume"), capture_output=True,
+                           text=True)
+    assert final.returncode == 0, final.stderr
+    assert "resuming from" in final.stderr
+    assert not ckpt.exists() and not list(tmp_path.glob(".*.tmp"))
+    a, b = sonolux.open(reference), sonolux.open(out)
+    assert np.array_equal(a.energy, b.energy)
+    assert a.settings["ray_range"] == b.settings["ray_range"] == [0, 40000]
+
+
+def test_without_resume_an_existing_checkpoint_gives_a_hint(tmp_path):
+    out = tmp_path / "f.h5"
+    ckpt = side.side_file(out)
+    proc = subprocess.Popen(sonolux_cmd(*BAKE, "-o", out), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while not ckpt.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert ckpt.exists()
+    again = subprocess.run(sonolux_cmd(*BAKE, "-o", out), capture_output=True, text=True)
+    assert again.returncode == 2
+    assert "add --resume to continue it, or --restart" in again.stderr
+    assert "Traceback" not in again.stderr
