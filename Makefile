@@ -73,7 +73,7 @@ bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomaco
 	$(PY) benchmarks/mesh_room.py
 	$(PY) benchmarks/light.py
 	$(PY) benchmarks/auralize.py
-	$(PY) benchmarks/distributed.py
+	$(PY) benchmarks/dask_bake.py
 	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
 
 validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md
