@@ -29,8 +29,9 @@ import numpy as np
 
 import sonolux
 from sonolux.distributed import connect
+from sonolux.range_bake import bake_ranges
 from sonolux.sound.bake import bake as bake_whole
-from sonolux.sound.ranges import SoundRanges, bake_ranges
+from sonolux.sound.ranges import SoundRanges
 
 RESULTS = Path(__file__).resolve().parent / "results" / "dask_bake.json"
 

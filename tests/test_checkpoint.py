@@ -11,7 +11,7 @@ import pytest
 
 import sonolux
 from sonolux import checkpoint as side
-from sonolux.sound.ranges import scene_content
+from sonolux.ranges import scene_content
 
 from .conftest import EXAMPLES
 

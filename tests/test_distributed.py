@@ -79,6 +79,30 @@ def test_dask_bake_with_a_checkpoint_resumes_on_the_cluster(client, small, whole
     assert not path.exists()
 
 
+def test_dask_light_bake_has_the_bits_of_a_local_bake(client, small):
+    from sonolux.light.bake import bake_light
+
+    whole = bake_light(small, particles=30_000)
+    field = sonolux.bake_light(small, particles=30_000, client=client, tasks=3)
+    assert np.array_equal(field.flux_w, whole.flux_w) and np.array_equal(field.hits, whole.hits)
+    assert field.stats["flux_absorbed_w"] == whole.stats["flux_absorbed_w"]
+
+
+def test_cli_dask_local_both_senses(tmp_path, capsys):
+    from sonolux import cli
+    from sonolux.light.bake import bake_light
+
+    out = tmp_path / "f.h5"
+    code = cli.main(["bake", "paper-small", "--rays", "6000", "--particles", "20000", "-q",
+                     "-o", str(out), "--dask", "local", "--dask-workers", "1"])
+    assert code == 0, capsys.readouterr().err
+    small = sonolux.load_scene("paper-small")
+    assert np.array_equal(sonolux.open(out).energy, bake_whole(small, rays=6000).energy)
+    assert np.array_equal(sonolux.open_light_field(out).flux_w,
+                          bake_light(small, particles=20000).flux_w)
+    assert not list(tmp_path.glob("*.checkpoint"))
+
+
 def test_cli_dask_local(tmp_path, capsys):
     from sonolux import cli
 

@@ -102,3 +102,33 @@ def test_without_resume_an_existing_checkpoint_gives_a_hint(tmp_path):
     assert again.returncode == 2
     assert "add --resume to continue it, or --restart" in again.stderr
     assert "Traceback" not in again.stderr
+
+
+def test_a_light_bake_killed_and_resumed_gives_the_same_bits(tmp_path):
+    bake = ["bake", "paper-small", "--no-sound", "--particles", "2000000", "-q",
+            "--range-rays", "100000", "--checkpoint-every", "0"]
+    reference = tmp_path / "reference.h5"
+    started = time.perf_counter()
+    done = subprocess.run(sonolux_cmd(*bake, "-o", reference), capture_output=True, text=True)
+    uninterrupted_s = time.perf_counter() - started
+    assert done.returncode == 0, done.stderr
+    out = tmp_path / "killed.h5"
+    ckpt = side.side_file(str(out) + ".light")
+    rng = random.Random(21)
+    kills = 0
+    for _ in range(20):
+        proc = subprocess.Popen(sonolux_cmd(*bake, "-o", out, "--resume"),
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        if kill_at(proc, rng.uniform(0.4, 0.9) * uninterrupted_s):
+            kills += 1
+            if kills >= 3 and ckpt.exists():  # (a kill before the first write leaves none)
+                break
+        elif out.exists():
+            out.unlink()
+    assert kills >= 3 and ckpt.exists()
+    final = subprocess.run(sonolux_cmd(*bake, "-o", out, "--resume"), capture_output=True,
+                           text=True)
+    assert final.returncode == 0, final.stderr
+    assert "resuming from" in final.stderr and not ckpt.exists()
+    a, b = sonolux.open_light_field(reference), sonolux.open_light_field(out)
+    assert np.array_equal(a.flux_w, b.flux_w) and np.array_equal(a.hits, b.hits)

@@ -15,9 +15,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from sonolux.errors import SceneError, SonoluxError
 from sonolux.fieldfile import open_field as open
 from sonolux.fieldfile import open_light_field
-from sonolux.light.bake import bake_light
 from sonolux.light.field import LightField
 from sonolux.light.options import LightOptions
+from sonolux.light.ranges import bake as bake_light
 from sonolux.scene import Scene, load_scene
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions

@@ -24,20 +24,47 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
 from sonolux import checkpoint as side
+from sonolux import engine
 from sonolux.errors import SonoluxError
+from sonolux.scene.schema import Scene
 
 Range = tuple[int, int]
 Progress = Callable[[int, int, float], bool]
 #: With checkpoints on and no range size given, the first range is this share of the bake; the
 #: next ones are sized from its speed to take one checkpoint interval.
 FIRST_RANGE_SHARE = 1 / 16
+#: The last scene a worker process rebuilt (its fingerprint, the scene with its BVH).
+_WORKER_SCENE: dict[str, Scene] = {}
+
+
+def scene_content(scene: Scene) -> Scene:
+    """The scene without what does not change a bake's bits: its BVH handle (rebuilt from the
+    triangles), warnings, where it was loaded from and the thread count. Fingerprinted, it is
+    the scene part of a checkpoint's stamp; pickled, what a Dask task carries."""
+    return replace(scene, geometry=None, warnings=[], origin="",
+                   settings=replace(scene.settings, threads=0))
+
+
+def loaded_scene(scene: Scene, key: str, threads: int | None = None) -> Scene:
+    """``scene`` with its BVH: as given, or (in a worker, where it arrives without one) rebuilt
+    from its triangles once per worker process and kept under ``key``; with ``threads`` engine
+    threads if given."""
+    if scene.geometry is None:
+        if key not in _WORKER_SCENE:
+            _WORKER_SCENE.clear()
+            _WORKER_SCENE[key] = replace(scene, geometry=engine.Geometry(
+                scene.vertices_m, scene.triangles, scene.material_index))
+        scene = _WORKER_SCENE[key]
+    if threads is not None:
+        scene = replace(scene, settings=replace(scene.settings, threads=threads))
+    return scene
 
 
 class RangeWork(Protocol):

@@ -11,9 +11,10 @@ import pytest
 import sonolux
 from sonolux import checkpoint as side
 from sonolux.errors import SonoluxError
+from sonolux.range_bake import bake_ranges
 from sonolux.ranges import join, missing, split
 from sonolux.sound.bake import bake as bake_whole
-from sonolux.sound.ranges import SoundRanges, bake, bake_ranges
+from sonolux.sound.ranges import SoundRanges, bake
 
 pytestmark = pytest.mark.usefixtures("core")
 RAYS = 3000

@@ -44,7 +44,7 @@ def cmd_bake(args: argparse.Namespace) -> int:
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
-    with spread.sound_baker(args) as (sound_baker, written):
+    with spread.bakers(args) as (sound_baker, light_baker, written):
         baked = bake_senses(
             scene, sound=args.sound, light=args.light, load_s=load_s,
             sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
@@ -52,7 +52,7 @@ def cmd_bake(args: argparse.Namespace) -> int:
                                        elevation_bands=args.elevation_bands, ray_range=args.range),
             light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
             progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
-            sound_baker=sound_baker)
+            sound_baker=sound_baker, light_baker=light_baker)
         for field in (baked.sound, baked.light):
             if field is not None and field.stats.get("cancelled"):
                 print("sonolux: stopped early: the field holds what was traced so far",

@@ -37,21 +37,22 @@ def _interval(text: str) -> float:
 
 def add_bake_flags(bake: argparse.ArgumentParser) -> None:
     """Adds the checkpoint, resume and Dask flags to the ``bake`` parser."""
-    g = bake.add_argument_group("checkpoint and resume (sound)")
+    g = bake.add_argument_group("checkpoint and resume")
     again = g.add_mutually_exclusive_group()
     again.add_argument("--resume", action="store_true",
-                       help="continue from the checkpoint beside the output (OUTPUT.checkpoint)")
+                       help="continue from the checkpoints beside the output (OUTPUT.checkpoint for "
+                            "sound, OUTPUT.light.checkpoint for light)")
     again.add_argument("--restart", action="store_true",
-                       help="discard that checkpoint and bake from the start")
+                       help="discard those checkpoints and bake from the start")
     g.add_argument("--checkpoint-every", type=_interval, default=60.0, metavar="S",
                    help="write the checkpoint at most every S seconds (default 60; 0: after "
                         "every range)")
     g.add_argument("--no-checkpoint", dest="checkpoint", action="store_false",
                    help="write no checkpoint (a killed bake then starts over)")
     g.add_argument("--range-rays", type=_count("a number of rays"), default=None, metavar="N",
-                   help="rays per range in this process (default: 1/16 of the bake, then about "
-                        "one checkpoint interval's worth)")
-    d = bake.add_argument_group("Dask (sound)")
+                   help="rays (or light particles) per range in this process (default: 1/16 of "
+                        "the bake, then about one checkpoint interval's worth)")
+    d = bake.add_argument_group("Dask")
     d.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="trace the rays as tasks on a Dask cluster: its scheduler's address "
                         "(tcp://host:8786) or 'local' for a process pool on this machine")
@@ -62,10 +63,14 @@ def add_bake_flags(bake: argparse.ArgumentParser) -> None:
 
 
 @contextmanager
-def sound_baker(args: argparse.Namespace) -> Iterator[tuple[Any, Callable[[], None]]]:
-    """(the sound baker for :func:`sonolux.multisensory.bake_senses`, the function to call once
-    the output is safely written: it removes the checkpoint). The plain bake when neither a
-    checkpoint nor Dask is asked for."""
+def bakers(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Callable[[], None]]]:
+    """(the sound baker and the light baker for :func:`sonolux.multisensory.bake_senses`, the
+    function to call once the output is safely written: it removes the checkpoints). None for
+    the plain bakes, when neither a checkpoint nor Dask is asked for. The sound bake's
+    checkpoint is OUTPUT.checkpoint, the light bake's OUTPUT.light.checkpoint; one Dask client
+    serves both."""
+    from pathlib import Path
+
     from sonolux.checkpoint import side_file
     from sonolux.errors import SonoluxError
 
@@ -74,33 +79,45 @@ def sound_baker(args: argparse.Namespace) -> Iterator[tuple[Any, Callable[[], No
     if args.dask_workers is not None and args.dask is None:
         raise SonoluxError("--dask-workers is for --dask local")
     if not args.checkpoint and args.dask is None:
-        yield None, lambda: None
+        yield None, None, lambda: None
         return
-    checkpoint = side_file(args.output) if args.checkpoint else None
+    sound_side = side_file(args.output) if args.checkpoint else None
+    light_side = side_file(Path(str(args.output) + ".light")) if args.checkpoint else None
     context: Any = nullcontext(None)
     if args.dask is not None:
         from sonolux.distributed import connect
 
         context = connect(args.dask, args.dask_workers)
     with context as client:
-        def bake(scene: Any, options: Any, progress: Any = False, log: Any = None) -> Any:
-            from sonolux.sound.ranges import SoundRanges, bake_ranges
+        def in_ranges(make_work: Callable[..., Any], side: Any) -> Callable[..., Any]:
+            def bake(scene: Any, options: Any, progress: Any = False, log: Any = None) -> Any:
+                from sonolux.range_bake import bake_ranges
 
-            work = SoundRanges(scene, options, log=log)
-            field, report = bake_ranges(
-                work, client=client, checkpoint=checkpoint, resume=args.resume,
-                restart=args.restart, checkpoint_every_s=args.checkpoint_every,
-                range_rays=args.range_rays, tasks=args.tasks, progress=progress, log=log)
-            if log and report["restored"]:
-                log(f"{report['restored']:,} rays came from the checkpoint, "
-                    f"{sum(b - a for a, b in report['ranges']):,} were traced now")
-            return field
+                work = make_work(scene, options, log=log)
+                field, report = bake_ranges(
+                    work, client=client, checkpoint=side, resume=args.resume,
+                    restart=args.restart, checkpoint_every_s=args.checkpoint_every,
+                    range_rays=args.range_rays, tasks=args.tasks, progress=progress, log=log)
+                if log and report["restored"]:
+                    log(f"{report['restored']:,} {work.unit} came from the checkpoint, "
+                        f"{sum(b - a for a, b in report['ranges']):,} were traced now")
+                return field
+            return bake
+
+        def sound_work(*a: Any, **k: Any) -> Any:
+            from sonolux.sound.ranges import SoundRanges
+            return SoundRanges(*a, **k)
+
+        def light_work(*a: Any, **k: Any) -> Any:
+            from sonolux.light.ranges import LightRanges
+            return LightRanges(*a, **k)
 
         def done() -> None:
-            if checkpoint is not None:
-                checkpoint.unlink(missing_ok=True)
+            for side in (sound_side, light_side):
+                if side is not None:
+                    side.unlink(missing_ok=True)
 
-        yield bake, done
+        yield in_ranges(sound_work, sound_side), in_ranges(light_work, light_side), done
 
 
 def cmd_merge(args: argparse.Namespace) -> int:

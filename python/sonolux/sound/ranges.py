@@ -19,10 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from sonolux import engine, ranges
+from sonolux import range_bake, ranges
 from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
-from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 from sonolux.sound.bake import auto_rays, band_arrays
 from sonolux.sound.bake import bake as bake_whole
@@ -35,17 +34,6 @@ SUMMED_STATS = ("rays", "segments", "surface_hits", "escaped_rays", "deposits", 
 #: The SoundField arrays a sum carries besides the counts (small: bins, bands, points).
 SMALL_ARRAYS = ("bin_start_s", "bin_width_s", "bands_hz", "positions_m", "source_positions_m",
                 "source_powers_w")
-#: The last scene a worker process rebuilt (its fingerprint, the scene with its BVH).
-_WORKER_SCENE: dict[str, Scene] = {}
-
-
-def scene_content(scene: Scene) -> Scene:
-    """The scene without what does not change the bake's bits: its BVH handle (rebuilt from the
-    triangles), warnings, where it was loaded from and the thread count."""
-    return replace(scene, geometry=None, warnings=[], origin="",
-                   settings=replace(scene.settings, threads=0))
-
-
 @dataclass
 class SoundSum:
     """The exact sum of some ray ranges of one sound bake: ``counts``
@@ -129,7 +117,7 @@ class SoundRanges:
         self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None)
         self.max_field_bytes = options.max_field_bytes
         self.scene, self.name = scene, scene.name
-        self.stamp = {"scene": fingerprint(scene_content(scene)),
+        self.stamp = {"scene": fingerprint(ranges.scene_content(scene)),
                       "settings": fingerprint(self.options), "version": __version__}
         self.fingerprint = fingerprint("sound", self.stamp)
 
@@ -137,19 +125,7 @@ class SoundRanges:
         return dict(self.__dict__, scene=replace(self.scene, geometry=None))
 
     def loaded_scene(self, threads: int | None = None) -> Scene:
-        """The scene with its BVH: the one given, or (in a worker) rebuilt from its triangles,
-        once per worker process."""
-        scene = self.scene
-        if scene.geometry is None:
-            key = self.stamp["scene"]
-            if key not in _WORKER_SCENE:
-                _WORKER_SCENE.clear()
-                _WORKER_SCENE[key] = replace(scene, geometry=engine.Geometry(
-                    scene.vertices_m, scene.triangles, scene.material_index))
-            scene = _WORKER_SCENE[key]
-        if threads is not None:
-            scene = replace(scene, settings=replace(scene.settings, threads=threads))
-        return scene
+        return ranges.loaded_scene(self.scene, self.stamp["scene"], threads)
 
     def trace(self, first: int, end: int, threads: int | None = None,
               progress: ranges.Progress | None = None) -> SoundSum:
@@ -247,37 +223,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *, client: Any = Non
     if client is None and checkpoint is None:
         return bake_whole(scene, options, progress=progress, log=log)
     work = SoundRanges(scene, options, log=log)
-    field, _ = bake_ranges(work, client=client, checkpoint=checkpoint, resume=resume,
+    field, _ = range_bake.bake_ranges(work, client=client, checkpoint=checkpoint, resume=resume,
                            restart=restart, checkpoint_every_s=checkpoint_every_s,
                            range_rays=range_rays, tasks=tasks, progress=progress, log=log)
     if checkpoint is not None:
         Path(checkpoint).unlink(missing_ok=True)
     return field
-
-
-def bake_ranges(work: ranges.RangeWork, *, client: Any = None, checkpoint: str | Path | None = None,
-                resume: bool = False, restart: bool = False, checkpoint_every_s: float = 60.0,
-                range_rays: int | None = None, tasks: int | None = None,
-                progress: bool | ranges.Progress = False,
-                log: Callable[[str], None] | None = None) -> tuple[Any, dict[str, Any]]:
-    """Runs ``work`` in ranges (here, or on ``client``'s Dask cluster), checkpointed to
-    ``checkpoint`` if given; returns (the field, the report of :func:`sonolux.ranges.run_ranges`).
-    The checkpoint is left in place: remove it (``Checkpointing.discard``) once the field is
-    saved."""
-    if not (checkpoint_every_s >= 0):
-        raise SonoluxError(f"checkpoint interval {checkpoint_every_s!r} s is not allowed: a "
-                           "number of seconds ≥ 0")
-    if range_rays is not None and not (isinstance(range_rays, int) and range_rays >= 1):
-        raise SonoluxError(f"rays per range {range_rays!r} is not allowed: a whole number ≥ 1")
-    runner: ranges.Runner
-    if client is not None:
-        from sonolux.distributed import DaskRunner
-
-        runner = DaskRunner(client, tasks=tasks)
-    else:
-        runner = ranges.LocalRunner(range_size=range_rays, interval_s=checkpoint_every_s)
-    side = None if checkpoint is None else ranges.Checkpointing(
-        Path(checkpoint), interval_s=checkpoint_every_s, resume=resume, restart=restart, log=log)
-    callback = ProgressLine(f"{work.kind} {work.name}",
-                            unit=work.unit) if progress is True else (progress or None)
-    return ranges.run_ranges(work, runner, checkpoint=side, progress=callback)
