@@ -6,9 +6,11 @@ only, at its automatic ray count (``--rays`` to change it). Three bakes of the s
 checked to have the same bits:
 
 1. the peer: the plain in-process bake (``sonolux.sound.bake.bake``, every core);
-2. the same bake in ray ranges with a checkpoint written after every range (``--range-rays``,
-   default 1/8 of the rays): what checkpoints cost;
-3. ``--dask local``: a LocalCluster of one worker process per core, one engine thread each,
+2. the same bake as ``sonolux bake`` runs it by default: in ranges, checkpointed at most every
+   60 s (the first range is 1/16 of the bake, the next ones about 60 s each);
+3. the same bake in ray ranges with a checkpoint written after every range (``--range-rays``,
+   default 1/8 of the rays): the worst case of what checkpoints cost;
+4. ``--dask local``: a LocalCluster of one worker process per core, one engine thread each,
    2 tasks per worker (the default); the cluster's start is timed apart.
 
 Each is repeated ``--repeat`` times (default 2) and the fastest kept; the overhead is the ratio
@@ -63,6 +65,15 @@ def main() -> None:
     peer_s, peer = fastest(args.repeat, lambda: bake_whole(scene, rays=rays))
     print(f"in-process bake (peer):            {peer_s:7.2f} s")
 
+    def by_default():
+        with tempfile.TemporaryDirectory() as tmp:
+            return bake_ranges(work, checkpoint=Path(tmp) / "f.h5.checkpoint")
+    default_s, (default_field, default_report) = fastest(args.repeat, by_default)
+    assert np.array_equal(default_field.energy, peer.energy), "default bake: other bits"
+    print(f"default (checkpoint every 60 s):   {default_s:7.2f} s = {default_s / peer_s:.2f} x "
+          f"the peer ({len(default_report['ranges'])} ranges, "
+          f"{default_report['checkpoint_writes']} writes)")
+
     def checkpointed():
         with tempfile.TemporaryDirectory() as tmp:
             return bake_ranges(work, checkpoint=Path(tmp) / "f.h5.checkpoint",
@@ -87,6 +98,9 @@ def main() -> None:
         "scene": "paper-large", "rays": rays, "receivers": scene.receivers.count,
         "field_bins": int(peer.energy.size), "cores": os.cpu_count(), "machine": platform.node(),
         "repeat": args.repeat, "in_process_s": peer_s,
+        "default_checkpointing": {"seconds": default_s, "ratio": default_s / peer_s,
+                                  "ranges": len(default_report["ranges"]),
+                                  "writes": default_report["checkpoint_writes"]},
         "checkpointed": {"seconds": ck_s, "ratio": ck_s / peer_s, "range_rays": range_rays,
                          "writes": ck_report["checkpoint_writes"], "write_s_each": write_s},
         "dask_local": {"seconds": dask_s, "ratio": dask_s / peer_s, "workers": args.workers,
