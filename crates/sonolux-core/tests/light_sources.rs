@@ -17,7 +17,7 @@ mod common;
 fn run(mesh: &Mesh, optics: &Optics, lighting: Lighting, size: f64, particles: u64) -> LightResult {
     let bvh = Bvh::build(mesh).unwrap();
     let patches = Patches::new((0..mesh.triangles.len()).map(|t| mesh.corners(t).map(|v| v.as_dvec3())), size, 4096);
-    let settings = LightSettings { particles, first: 0, end: particles, seed: 11, threads: 2, max_bounces: 100_000 };
+    let settings = LightSettings { particles, first_ray: 0, end_ray: particles, seed: 11, threads: 2, max_bounces: 100_000 };
     trace_light_sources(mesh, &bvh, optics, lighting, patches, &settings, |_| true).unwrap()
 }
 
@@ -287,7 +287,7 @@ fn sources_are_the_same_bits_on_any_thread_count() {
     let bvh = Bvh::build(&mesh).unwrap();
     let go = |threads| {
         let patches = Patches::new((0..mesh.triangles.len()).map(|t| mesh.corners(t).map(|v| v.as_dvec3())), 0.5, 4096);
-        let settings = LightSettings { particles: 50_000, first: 0, end: 50_000, seed: 3, threads, max_bounces: 1000 };
+        let settings = LightSettings { particles: 50_000, first_ray: 0, end_ray: 50_000, seed: 3, threads, max_bounces: 1000 };
         let lighting = Lighting { sources: &sources, transmittance: &[], work_plane: Some(&plane) };
         trace_light_sources(&mesh, &bvh, &optics, lighting, patches, &settings, |_| true).unwrap()
     };
