@@ -44,6 +44,13 @@ def kill_at(proc, seconds):
         return True
 
 
+def _wait(found, seconds):
+    deadline = time.monotonic() + seconds
+    while not found() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    return bool(found())
+
+
 def test_sigkill_at_random_moments_then_resume_gives_the_same_bits(tmp_path):
     reference = tmp_path / "reference.h5"
     started = time.perf_counter()
@@ -52,30 +59,33 @@ def test_sigkill_at_random_moments_then_resume_gives_the_same_bits(tmp_path):
     assert done.returncode == 0, done.stderr
     out = tmp_path / "killed.h5"
     ckpt = side.side_file(out)
+
+    # First, one kill in the middle of a checkpoint write (the write pauses after its header),
+    # once a first checkpoint exists: the last good checkpoint must be left untouched.
+    proc = start(out)
+    assert _wait(ckpt.exists, 60), "no checkpoint was written"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    before = ckpt.read_bytes()
+    proc = start(out, env=dict(os.environ, **{side.PAUSE_ENV: "30"}))
+    assert _wait(lambda: list(tmp_path.glob(f".{ckpt.name}.*.tmp")), 60), \
+        "the checkpoint write never started"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert ckpt.read_bytes() == before
+
+    # Then KILLS kills at random moments, each run resuming the one before.
     rng = random.Random(20)
     kills, runs = 0, 0
     while kills < KILLS and runs < 4 * KILLS:
         runs += 1
         if kill_at(start(out), rng.uniform(0.2, 0.9) * uninterrupted_s):
             kills += 1
-            if ckpt.exists():
-                side.read(ckpt)  # whatever moment the kill came, the checkpoint is whole
-        elif out.exists():  # finished before the kill: start over, it must resume again
+            side.read(ckpt)  # whatever moment the kill came, the checkpoint is whole
+        elif out.exists():  # finished before the kill: bake it again, from a checkpoint
             out.unlink()
+            ckpt.write_bytes(before)
     assert kills == KILLS
-
-    # One kill in the middle of a checkpoint write: the write pauses after its header.
-    assert ckpt.exists() or not out.exists()
-    before = ckpt.read_bytes() if ckpt.exists() else None
-    proc = start(out, env=dict(os.environ, **{side.PAUSE_ENV: "30"}))
-    deadline = time.monotonic() + 60
-    while not list(tmp_path.glob(f".{ckpt.name}.*.tmp")) and time.monotonic() < deadline:
-        time.sleep(0.02)
-    assert list(tmp_path.glob(f".{ckpt.name}.*.tmp")), "the checkpoint write never started"
-    proc.send_signal(signal.SIGKILL)
-    proc.wait()
-    if before is not None:
-        assert ckpt.read_bytes() == before  # the last good checkpoint is untouched
 
     final = subprocess.run(sonolux_cmd(*BAKE, "-o", out, "--resume"), capture_output=True,
                            text=True)
