@@ -4,6 +4,7 @@ also when a worker is killed mid-bake; the command line's --dask local; clear er
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 import sonolux
 from sonolux.errors import SonoluxError
 from sonolux.sound.bake import bake as bake_whole
+
+from .conftest import EXAMPLES
 
 pytestmark = pytest.mark.usefixtures("core")
 distributed = pytest.importorskip("distributed")
@@ -77,6 +80,18 @@ def test_dask_bake_with_a_checkpoint_resumes_on_the_cluster(client, small, whole
     field = sonolux.bake(small, rays=RAYS, client=client, checkpoint=path, resume=True)
     assert np.array_equal(field.energy, whole.energy)
     assert not path.exists()
+
+
+def test_a_mesh_scene_travels_with_the_tasks(client, tmp_path):
+    """The workers never see the mesh file: the tasks carry the triangles it resolved to."""
+    for name in ("mesh_room.toml", "l_room.obj", "l_room.mtl"):
+        shutil.copy(EXAMPLES / name, tmp_path / name)
+    scene = sonolux.load_scene(tmp_path / "mesh_room.toml")
+    here = bake_whole(scene, rays=4000)
+    for name in ("l_room.obj", "l_room.mtl"):
+        (tmp_path / name).unlink()
+    field = sonolux.bake(scene, rays=4000, client=client, tasks=3)
+    assert np.array_equal(field.energy, here.energy)
 
 
 def test_dask_light_bake_has_the_bits_of_a_local_bake(client, small):
