@@ -45,7 +45,7 @@ test-web: build ## the viewer's unit tests and browser tests (headless Chromium;
 web: ## rebuild the viewer (web/) into python/sonolux/web_dist, which ships it (needs Node.js)
 	cd web && { test -x node_modules/.bin/vite || npm install --no-audit --no-fund; } && npm run build
 
-PEERS := pyrato pyroomacoustics mitsuba embreex
+PEERS := pyrato pyroomacoustics mitsuba embreex pyradiance
 
 $(VENV)/.peers-stamp: $(STAMP)
 	@echo "installing the peers used by slow checks and benchmarks (not runtime dependencies): $(PEERS)"
@@ -74,6 +74,7 @@ bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomaco
 	$(PY) benchmarks/sound.py
 	$(PY) benchmarks/mesh_room.py
 	$(PY) benchmarks/light.py
+	$(PY) benchmarks/radiance.py
 	$(PY) benchmarks/auralize.py
 	$(PY) benchmarks/dask_bake.py
 	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
