@@ -171,7 +171,7 @@ def test_theory_comes_from_the_scene_when_it_can_be_loaded(core):
     from sonolux.scene import load_scene
     from sonolux.scene.summary import summarize
 
-    field, _, _ = decaying_grid((0.8,), duration_s=1.0, bands=6)
+    field, _, _ = decaying_grid((0.8,), duration_s=1.0, bands=7)  # paper-small's 125 Hz-8 kHz
     field.scene_name, field.scene_origin = "paper-small", "built-in paper-small"
     p = room_parameters(field)
     expected = summarize(load_scene("paper-small"))
