@@ -57,18 +57,34 @@ TWO_SLOPES = [(1.0, 0.5), (1e-3 * tau_of(0.5) / tau_of(2.0), 2.0)]  # 2nd slope 
 # --- the decay curve ---------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("noise_floor", [None, 0.0])
-def test_exponential_decay_curve_is_a_line(noise_floor):
+COMPENSATIONS = [("none", None), ("lundeby", None), ("lundeby", 0.0)]
+
+
+@pytest.mark.parametrize(("compensation", "noise_floor"), COMPENSATIONS)
+def test_exponential_decay_curve_is_a_line(compensation, noise_floor):
     # A single exponential's EDC is -60 t / T60 dB exactly; 0.01 dB allows float round-off.
-    # Checked over the first 60 dB: with noise_floor=None the record's last 10 % (115 dB
-    # down) is taken for noise, which bends only the curve's far end.
+    # Checked over the first 60 dB: with Lundeby's estimate the record's last 10 % (115 dB
+    # down) is taken for noise, which bends only the curve's far end; the plain integral
+    # misses the energy after 2.5 s, 115 dB down, invisible over the first 60 dB.
     start, width = nonuniform_axis(2.5)
     edc = schroeder_curve(decay_histogram(start, width, [(1.0, T60_S)]), noise_floor,
-                          bin_start_s=start, bin_width_s=width)
+                          bin_start_s=start, bin_width_s=width, compensation=compensation)
     assert edc[0] == 0.0
     assert np.all(np.isfinite(edc))
     upper = start <= T60_S
     np.testing.assert_allclose(edc[upper], -60.0 * start[upper] / T60_S, atol=0.01)
+
+
+def test_plain_curve_ends_at_the_last_deposit():
+    # The plain integral of q^k stops at bin 299: exact up to there (float64 sums from the
+    # end), NaN after; the tail it misses is 0.9^300 = 140 dB down.
+    q = 0.9
+    energy = q ** np.arange(400.0)
+    energy[300:] = 0.0
+    edc = schroeder_curve(energy)
+    exact = 10.0 * np.log10((q ** np.arange(300) - q**300) / (1 - q**300))
+    np.testing.assert_allclose(edc[:300], exact, atol=1e-9)
+    assert np.all(np.isnan(edc[300:]))
 
 
 def test_schroeder_curve_without_time_axis_and_with_empty_tail():
@@ -79,7 +95,7 @@ def test_schroeder_curve_without_time_axis_and_with_empty_tail():
     q = 0.9
     energy = q ** np.arange(400.0)
     energy[300:] = 0.0
-    edc = schroeder_curve(energy)
+    edc = schroeder_curve(energy, 0.0, compensation="lundeby")
     assert np.all(np.isfinite(edc))
     exact = 10.0 * np.arange(400) * math.log10(q)
     np.testing.assert_allclose(edc[:200], exact[:200], atol=1e-5)
@@ -89,12 +105,13 @@ def test_schroeder_curve_without_time_axis_and_with_empty_tail():
 # --- decay times -------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("noise_floor", [None, 0.0])
-def test_exponential_decay_gives_exact_times(noise_floor):
+@pytest.mark.parametrize(("compensation", "noise_floor"), COMPENSATIONS)
+def test_exponential_decay_gives_exact_times(compensation, noise_floor):
     # Tolerance 0.5 % (brief); the EDC is exactly linear, so the error is round-off only.
     start, width = nonuniform_axis(2.5)
     got = decay_times(decay_histogram(start, width, [(1.0, T60_S)]), start, width,
-                      noise_floor=noise_floor)
+                      compensation=compensation, noise_floor=noise_floor)
+    assert got["compensation"] == compensation
     for name in ("edt", "t20", "t30"):
         assert got[f"{name}_s"] == pytest.approx(T60_S, rel=0.005)
         assert got[f"{name}_reason"] == ""
@@ -103,11 +120,18 @@ def test_exponential_decay_gives_exact_times(noise_floor):
 
 
 def test_empty_tail_is_cut_and_extrapolated():
-    # The histogram stops at 1 s (46 dB down): bins after hold exactly zero.
+    # The histogram stops at 1 s (46 dB down): bins after hold exactly zero. Lundeby's
+    # truncation compensation extrapolates; the plain integral misses a tail 46 dB down
+    # (estimated from the mean power of 0.9-1 s, so about 42 dB), less than 20 dB below the
+    # lower ends of T20 and T30: it measures EDT and refuses both (truncation).
     start, width = nonuniform_axis(2.5)
     energy = decay_histogram(start, width, [(1.0, T60_S)])
     energy[start >= 1.0] = 0.0
-    got = decay_times(energy, start, width)
+    plain = decay_times(energy, start, width)
+    assert plain["edt_s"] == pytest.approx(T60_S, rel=0.005)
+    for name in ("t20", "t30"):
+        assert math.isnan(plain[f"{name}_s"]) and "record ends" in plain[f"{name}_reason"]
+    got = decay_times(energy, start, width, compensation="lundeby", noise_floor=0.0)
     assert np.all(np.isfinite(got["edc_db"]))
     assert got["t30_s"] == pytest.approx(T60_S, rel=0.005)
     assert got["floor_db"] == pytest.approx(-60.0 * 1.0 / T60_S, abs=0.1)
@@ -194,7 +218,7 @@ def test_truncated_decay_with_noise_floor():
     energy = (decay_histogram(start, width, [(1.0, T60_S)])
               + noise * width * rng.exponential(size=width.size))
     for floor in (None, noise):
-        got = decay_times(energy, start, width, noise_floor=floor)
+        got = decay_times(energy, start, width, compensation="lundeby", noise_floor=floor)
         assert got["t20_s"] == pytest.approx(T60_S, rel=0.02)
         assert got["t30_s"] == pytest.approx(T60_S, rel=0.02)
         assert got["floor_db"] == pytest.approx(-50.0, abs=3.0)
@@ -208,7 +232,7 @@ def test_range_not_reached_gives_nan_and_reason():
     # The decay stops at 0.5 s, 23 dB down: EDT is measured, T20 and T30 are not.
     start, width = nonuniform_axis(0.5)
     got = decay_times(decay_histogram(start, width, [(1.0, T60_S)]), start, width,
-                      noise_floor=0.0)
+                      compensation="lundeby", noise_floor=0.0)
     assert got["edt_s"] == pytest.approx(T60_S, rel=0.005)
     for name, lower in (("t20", "-25"), ("t30", "-35")):
         assert math.isnan(got[f"{name}_s"])
@@ -218,8 +242,13 @@ def test_range_not_reached_gives_nan_and_reason():
 def test_pure_noise_gives_nan_and_reason():
     rng = np.random.default_rng(0)
     start, width = nonuniform_axis(1.0)
-    got = decay_times(width * rng.exponential(size=width.size), start, width)
+    noise = width * rng.exponential(size=width.size)
+    got = decay_times(noise, start, width, compensation="lundeby")
     assert math.isnan(got["t30_s"]) and "noise" in got["t30_reason"]
+    # Integrated plainly, noise gives a curved EDC (linear in energy): not straight.
+    plain = decay_times(noise, start, width)
+    for name in ("edt", "t20", "t30"):
+        assert math.isnan(plain[f"{name}_s"]) and plain[f"{name}_reason"]
 
 
 def test_leading_axes_are_kept():
@@ -303,7 +332,7 @@ def test_decay_times_match_pyrato():
     p = noisy_power(T60_S, 2.5, -70.0, seed=11)
     edc = ra.edc.energy_decay_curve_chu_lundeby(pf.Signal(p, FS_HZ), time_shift=False)
     start, width = nonuniform_axis(2.5)
-    ours = decay_times(bin_samples(p, start, width), start, width)
+    ours = decay_times(bin_samples(p, start, width), start, width, compensation="lundeby")
     for name in ("T20", "T30"):
         theirs = float(ra.parameters.reverberation_time_linear_regression(edc, name)[0])
         print(f"{name}: sonolux {ours[name.lower() + '_s']:.5f} s, pyrato {theirs:.5f} s")
