@@ -138,8 +138,9 @@ def test_double_slope_matches_closed_form_or_says_why(t1_s, ratio, second_db, th
     exact, curvature = closed_form(slopes, duration_s)
     for name in DECAY_RANGES_DB:
         t_exact, xi_exact = exact[name]
-        passes = xi_exact < 0.8 * XI_LIMIT_PERMILLE
-        fails = xi_exact > 1.2 * XI_LIMIT_PERMILLE
+        # EDT has no linearity check (decay.py): it is always defined here.
+        passes = name == "edt" or xi_exact < 0.8 * XI_LIMIT_PERMILLE
+        fails = name != "edt" and xi_exact > 1.2 * XI_LIMIT_PERMILLE
         if name == "t30":
             passes = passes and abs(curvature) < 0.8 * CURVATURE_LIMIT_PERCENT
             fails = fails or abs(curvature) > 1.2 * CURVATURE_LIMIT_PERCENT

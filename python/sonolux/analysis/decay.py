@@ -29,14 +29,17 @@ crossing times of the range's ends, so that dense early bins weigh no more than 
 ones and any binning of the same decay gives the same line.
 
 Checks. A fit is used only when it passes every check below; otherwise its time is NaN and
-``<name>_reason`` says why (a wrong number would enter means, maps and reports):
+``<name>_reason`` says why, as 'kind: details' (a wrong number would enter means, maps and
+reports):
 
 1. range reached: the curve falls to the range's lower end before its floor (the last
    non-empty bin, or the truncation point t_x);
 2. slope: negative, and no slower than ``max_decay_time_s`` (the slowest decay the room's
    least absorbing surface and its air allow, see :func:`slowest_decay_time_s`);
-3. linearity: ξ = 1000 (1 - r²) ‰ at most 10 ‰ (the non-linearity parameter of ISO 3382-2:2008
-   Annex B, to which ISO 3382-1 refers; values above 10 ‰ mark a curved decay);
+3. linearity (T20, T30): ξ = 1000 (1 - r²) ‰ at most 10 ‰ (the non-linearity parameter of
+   ISO 3382-2:2008 Annex B, to which ISO 3382-1 refers; values above 10 ‰ mark a curved
+   decay). Not for EDT: it is the slope of the early decay by definition, the step of the
+   direct sound included, and near a source its curve is never straight;
 4. curvature: C = 100 (T30 / T20 - 1) % within ±10 % (same annex: 0-5 % is typical, above 10 %
    the decay is not one slope); T30 is left undefined beyond it, T20 kept;
 5. truncation (``"none"`` only): the energy the record misses after its end, estimated as the
@@ -149,7 +152,7 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
         out["floor_db"][i] = curve["floor_db"]
         slopes = {}
         for name, (upper, lower) in DECAY_RANGES_DB.items():
-            fit = _checked_fit(edges[:-1], curve, upper, lower, bounds[i])
+            fit = _checked_fit(edges[:-1], curve, upper, lower, bounds[i], linear=name != "edt")
             out[f"{name}_reason"][i] = fit["reason"]
             out[f"{name}_r"][i] = fit["r"]
             out[f"{name}_xi_permille"][i] = 1000.0 * max(0.0, 1.0 - fit["r"] ** 2)
@@ -164,9 +167,9 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
                     and abs(c) > CURVATURE_LIMIT_PERCENT:
                 out["t30_s"][i] = np.nan
                 out["t30_reason"][i] = (
-                    f"curvature C = {c:.1f} % (T30 against T20) is beyond ±"
-                    f"{CURVATURE_LIMIT_PERCENT:g} %: the decay is not one slope over -5 to -35 dB "
-                    "(ISO 3382-2 Annex B); T20 and EDT describe it better")
+                    f"double slope: curvature C = {c:.1f} % (T30 against T20) is beyond ±"
+                    f"{CURVATURE_LIMIT_PERCENT:g} % (ISO 3382-2 Annex B); T20 and EDT describe "
+                    "it better")
     out["edc_db"] = out["edc_db"].reshape(*lead, e.shape[-1])
     for key, value in out.items():
         if key == "edc_db":
@@ -318,7 +321,7 @@ def _decay_curve(e, edges, compensation, noise_floor, max_decay_time_s):
     nonzero = np.nonzero(e > 0)[0]
     if nonzero.size == 0:
         return {"edc_db": np.full(e.size, np.nan), "floor_db": np.nan, "end_power": 0.0,
-                "total": 0.0, "failure": "the histogram holds no energy"}
+                "total": 0.0, "failure": "no energy: the histogram holds no energy"}
     if compensation == "none":
         return _plain_curve(e, edges, cum, nonzero[-1])
     t_last = edges[nonzero[-1] + 1]  # end of the last non-empty bin
@@ -332,9 +335,9 @@ def _decay_curve(e, edges, compensation, noise_floor, max_decay_time_s):
     elif fit is not None:
         noise, t_x, a, b = fit
         if not b < slowest_db_s:
-            failure = (f"the late decay found by Lundeby's iteration ({b:.3g} dB/s) is slower "
-                       f"than physically possible ({slowest_db_s:.3g} dB/s): no real noise "
-                       "floor? (simulated fields need compensation='none')")
+            failure = (f"late decay slower than physically possible: Lundeby's iteration found "
+                       f"{b:.3g} dB/s, the room allows at most {slowest_db_s:.3g} dB/s; no real "
+                       "noise floor? (simulated fields need compensation='none')")
     else:  # noise-free: cut at the empty tail, extrapolate the late decay after it
         noise, t_x = 0.0, t_last
         late = late_decay_without_noise(cum, edges, t_last)
@@ -352,7 +355,7 @@ def _decay_curve(e, edges, compensation, noise_floor, max_decay_time_s):
     total = edc[0]
     if not total > 0:
         return {"edc_db": np.full(e.size, np.nan), "floor_db": np.nan, "end_power": 0.0,
-                "total": 0.0, "failure": "no decay found above the noise floor"}
+                "total": 0.0, "failure": "no decay: no decay found above the noise floor"}
     with np.errstate(divide="ignore", invalid="ignore"):
         edc_db = DB_PER_NEPER * np.log(edc / total)
         floor_db = DB_PER_NEPER * math.log(tail / total) if tail > 0 else -np.inf
@@ -399,41 +402,42 @@ def _end_power(e, edges, cum, t_end, *, require_dense):
 # --- decay times -------------------------------------------------------------------------
 
 
-def _checked_fit(t, curve, upper, lower, max_decay_time_s):
-    """The fit over one range and its checks (module docstring, 1-3 and 5):
-    {'slope': dB/s, 'r', 'reason': '' or why the time is undefined}."""
+def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear):
+    """The fit over one range and its checks (module docstring, 1-3 and 5; 3 only when
+    ``linear``): {'slope': dB/s, 'r', 'reason': '' or why the time is undefined}. A reason
+    reads 'kind: details', the kind a short fixed text that tables group by."""
     if curve["failure"]:
         return {"slope": np.nan, "r": np.nan, "reason": curve["failure"]}
     y, floor_db = curve["edc_db"], curve["floor_db"]
     # (1) The range is reached above the curve's floor.
     if lower < floor_db:
         return {"slope": np.nan, "r": np.nan,
-                "reason": f"decay curve reaches only {floor_db:.1f} dB before its end, "
-                          f"not {lower:g} dB"}
+                "reason": f"range not reached: the decay curve reaches only {floor_db:.1f} dB "
+                          f"before its end, not {lower:g} dB"}
     slope, r = _fit_range(t, y, upper, lower)
     if math.isnan(slope):
-        return {"slope": np.nan, "r": np.nan, "reason": f"decay curve does not reach {lower:g} dB"}
+        return {"slope": np.nan, "r": np.nan, "reason": f"range not reached: the decay curve does not reach {lower:g} dB"}
     out = {"slope": slope, "r": r, "reason": ""}
     # (2) A physically possible slope.
     if not slope < 0:
-        out["reason"] = f"decay curve does not fall over {upper:g} to {lower:g} dB"
+        out["reason"] = f"no decay: the curve does not fall over {upper:g} to {lower:g} dB"
     elif -60.0 / slope > max_decay_time_s:
-        out["reason"] = (f"fitted decay ({-60.0 / slope:.3g} s) is slower than physically "
-                         f"possible in this room (at most {max_decay_time_s:.3g} s, its least "
-                         "absorbing surface and the air)")
+        out["reason"] = (f"slower than physically possible: the fit gives {-60.0 / slope:.3g} s, "
+                         f"this room at most {max_decay_time_s:.3g} s (its least absorbing "
+                         "surface and the air)")
     # (3) A straight line through the range.
-    elif 1000.0 * (1.0 - r * r) > XI_LIMIT_PERMILLE:
-        out["reason"] = (f"decay curve is not straight over {upper:g} to {lower:g} dB: "
-                         f"ξ = {1000.0 * (1.0 - r * r):.1f} ‰ > {XI_LIMIT_PERMILLE:g} ‰ "
+    elif linear and 1000.0 * (1.0 - r * r) > XI_LIMIT_PERMILLE:
+        out["reason"] = (f"curved decay: ξ = {1000.0 * (1.0 - r * r):.1f} ‰ > "
+                         f"{XI_LIMIT_PERMILLE:g} ‰ over {upper:g} to {lower:g} dB "
                          "(ISO 3382-2 Annex B)")
     # (5) The record does not cut the decay short.
     elif curve["end_power"] > 0:
         tail_db = DB_PER_NEPER * math.log(curve["end_power"] * DB_PER_NEPER / -slope
                                           / curve["total"])
         if tail_db > lower - TRUNCATION_MARGIN_DB:
-            out["reason"] = (f"the record ends while the decay goes on: about {tail_db:.0f} dB "
-                             f"of the energy would arrive after its end, not {TRUNCATION_MARGIN_DB:g}"
-                             f" dB below {lower:g} dB (record longer: max_time_s)")
+            out["reason"] = (f"record too short: about {tail_db:.0f} dB of the energy would "
+                             f"arrive after its end, less than {TRUNCATION_MARGIN_DB:g} dB below "
+                             f"{lower:g} dB (bake longer: max_time_s)")
     return out
 
 

@@ -96,7 +96,7 @@ def lundeby(cum, edges, noise_floor):
     noise = mean_power(t_tail) if noise_floor is None else noise_floor
     if noise <= 0:
         return None
-    no_decay = "no decay found above the noise floor"
+    no_decay = "no decay: no decay found above the noise floor"
     noise_db = DB_PER_NEPER * math.log(noise)
     # (3) Line from the peak to the first window within 10 dB of the noise.
     peak = int(np.argmax(power))

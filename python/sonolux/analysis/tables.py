@@ -65,23 +65,32 @@ def format_grid(p: RoomParameters, title: str) -> str:
     return "\n".join(lines + _undefined_rows(p) + _outlier_rows(p) + _notes(p))
 
 
-def undefined_reasons(p: RoomParameters, name: str, column: int) -> list[tuple[str, int]]:
-    """Why ``name`` ('edt_s', ...) is undefined in ``column``: [(reason, receivers)], the
-    most frequent first; [] for parameters without fits or where every fit passed."""
+def undefined_reasons(p: RoomParameters, name: str, column: int) -> list[tuple[str, int, str]]:
+    """Why ``name`` ('edt_s', ...) is undefined in ``column``: [(kind, receivers, example)]
+    grouped by the reason's kind (its text before the first ': '), the most frequent first;
+    [] for parameters without fits or where every fit passed."""
     key = name.removesuffix("_s")
     if key not in p.reasons:
         return []
-    reasons, counts = np.unique(p.reasons[key][:, column], return_counts=True)
-    found = [(str(r), int(k)) for r, k in zip(reasons, counts) if r]
-    return sorted(found, key=lambda x: -x[1])
+    groups: dict[str, list[str]] = {}
+    for reason in p.reasons[key][:, column]:
+        if reason:
+            groups.setdefault(str(reason).split(": ", 1)[0], []).append(str(reason))
+    return sorted(((kind, len(v), v[0]) for kind, v in groups.items()), key=lambda x: -x[1])
+
+
+def describe_undefined(reasons: list[tuple[str, int, str]]) -> str:
+    """'3 receiver(s): curved decay (e.g. curved decay: ξ = 12 ‰ ...); ...'."""
+    return "; ".join(f"{k} receiver(s): {kind} (e.g. {example})" for kind, k, example in reasons)
 
 
 def _undefined_rows(p: RoomParameters) -> list[str]:
     lines = []
     for key in p.reasons:
         for c, column in enumerate(p.columns):
-            for reason, k in undefined_reasons(p, f"{key}_s", c):
-                lines.append(f"  {key.upper()} undefined at {k} receiver(s), {column}: {reason}")
+            for kind, k, example in undefined_reasons(p, f"{key}_s", c):
+                lines.append(f"  {key.upper()} {column} undefined at {k} receiver(s): {example}"
+                             + (" (and similar)" if k > 1 else ""))
     return lines
 
 

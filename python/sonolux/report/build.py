@@ -22,7 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.analysis.params import PARAMETERS, RoomParameters, room_parameters, scene_of
-from sonolux.analysis.tables import DIRECTIONAL_SHOWN, format_value, label_of, undefined_reasons
+from sonolux.analysis.tables import (
+    DIRECTIONAL_SHOWN,
+    describe_undefined,
+    format_value,
+    label_of,
+    undefined_reasons,
+)
 from sonolux.errors import SonoluxError
 from sonolux.fieldfile import open_field
 from sonolux.report import extras
@@ -251,7 +257,7 @@ def _value_cell(p: RoomParameters, name: str, value: float, column: int, receive
     if not reasons:
         return h.undefined("undefined", "not defined at any receiver (e.g. no receiver-source "
                                         "line, or no energy)")
-    return h.undefined("undefined", "; ".join(f"{k} receiver(s): {r}" for r, k in reasons))
+    return h.undefined("undefined", describe_undefined(reasons))
 
 
 def _direction_cell(p: RoomParameters, name: str, d: int):
@@ -288,7 +294,7 @@ def _partly(p: RoomParameters, name: str, text: str, column: int):
     if not reasons:
         return text
     return h.undefined(text + "*", "mean over the defined receivers; undefined at "
-                       + "; ".join(f"{k} receiver(s): {r}" for r, k in reasons))
+                       + describe_undefined(reasons))
 
 
 def _parameter_table(p: RoomParameters, *, summary: bool) -> str:
