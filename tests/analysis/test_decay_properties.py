@@ -30,7 +30,7 @@ from sonolux.analysis.decay import (
 from tests.analysis.test_decay import decay_histogram, nonuniform_axis, tau_of
 
 DENSE_RATE_PER_S = 2_000_000.0
-PROPERTY_SETTINGS = settings(max_examples=25, deadline=None, derandomize=True,
+PROPERTY_SETTINGS = settings(max_examples=30, deadline=None, derandomize=True,
                              suppress_health_check=[HealthCheck.too_slow])
 
 
@@ -56,13 +56,20 @@ def isolated_deposits():
 
 
 @PROPERTY_SETTINGS
-@given(t60_s=st.floats(0.3, 3.0), drop_db=st.floats(70.0, 90.0),
-       cutoff_db=st.floats(-70.0, -45.0), thinning=st.floats(0.01, 0.3),
+@given(t60_s=st.floats(0.3, 3.0), drop_db=st.floats(75.0, 90.0),
+       cutoff_db=st.floats(-70.0, -50.0), thinning=st.floats(0.03, 0.3),
        isolated=isolated_deposits(), float32=st.booleans(), seed=st.integers(0, 2**32 - 1))
 def test_single_slope_with_sparse_tail_gives_exact_times(t60_s, drop_db, cutoff_db, thinning,
                                                         isolated, float32, seed):
     # EDT, T20 and T30 within 1 % of T60, from float32 or float64 bin totals, whatever the
     # thinning and the isolated deposits after the cut-off (the issue's -1e-13 dB/s fits).
+    # Limits of the draw, so that the sampling's own noise stays well under 1 %: as counts
+    # thin, each deposit weighs more, and a few heavy ones carry the energy after the cut-off.
+    # A cut-off at -50 dB or lower keeps that energy under 5 % of the EDC at T30's end, a
+    # thinning time of 3 % of T60 or more keeps thousands of deposits in it, and a record
+    # 75 dB long or more keeps the record's end 20 dB below the truncation check's limit,
+    # which a single heavy deposit in the last 10 % could otherwise reach (seen: -70 dB
+    # records read -51 dB with a thinning time of 1.6 % of T60).
     duration_s = t60_s * drop_db / 60.0
     start, width = nonuniform_axis(duration_s)
     expected = decay_histogram(start, width, [(1.0, t60_s)])
@@ -117,14 +124,15 @@ def closed_form(slopes, duration_s):
 
 @PROPERTY_SETTINGS
 @given(t1_s=st.floats(0.3, 1.5), ratio=st.floats(1.2, 4.0), second_db=st.floats(-40.0, -10.0),
-       thinning=st.floats(0.01, 0.3), isolated=isolated_deposits(), float32=st.booleans(),
+       thinning=st.floats(0.03, 0.3), isolated=isolated_deposits(), float32=st.booleans(),
        seed=st.integers(0, 2**32 - 1))
 def test_double_slope_matches_closed_form_or_says_why(t1_s, ratio, second_db, thinning,
                                                      isolated, float32, seed):
     # Two exponentials, the second (slower) one second_db below the first in the EDC at t=0.
     # Where the closed form passes ISO 3382-2 Annex B's checks with 20 % to spare, the time
     # is defined and within 1 % of it; where it fails them by 20 %, the time is NaN with a
-    # reason; in between either is right. The slower slope sets the record: 80 dB of it.
+    # reason; in between either is right. The slower slope sets the record: 80 dB of it;
+    # the thinning starts 60 dB or more down (limits as in the single-slope test).
     t2_s = ratio * t1_s
     a2 = 10.0 ** (second_db / 10.0) * tau_of(t1_s) / tau_of(t2_s)
     slopes = [(1.0, t1_s), (a2, t2_s)]
