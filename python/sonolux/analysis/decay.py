@@ -114,13 +114,16 @@ def schroeder_curve(energy, noise_floor=None, *, bin_start_s=None, bin_width_s=N
 
 
 def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_floor=None,
-                max_decay_time_s=None) -> dict:
+                max_decay_time_s=None, onset_s=None) -> dict:
     """EDT, T20 and T30 in s by least-squares lines through the EDC (ISO 3382-1 5.3.3, 5.3.4),
     each checked (module docstring); a time that fails a check is NaN with its reason.
 
     Ranges: EDT 0 to -10 dB (×6), T20 -5 to -25 dB (×3), T30 -5 to -35 dB (×2).
     ``compensation``, ``noise_floor``: see :func:`schroeder_curve`. ``max_decay_time_s``:
     scalar or shape (...), the slowest physically possible decay (``None``: no bound).
+    ``onset_s`` (scalar or shape (...)): where the response starts (the direct sound, ISO
+    3382-1 A.3.4); the ranges are then counted from the curve's level there, so that energy
+    before it (a filter's pre-ringing, noise) does not stretch EDT. ``None``: the first bin.
 
     Returns a dict; each entry has the leading shape of ``energy`` (a float or str for 1-D):
       ``edt_s``, ``t20_s``, ``t30_s``    decay times, s (NaN where undefined)
@@ -139,6 +142,8 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
     floors = _noise_floors(compensation, noise_floor, lead)
     bounds = _bounds(max_decay_time_s, lead)
     n = e.shape[0]
+    onsets = (np.full(n, edges[0]) if onset_s is None
+              else np.broadcast_to(np.asarray(onset_s, dtype=np.float64), lead).reshape(n))
     out: dict = {"edc_db": np.empty_like(e), "floor_db": np.empty(n),
                  "curvature_percent": np.full(n, np.nan)}
     for name in DECAY_RANGES_DB:
@@ -150,9 +155,10 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
         curve = _decay_curve(e[i], edges, compensation, floors[i], bounds[i])
         out["edc_db"][i] = curve["edc_db"]
         out["floor_db"][i] = curve["floor_db"]
+        t, curve = _from_onset(edges[:-1], curve, onsets[i])
         slopes = {}
         for name, (upper, lower) in DECAY_RANGES_DB.items():
-            fit = _checked_fit(edges[:-1], curve, upper, lower, bounds[i], linear=name != "edt")
+            fit = _checked_fit(t, curve, upper, lower, bounds[i], linear=name != "edt")
             out[f"{name}_reason"][i] = fit["reason"]
             out[f"{name}_r"][i] = fit["r"]
             out[f"{name}_xi_permille"][i] = 1000.0 * max(0.0, 1.0 - fit["r"] ** 2)
@@ -400,6 +406,19 @@ def _end_power(e, edges, cum, t_end, *, require_dense):
 
 
 # --- decay times -------------------------------------------------------------------------
+
+
+def _from_onset(t, curve, onset_s):
+    """(t, curve) with the curve starting at the onset, at 0 dB there (ISO 3382-1 A.3.4)."""
+    if not onset_s > t[0] or curve["failure"]:
+        return t, curve
+    keep = t > onset_s
+    y = curve["edc_db"]
+    finite = np.isfinite(y)
+    at = float(np.interp(onset_s, t[finite], y[finite])) if finite.any() else 0.0
+    shifted = dict(curve, edc_db=np.concatenate([[0.0], y[keep] - at]),
+                   floor_db=curve["floor_db"] - at, total=curve["total"] * 10 ** (at / 10))
+    return np.concatenate([[onset_s], t[keep]]), shifted
 
 
 def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear):

@@ -182,7 +182,7 @@ def _ratios(e: np.ndarray, start: np.ndarray, width: np.ndarray, onset: np.ndarr
     keyword arguments of ``decay_times`` (compensation, slowest decay per column)."""
     out: dict[str, np.ndarray] = {}
     with np.errstate(invalid="ignore", divide="ignore"):
-        times = decay_times(e, start, width, **decay)
+        times = decay_times(e, start, width, onset_s=onset, **decay)
         for name in DECAY_NAMES:
             out[f"{name}_s"] = np.asarray(times[f"{name}_s"], dtype=np.float64)
             out[f"{name}_reason"] = np.asarray(times[f"{name}_reason"])
