@@ -261,8 +261,12 @@ def test_parameters_match_pyrato_on_the_fields_impulse_responses(core):
         for name in ("edt_s", "t20_s", "t30_s"):
             print(f"{xy} octaves {name}: sonolux {np.round(ours[name], 4)}, "
                   f"pyrato {np.round(theirs[name], 4)}")
-        np.testing.assert_allclose(ours["t20_s"], theirs["t20_s"], rtol=0.001)
-        np.testing.assert_allclose(ours["t30_s"], theirs["t30_s"], rtol=0.001)
+        # Where sonolux refuses a fit (here T30 at 250 Hz: a curved decay, ξ > 10 ‰, or a
+        # double slope), pyrato still gives a number; the rest agree.
+        for name in ("t20_s", "t30_s"):
+            ok = np.isfinite(ours[name])
+            assert ok.sum() >= ok.size - 1, (name, ours[name])
+            np.testing.assert_allclose(ours[name][ok], theirs[name][ok], rtol=0.001)
         # EDT spans only 10 dB, where the start of the fit (pyrato: from t = 0; sonolux: from
         # where the curve leaves 0 dB) weighs most: measured within 2 %, so 3 %.
         np.testing.assert_allclose(ours["edt_s"][1:], theirs["edt_s"][1:], rtol=0.03)
