@@ -18,6 +18,7 @@ from sonolux.analysis.decay import (
     d50,
     decay_times,
     schroeder_curve,
+    slowest_decay_time_s,
     strength_g_db,
 )
 
@@ -337,3 +338,66 @@ def test_decay_times_match_pyrato():
         theirs = float(ra.parameters.reverberation_time_linear_regression(edc, name)[0])
         print(f"{name}: sonolux {ours[name.lower() + '_s']:.5f} s, pyrato {theirs:.5f} s")
         assert ours[name.lower() + "_s"] == pytest.approx(theirs, rel=0.02)
+
+
+# --- the checks ----------------------------------------------------------------------------
+
+
+def test_slowest_decay_closed_form():
+    # α_min = 0.1 every 10 m at most, no air: the energy falls at least by c·(-ln 0.9)/10 =
+    # 3.614 Np/s, so T60 <= 6 ln 10 / 3.614 = 3.823 s; air adds m c; α = 0 and m = 0: no bound.
+    assert slowest_decay_time_s(0.1, 10.0, 0.0, 343.0) == pytest.approx(
+        6 * math.log(10) / (343.0 * -math.log(0.9) / 10.0), rel=1e-12)
+    assert slowest_decay_time_s(0.0, 10.0, 0.01, 343.0) == pytest.approx(
+        6 * math.log(10) / 3.43, rel=1e-12)
+    assert slowest_decay_time_s(0.0, 10.0, 0.0, 343.0) == math.inf
+
+
+def test_impossible_slope_and_curvature_are_refused_with_reasons():
+    start, width = nonuniform_axis(2.5)
+    energy = decay_histogram(start, width, [(1.0, T60_S)])
+    got = decay_times(energy, start, width, max_decay_time_s=1.0)
+    for name in ("edt", "t20", "t30"):
+        assert math.isnan(got[f"{name}_s"])
+        assert got[f"{name}_reason"].startswith("slower than physically possible")
+    # Two slopes whose T30 bends by 17 % against T20 (closed form): T30 refused, T20 kept.
+    slopes = [(1.0, 0.5), (10 ** (-25 / 10) * tau_of(0.5) / tau_of(2.0), 2.0)]
+    start, width = nonuniform_axis(4.0)
+    got = decay_times(decay_histogram(start, width, slopes), start, width)
+    assert got["curvature_percent"] > 10.0 and math.isfinite(got["t20_s"])
+    assert math.isnan(got["t30_s"]) and got["t30_reason"].startswith(("double slope", "curved"))
+
+
+def test_lundeby_on_a_sparse_tail_is_bounded_by_the_room():
+    # The case: a noise-free decay with a few isolated late deposits (1e-14 of the
+    # peak) analysed with Lundeby's compensation; whatever the iteration finds, no time is a
+    # wrong finite number: each is T60 within 1 % or NaN with a reason.
+    start, width = nonuniform_axis(7.0)
+    energy = decay_histogram(start, width, [(1.0, 1.6)])
+    energy[start > 4.0] = 0.0
+    for t in (6.2, 6.5, 6.9):
+        energy[np.searchsorted(start, t)] = 1e-14 * energy.max()
+    got = decay_times(energy, start, width, compensation="lundeby", max_decay_time_s=40.0)
+    assert got["compensation"] == "lundeby"
+    for name in ("edt", "t20", "t30"):
+        value, reason = got[f"{name}_s"], got[f"{name}_reason"]
+        assert (math.isnan(value) and reason) or value == pytest.approx(1.6, rel=0.01)
+
+
+def test_onset_leaves_out_what_comes_before_it():
+    # 40 ms of faint energy (pre-ringing, 60 dB down) before a decay that starts at 40 ms:
+    # counted from the onset, EDT is T60; from the first bin it would be longer.
+    start, width = uniform_axis(3.0, 1e-3)
+    energy = np.concatenate([np.full(40, 1e-9), decay_histogram(start, width, [(1.0, T60_S)])[:-40]])
+    from_onset = decay_times(energy, start, width, onset_s=0.040)
+    assert from_onset["edt_s"] == pytest.approx(T60_S, rel=0.005)
+    assert decay_times(energy, start, width)["edt_s"] > 1.01 * T60_S
+
+
+def test_noise_floor_needs_lundeby():
+    start, width = nonuniform_axis(0.5)
+    energy = decay_histogram(start, width, [(1.0, T60_S)])
+    with pytest.raises(ValueError, match="compensation='lundeby'"):
+        decay_times(energy, start, width, noise_floor=1e-6)
+    with pytest.raises(ValueError, match="compensation must be one of"):
+        decay_times(energy, start, width, compensation="chu")
