@@ -333,3 +333,23 @@ def test_compensation_is_named_and_validated():
     assert room_parameters(field, theory=False, compensation="lundeby").compensation == "lundeby"
     with pytest.raises(ValueError, match="compensation must be one of"):
         room_parameters(field, compensation="chu")
+
+
+def test_a_bake_carries_the_room_s_slowest_decay(core):
+    # The bake's theory holds the least absorption and the bounding box's diagonal; the bound
+    # they give is far above Sabine's T60 (every path a full diagonal long) and refuses none
+    # of the paper room's fits.
+    import sonolux
+    from sonolux.scene.summary import theory
+
+    scene = sonolux.load_scene("paper-small")
+    t = theory(scene)
+    span = scene.vertices_m.max(axis=0) - scene.vertices_m.min(axis=0)
+    assert t["max_chord_m"] == pytest.approx(float(np.linalg.norm(span)))
+    assert len(t["min_absorption"]) == len(t["bands_hz"])
+    assert all(0 < a <= m for a, m in zip(t["min_absorption"], t["mean_absorption"]))
+    field = sonolux.bake(scene, rays=3000)
+    bound = params_module.slowest_decay_s(field)
+    assert np.all(bound[:-1] > 2 * np.asarray(t["sabine_t60_s"]))
+    p = room_parameters(field)
+    assert not any(r.startswith("slower than") for r in p.reasons["t20"].ravel())

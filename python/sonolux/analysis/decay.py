@@ -435,7 +435,8 @@ def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear):
                           f"before its end, not {lower:g} dB"}
     slope, r = _fit_range(t, y, upper, lower)
     if math.isnan(slope):
-        return {"slope": np.nan, "r": np.nan, "reason": f"range not reached: the decay curve does not reach {lower:g} dB"}
+        return {"slope": np.nan, "r": np.nan,
+                "reason": f"range not reached: the decay curve does not reach {lower:g} dB"}
     out = {"slope": slope, "r": r, "reason": ""}
     # (2) A physically possible slope.
     if not slope < 0:

@@ -88,7 +88,7 @@ def _undefined_rows(p: RoomParameters) -> list[str]:
     lines = []
     for key in p.reasons:
         for c, column in enumerate(p.columns):
-            for kind, k, example in undefined_reasons(p, f"{key}_s", c):
+            for _kind, k, example in undefined_reasons(p, f"{key}_s", c):
                 lines.append(f"  {key.upper()} {column} undefined at {k} receiver(s): {example}"
                              + (" (and similar)" if k > 1 else ""))
     return lines
