@@ -18,6 +18,7 @@ from sonolux.analysis.decay import (
     d50,
     decay_times,
     schroeder_curve,
+    slowest_decay_time_s,
     strength_g_db,
 )
 
@@ -57,18 +58,34 @@ TWO_SLOPES = [(1.0, 0.5), (1e-3 * tau_of(0.5) / tau_of(2.0), 2.0)]  # 2nd slope 
 # --- the decay curve ---------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("noise_floor", [None, 0.0])
-def test_exponential_decay_curve_is_a_line(noise_floor):
+COMPENSATIONS = [("none", None), ("lundeby", None), ("lundeby", 0.0)]
+
+
+@pytest.mark.parametrize(("compensation", "noise_floor"), COMPENSATIONS)
+def test_exponential_decay_curve_is_a_line(compensation, noise_floor):
     # A single exponential's EDC is -60 t / T60 dB exactly; 0.01 dB allows float round-off.
-    # Checked over the first 60 dB: with noise_floor=None the record's last 10 % (115 dB
-    # down) is taken for noise, which bends only the curve's far end.
+    # Checked over the first 60 dB: with Lundeby's estimate the record's last 10 % (115 dB
+    # down) is taken for noise, which bends only the curve's far end; the plain integral
+    # misses the energy after 2.5 s, 115 dB down, invisible over the first 60 dB.
     start, width = nonuniform_axis(2.5)
     edc = schroeder_curve(decay_histogram(start, width, [(1.0, T60_S)]), noise_floor,
-                          bin_start_s=start, bin_width_s=width)
+                          bin_start_s=start, bin_width_s=width, compensation=compensation)
     assert edc[0] == 0.0
     assert np.all(np.isfinite(edc))
     upper = start <= T60_S
     np.testing.assert_allclose(edc[upper], -60.0 * start[upper] / T60_S, atol=0.01)
+
+
+def test_plain_curve_ends_at_the_last_deposit():
+    # The plain integral of q^k stops at bin 299: exact up to there (float64 sums from the
+    # end), NaN after; the tail it misses is 0.9^300 = 140 dB down.
+    q = 0.9
+    energy = q ** np.arange(400.0)
+    energy[300:] = 0.0
+    edc = schroeder_curve(energy)
+    exact = 10.0 * np.log10((q ** np.arange(300) - q**300) / (1 - q**300))
+    np.testing.assert_allclose(edc[:300], exact, atol=1e-9)
+    assert np.all(np.isnan(edc[300:]))
 
 
 def test_schroeder_curve_without_time_axis_and_with_empty_tail():
@@ -79,7 +96,7 @@ def test_schroeder_curve_without_time_axis_and_with_empty_tail():
     q = 0.9
     energy = q ** np.arange(400.0)
     energy[300:] = 0.0
-    edc = schroeder_curve(energy)
+    edc = schroeder_curve(energy, 0.0, compensation="lundeby")
     assert np.all(np.isfinite(edc))
     exact = 10.0 * np.arange(400) * math.log10(q)
     np.testing.assert_allclose(edc[:200], exact[:200], atol=1e-5)
@@ -89,12 +106,13 @@ def test_schroeder_curve_without_time_axis_and_with_empty_tail():
 # --- decay times -------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("noise_floor", [None, 0.0])
-def test_exponential_decay_gives_exact_times(noise_floor):
+@pytest.mark.parametrize(("compensation", "noise_floor"), COMPENSATIONS)
+def test_exponential_decay_gives_exact_times(compensation, noise_floor):
     # Tolerance 0.5 % (brief); the EDC is exactly linear, so the error is round-off only.
     start, width = nonuniform_axis(2.5)
     got = decay_times(decay_histogram(start, width, [(1.0, T60_S)]), start, width,
-                      noise_floor=noise_floor)
+                      compensation=compensation, noise_floor=noise_floor)
+    assert got["compensation"] == compensation
     for name in ("edt", "t20", "t30"):
         assert got[f"{name}_s"] == pytest.approx(T60_S, rel=0.005)
         assert got[f"{name}_reason"] == ""
@@ -103,11 +121,18 @@ def test_exponential_decay_gives_exact_times(noise_floor):
 
 
 def test_empty_tail_is_cut_and_extrapolated():
-    # The histogram stops at 1 s (46 dB down): bins after hold exactly zero.
+    # The histogram stops at 1 s (46 dB down): bins after hold exactly zero. Lundeby's
+    # truncation compensation extrapolates; the plain integral misses a tail 46 dB down
+    # (estimated from the mean power of 0.9-1 s, so about 42 dB), less than 20 dB below the
+    # lower ends of T20 and T30: it measures EDT and refuses both (truncation).
     start, width = nonuniform_axis(2.5)
     energy = decay_histogram(start, width, [(1.0, T60_S)])
     energy[start >= 1.0] = 0.0
-    got = decay_times(energy, start, width)
+    plain = decay_times(energy, start, width)
+    assert plain["edt_s"] == pytest.approx(T60_S, rel=0.005)
+    for name in ("t20", "t30"):
+        assert math.isnan(plain[f"{name}_s"]) and "record too short" in plain[f"{name}_reason"]
+    got = decay_times(energy, start, width, compensation="lundeby", noise_floor=0.0)
     assert np.all(np.isfinite(got["edc_db"]))
     assert got["t30_s"] == pytest.approx(T60_S, rel=0.005)
     assert got["floor_db"] == pytest.approx(-60.0 * 1.0 / T60_S, abs=0.1)
@@ -194,7 +219,7 @@ def test_truncated_decay_with_noise_floor():
     energy = (decay_histogram(start, width, [(1.0, T60_S)])
               + noise * width * rng.exponential(size=width.size))
     for floor in (None, noise):
-        got = decay_times(energy, start, width, noise_floor=floor)
+        got = decay_times(energy, start, width, compensation="lundeby", noise_floor=floor)
         assert got["t20_s"] == pytest.approx(T60_S, rel=0.02)
         assert got["t30_s"] == pytest.approx(T60_S, rel=0.02)
         assert got["floor_db"] == pytest.approx(-50.0, abs=3.0)
@@ -208,7 +233,7 @@ def test_range_not_reached_gives_nan_and_reason():
     # The decay stops at 0.5 s, 23 dB down: EDT is measured, T20 and T30 are not.
     start, width = nonuniform_axis(0.5)
     got = decay_times(decay_histogram(start, width, [(1.0, T60_S)]), start, width,
-                      noise_floor=0.0)
+                      compensation="lundeby", noise_floor=0.0)
     assert got["edt_s"] == pytest.approx(T60_S, rel=0.005)
     for name, lower in (("t20", "-25"), ("t30", "-35")):
         assert math.isnan(got[f"{name}_s"])
@@ -218,8 +243,13 @@ def test_range_not_reached_gives_nan_and_reason():
 def test_pure_noise_gives_nan_and_reason():
     rng = np.random.default_rng(0)
     start, width = nonuniform_axis(1.0)
-    got = decay_times(width * rng.exponential(size=width.size), start, width)
+    noise = width * rng.exponential(size=width.size)
+    got = decay_times(noise, start, width, compensation="lundeby")
     assert math.isnan(got["t30_s"]) and "noise" in got["t30_reason"]
+    # Integrated plainly, noise gives a curved EDC (linear in energy): not straight.
+    plain = decay_times(noise, start, width)
+    for name in ("edt", "t20", "t30"):
+        assert math.isnan(plain[f"{name}_s"]) and plain[f"{name}_reason"]
 
 
 def test_leading_axes_are_kept():
@@ -303,8 +333,71 @@ def test_decay_times_match_pyrato():
     p = noisy_power(T60_S, 2.5, -70.0, seed=11)
     edc = ra.edc.energy_decay_curve_chu_lundeby(pf.Signal(p, FS_HZ), time_shift=False)
     start, width = nonuniform_axis(2.5)
-    ours = decay_times(bin_samples(p, start, width), start, width)
+    ours = decay_times(bin_samples(p, start, width), start, width, compensation="lundeby")
     for name in ("T20", "T30"):
         theirs = float(ra.parameters.reverberation_time_linear_regression(edc, name)[0])
         print(f"{name}: sonolux {ours[name.lower() + '_s']:.5f} s, pyrato {theirs:.5f} s")
         assert ours[name.lower() + "_s"] == pytest.approx(theirs, rel=0.02)
+
+
+# --- the checks ----------------------------------------------------------------------------
+
+
+def test_slowest_decay_closed_form():
+    # α_min = 0.1 every 10 m at most, no air: the energy falls at least by c·(-ln 0.9)/10 =
+    # 3.614 Np/s, so T60 <= 6 ln 10 / 3.614 = 3.823 s; air adds m c; α = 0 and m = 0: no bound.
+    assert slowest_decay_time_s(0.1, 10.0, 0.0, 343.0) == pytest.approx(
+        6 * math.log(10) / (343.0 * -math.log(0.9) / 10.0), rel=1e-12)
+    assert slowest_decay_time_s(0.0, 10.0, 0.01, 343.0) == pytest.approx(
+        6 * math.log(10) / 3.43, rel=1e-12)
+    assert slowest_decay_time_s(0.0, 10.0, 0.0, 343.0) == math.inf
+
+
+def test_impossible_slope_and_curvature_are_refused_with_reasons():
+    start, width = nonuniform_axis(2.5)
+    energy = decay_histogram(start, width, [(1.0, T60_S)])
+    got = decay_times(energy, start, width, max_decay_time_s=1.0)
+    for name in ("edt", "t20", "t30"):
+        assert math.isnan(got[f"{name}_s"])
+        assert got[f"{name}_reason"].startswith("slower than physically possible")
+    # Two slopes whose T30 bends by 17 % against T20 (closed form): T30 refused, T20 kept.
+    slopes = [(1.0, 0.5), (10 ** (-25 / 10) * tau_of(0.5) / tau_of(2.0), 2.0)]
+    start, width = nonuniform_axis(4.0)
+    got = decay_times(decay_histogram(start, width, slopes), start, width)
+    assert got["curvature_percent"] > 10.0 and math.isfinite(got["t20_s"])
+    assert math.isnan(got["t30_s"]) and got["t30_reason"].startswith(("double slope", "curved"))
+
+
+def test_lundeby_on_a_sparse_tail_is_bounded_by_the_room():
+    # The case: a noise-free decay with a few isolated late deposits (1e-14 of the
+    # peak) analysed with Lundeby's compensation; whatever the iteration finds, no time is a
+    # wrong finite number: each is T60 within 1 % or NaN with a reason.
+    start, width = nonuniform_axis(7.0)
+    energy = decay_histogram(start, width, [(1.0, 1.6)])
+    energy[start > 4.0] = 0.0
+    for t in (6.2, 6.5, 6.9):
+        energy[np.searchsorted(start, t)] = 1e-14 * energy.max()
+    got = decay_times(energy, start, width, compensation="lundeby", max_decay_time_s=40.0)
+    assert got["compensation"] == "lundeby"
+    for name in ("edt", "t20", "t30"):
+        value, reason = got[f"{name}_s"], got[f"{name}_reason"]
+        assert (math.isnan(value) and reason) or value == pytest.approx(1.6, rel=0.01)
+
+
+def test_onset_leaves_out_what_comes_before_it():
+    # 40 ms of faint energy (pre-ringing, 60 dB down) before a decay that starts at 40 ms:
+    # counted from the onset, EDT is T60; from the first bin it would be longer.
+    start, width = uniform_axis(3.0, 1e-3)
+    energy = np.concatenate([np.full(40, 1e-9), decay_histogram(start, width, [(1.0, T60_S)])[:-40]])
+    from_onset = decay_times(energy, start, width, onset_s=0.040)
+    assert from_onset["edt_s"] == pytest.approx(T60_S, rel=0.005)
+    assert decay_times(energy, start, width)["edt_s"] > 1.01 * T60_S
+
+
+def test_noise_floor_needs_lundeby():
+    start, width = nonuniform_axis(0.5)
+    energy = decay_histogram(start, width, [(1.0, T60_S)])
+    with pytest.raises(ValueError, match="compensation='lundeby'"):
+        decay_times(energy, start, width, noise_floor=1e-6)
+    with pytest.raises(ValueError, match="compensation must be one of"):
+        decay_times(energy, start, width, compensation="chu")

@@ -204,9 +204,10 @@ def _pyrato(pf, ra, signal):
     return out
 
 
-def _ours(samples, fs, position_m, source_m):
+def _ours(samples, fs, position_m, source_m, compensation="lundeby"):
     """sonolux's parameters of signals float[channel, n] as a one-receiver field whose bands
-    are the channels, on the tracer's non-uniform axis: {name: float[channel]}."""
+    are the channels, on the tracer's non-uniform axis: {name: float[channel]}. The signals
+    carry a noise floor (added below), so Lundeby's compensation is chosen explicitly."""
     n = samples.shape[-1]
     start, width = nonuniform_axis(n / fs)
     idx = np.round(np.append(start, n / fs) * fs).astype(int)
@@ -214,7 +215,8 @@ def _ours(samples, fs, position_m, source_m):
     same = synthetic_field(e[None, None], start, width, [position_m], source_m=source_m,
                            bands_hz=tuple(125.0 * 2**k for k in range(e.shape[0])),
                            azimuth_bands=1)
-    return {k: v[0, :-1] for k, v in room_parameters(same, theory=False).values.items()}
+    p = room_parameters(same, theory=False, compensation=compensation)
+    return {k: v[0, :-1] for k, v in p.values.items()}
 
 
 @pytest.mark.slow
@@ -259,11 +261,95 @@ def test_parameters_match_pyrato_on_the_fields_impulse_responses(core):
         for name in ("edt_s", "t20_s", "t30_s"):
             print(f"{xy} octaves {name}: sonolux {np.round(ours[name], 4)}, "
                   f"pyrato {np.round(theirs[name], 4)}")
-        np.testing.assert_allclose(ours["t20_s"], theirs["t20_s"], rtol=0.001)
-        np.testing.assert_allclose(ours["t30_s"], theirs["t30_s"], rtol=0.001)
+        # Where sonolux refuses a fit (here T30 at 250 Hz: a curved decay, ξ > 10 ‰, or a
+        # double slope), pyrato still gives a number; the rest agree.
+        for name in ("t20_s", "t30_s"):
+            ok = np.isfinite(ours[name])
+            assert ok.sum() >= ok.size - 1, (name, ours[name])
+            np.testing.assert_allclose(ours[name][ok], theirs[name][ok], rtol=0.001)
         # EDT spans only 10 dB, where the start of the fit (pyrato: from t = 0; sonolux: from
         # where the curve leaves 0 dB) weighs most: measured within 2 %, so 3 %.
         np.testing.assert_allclose(ours["edt_s"][1:], theirs["edt_s"][1:], rtol=0.03)
         # EDT at 125 Hz: the octave filter rounds the curve's first dB; pyrato regresses from
         # t = 0, sonolux from where the curve leaves 0 dB: 5.6 % apart here, so 10 %.
         assert ours["edt_s"][0] == pytest.approx(theirs["edt_s"][0], rel=0.10)
+
+
+# --- checks and the consistency across receivers ------------------------------------------------
+
+
+def scattered_grid(t60_s, scatter, odd=None, size=5, seed=0):
+    """A size × size grid (1 m) whose receivers decay with T60 t60_s × (1 + scatter × N(0, 1)),
+    like Monte Carlo noise; ``odd`` = (index, T60) gives one receiver another decay."""
+    rng = np.random.default_rng(seed)
+    start, width = nonuniform_axis(3.0)
+    t60 = t60_s * (1.0 + scatter * rng.standard_normal(size * size))
+    if odd is not None:
+        t60[odd[0]] = odd[1]
+    e = np.stack([decay_histogram(start, width, [(1.0, t)]) for t in t60])
+    energy = np.broadcast_to(e[:, None, None, :] / 8, (e.shape[0], 8, 2, e.shape[-1]))
+    index = [(i, j) for j in range(size) for i in range(size)]
+    positions = [(1.0 + i, 1.0 + j, 1.5) for i, j in index]
+    return synthetic_field(energy, start, width, positions, source_m=(0.3, 0.3, 1.5),
+                           grid_index=index, spacing_m=1.0), t60
+
+
+def test_a_receiver_that_stands_out_is_listed_with_a_cause():
+    # 0.5 % scatter (Monte Carlo-like) around 1 s; receiver 12 decays in 1.3 s: 60 robust
+    # sigmas off, and 30 % (over the 5 % JND). Without it, nothing is listed.
+    field, _ = scattered_grid(1.0, 0.005)
+    assert room_parameters(field, theory=False).outliers == []
+    field, t60 = scattered_grid(1.0, 0.005, odd=(12, 1.3))
+    p = room_parameters(field, theory=False)
+    listed = {(o["receiver"], o["parameter"]) for o in p.outliers}
+    assert {(12, "edt_s"), (12, "t20_s"), (12, "t30_s")} <= listed
+    assert all(o["receiver"] == 12 for o in p.outliers)
+    o = next(o for o in p.outliers if o["parameter"] == "t30_s")
+    assert o["value"] == pytest.approx(1.3, rel=0.01)
+    assert o["monte_carlo_sigma"] == pytest.approx(0.005, rel=0.6)  # the scatter, estimated
+    assert "Monte Carlo" in o["cause"] or "local" in o["cause"]
+
+
+def test_decay_slower_than_the_room_allows_is_refused():
+    # T60 = 2 s in every receiver, but the room's bound says at most 1.5 s: refused, with the
+    # reason in every cell; the parameters that need no fit are kept.
+    field, _, _ = decaying_grid((2.0, 2.0, 2.0), duration_s=3.0)
+    field.theory = {"air_attenuation_per_m": [0.0, 0.0], "min_absorption": [0.1, 0.1],
+                    "max_chord_m": 343.2 * 1.5 * 0.1053605 / (6 * math.log(10)),
+                    "speed_of_sound_m_s": 343.2, "sabine_t60_s": [1.0, 1.0],
+                    "eyring_t60_s": [1.0, 1.0], "mean_absorption": [0.2, 0.2], "volume_m3": 30.0,
+                    "area_m2": 64.0, "mean_free_path_m": 1.9}
+    assert params_module.slowest_decay_s(field) == pytest.approx([1.5, 1.5, 1.5], rel=1e-5)
+    p = room_parameters(field)
+    assert np.isnan(p.values["t30_s"]).all()
+    assert all(r.startswith("slower than physically possible") for r in p.reasons["t30"].ravel())
+    assert np.isfinite(p.values["c80_db"]).all()
+    assert any("undefined decay times" in n for n in p.notes)
+
+
+def test_compensation_is_named_and_validated():
+    field, _, _ = decaying_grid((1.0,), duration_s=2.0)
+    assert room_parameters(field, theory=False).compensation == "none"
+    assert room_parameters(field, theory=False, compensation="lundeby").compensation == "lundeby"
+    with pytest.raises(ValueError, match="compensation must be one of"):
+        room_parameters(field, compensation="chu")
+
+
+def test_a_bake_carries_the_room_s_slowest_decay(core):
+    # The bake's theory holds the least absorption and the bounding box's diagonal; the bound
+    # they give is far above Sabine's T60 (every path a full diagonal long) and refuses none
+    # of the paper room's fits.
+    import sonolux
+    from sonolux.scene.summary import theory
+
+    scene = sonolux.load_scene("paper-small")
+    t = theory(scene)
+    span = scene.vertices_m.max(axis=0) - scene.vertices_m.min(axis=0)
+    assert t["max_chord_m"] == pytest.approx(float(np.linalg.norm(span)))
+    assert len(t["min_absorption"]) == len(t["bands_hz"])
+    assert all(0 < a <= m for a, m in zip(t["min_absorption"], t["mean_absorption"]))
+    field = sonolux.bake(scene, rays=3000)
+    bound = params_module.slowest_decay_s(field)
+    assert np.all(bound[:-1] > 2 * np.asarray(t["sabine_t60_s"]))
+    p = room_parameters(field)
+    assert not any(r.startswith("slower than") for r in p.reasons["t20"].ravel())

@@ -73,3 +73,13 @@ def test_params_errors_are_clear(capsys, tmp_path, field_file):
     assert code == 2 and "outside the sound field" in err
     with pytest.raises(SystemExit):
         cli.main(["params", str(field_file), "--at", "1;2"])
+
+
+def test_params_compensation_is_chosen_and_named(capsys, field_file):
+    code, out, _ = run(capsys, "params", str(field_file))
+    assert code == 0 and "decay curves: plain backward integral" in out
+    code, out, _ = run(capsys, "params", str(field_file), "--compensation", "lundeby", "--json")
+    assert code == 0 and json.loads(out)["compensation"] == "lundeby"
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["params", str(field_file), "--compensation", "chu"])
+    assert exc.value.code == 2 and "--compensation" in capsys.readouterr().err

@@ -147,3 +147,21 @@ def test_the_experiment_writes_its_report(tmp_path, field_file):
     check_self_contained(index)
     html = index.read_text(encoding="utf-8")
     assert "Reverberation at the central cell" in html and "paper-small-centre-front" in html
+
+
+def test_undefined_values_show_their_reason_on_hover(tmp_path):
+    # Records of 0.5 s: T30 of the slower decays cannot be measured. The table shows
+    # 'undefined' (or a mean over the defined receivers, starred) with the reasons in a
+    # title, and the maps mark the cells, with the reason on hover (an image map).
+    field, _, _ = decaying_grid((0.6, 1.3, 2.0), duration_s=0.5)
+    path = save_fields(tmp_path / "short.h5", sound=field)
+    index = build_report([path], tmp_path / "report")
+    page = index.read_text(encoding="utf-8")
+    cells = re.findall(r'<td class="undefined" title="([^"]+)">([^<]+)</td>', page)
+    assert cells, "undefined cells carry their reason"
+    assert any("range not reached" in t or "record too short" in t for t, _ in cells)
+    assert all(text in ("undefined",) or text.endswith("*") for _, text in cells)
+    areas = re.findall(r'<area shape="rect" coords="(\d+),(\d+),(\d+),(\d+)" title="([^"]+)"', page)
+    assert areas and all("undefined at #" in a[-1] for a in areas)
+    assert all(int(x0) < int(x1) and int(y0) < int(y1) for x0, y0, x1, y1, _ in areas)
+    check_self_contained(index)

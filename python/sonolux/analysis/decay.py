@@ -1,32 +1,53 @@
-"""Decay analysis of one band's energy histogram: the Schroeder decay curve, EDT/T20/T30, clarity
-(C50, C80), definition (D50), centre time and strength G (ISO 3382-1:2009).
+"""Decay analysis of one band's energy histogram: the Schroeder decay curve, EDT/T20/T30 with
+their checks, clarity (C50, C80), definition (D50), centre time and strength G (ISO 3382-1:2009).
 
 Input convention. ``energy`` holds bin totals in J/m², shape (..., T): any leading axes (bands,
-receivers) are kept and every quantity is computed along the last axis. The time axis may be
-non-uniform: ``bin_start_s`` and ``bin_width_s`` (both shape (T,)) describe contiguous bins, for
-example one-sample bins for the first 80 ms and 1 ms bins after. Within a bin the energy is taken
-as spread uniformly, so a bin that straddles a time limit (50 ms, 80 ms, a truncation point) is
-split in proportion to the time on each side.
+receivers) are kept and every quantity is computed along the last axis, in float64 whatever
+the input's dtype (a float32 field summed in another order gives the same parameters). The
+time axis may be non-uniform: ``bin_start_s`` and ``bin_width_s`` (both shape (T,)) describe
+contiguous bins, for example one-sample bins for the first 80 ms and 1 ms bins after. Within
+a bin the energy is taken as spread uniformly, so a bin that straddles a time limit (50 ms,
+80 ms, a truncation point) is split in proportion to the time on each side.
 
 Decay curve. The energy decay curve (EDC) at time t is the energy still to arrive after t
-(Schroeder 1965): at a bin start it is the sum of that bin and all later bins. A histogram
-ends either in a noise floor (measured or Monte-Carlo noise) or in empty bins; integrating
-either as if it were decay bends the end of the curve. So the EDC is integrated only up to a
-truncation point t_x, with the noise power N subtracted before it (Chu), and the energy
-after t_x is replaced by that of the late exponential decay (Lundeby et al. 1995; ISO 3382-1
-5.3.3; Guski & Vorländer 2014):
+(Schroeder, "New method of measuring reverberation time", JASA 37, 1965): at a bin start, the
+sum of that bin and all later bins. How the end of the record is treated is the caller's
+choice, named in the output (``compensation``):
 
-    EDC(t) = ∫_t^{t_x} (e(t') - N) dt' + C,   C = e_late(t_x) · τ_late,   τ_late = T_late / (6 ln 10)
-
-and EDC(t) = e_late(t) τ_late after t_x, which keeps the curve finite where the histogram is
-empty. t_x and N come from Lundeby's iteration (or the caller gives N; N = 0 means "no noise":
-t_x is then the end of the last non-empty bin). The decay times are fitted only where the curve
-lies above its level at t_x, where it is measured rather than extrapolated.
+- ``"none"`` (default, for simulated fields): the plain backward integral of the whole record.
+  A simulated histogram has no measurement noise; its tail thins out into isolated Monte
+  Carlo deposits, which are energy that did arrive, not noise. The curve is known down to the
+  start of the last non-empty bin; below that it is NaN.
+- ``"lundeby"`` (measured responses, or synthesised ones with noise added): the noise power N
+  and the crosspoint t_x come from Lundeby's iteration (:mod:`sonolux.analysis.lundeby`), N is
+  subtracted before t_x and the late decay's energy is added after it (ISO 3382-1 5.3.3). A
+  given ``noise_floor`` replaces the estimate; ``noise_floor=0`` compensates truncation only.
 
 Decay times are least-squares lines through the EDC in dB. The EDC is known at bin starts and
 taken as piecewise linear between them, and the fit is the continuous one over the exact
 crossing times of the range's ends, so that dense early bins weigh no more than sparse late
 ones and any binning of the same decay gives the same line.
+
+Checks. A fit is used only when it passes every check below; otherwise its time is NaN and
+``<name>_reason`` says why, as 'kind: details' (a wrong number would enter means, maps and
+reports):
+
+1. range reached: the curve falls to the range's lower end before its floor (the last
+   non-empty bin, or the truncation point t_x);
+2. slope: negative, and no slower than ``max_decay_time_s`` (the slowest decay the room's
+   least absorbing surface and its air allow, see :func:`slowest_decay_time_s`);
+3. linearity (T20, T30): ξ = 1000 (1 - r²) ‰ at most 10 ‰ (the non-linearity parameter of
+   ISO 3382-2:2008 Annex B, to which ISO 3382-1 refers; values above 10 ‰ mark a curved
+   decay). Not for EDT: it is the slope of the early decay by definition, the step of the
+   direct sound included, and near a source its curve is never straight;
+4. curvature: C = 100 (T30 / T20 - 1) % within ±10 % (same annex: 0-5 % is typical, above 10 %
+   the decay is not one slope); T30 is left undefined beyond it, T20 kept;
+5. truncation (``"none"`` only): the energy the record misses after its end, estimated as the
+   mean power of its last 10 % times the fitted decay's time constant (see ``_end_power`` for
+   a histogram that stops while still densely filled), lies at least 20 dB
+   below the range's lower end. 20 dB is where a single exponential's fitted time is biased by
+   less than 0.4 % for each range (EDT 0.36 %, T20 0.16 %, T30 0.09 %; worked out by fitting
+   10 log10(exp(-t/τ) - ε) over each range).
 """
 
 from __future__ import annotations
@@ -35,81 +56,126 @@ import math
 
 import numpy as np
 
+from sonolux.analysis.lundeby import DB_PER_NEPER, late_decay_without_noise, lundeby
 from sonolux.errors import AnalysisError
-
-DB_PER_NEPER = 10.0 / math.log(10.0)  # 10 log10(e): dB per unit of ln(energy)
 
 # ISO 3382-1 evaluation ranges (upper dB, lower dB); each time is the 60 dB extrapolation.
 DECAY_RANGES_DB = {"edt": (0.0, -10.0), "t20": (-5.0, -25.0), "t30": (-5.0, -35.0)}
-
-_INITIAL_WINDOWS = 50  # Lundeby step 1: the first smoothing window is 1/50 of the record
-_WINDOWS_PER_10_DB = 5  # Lundeby step 5: 3 to 10 windows per 10 dB of decay
-_NOISE_TAIL_FRACTION = 0.1  # the noise is estimated from at least the last 10 % of the record
-_MAX_ITERATIONS = 10
+#: The ways to treat the end of the record (see the module docstring).
+COMPENSATIONS = {
+    "none": "plain backward integral of the whole record (Schroeder 1965)",
+    "lundeby": "noise subtraction and truncation after Lundeby et al. 1995 (ISO 3382-1 5.3.3)",
+}
+XI_LIMIT_PERMILLE = 10.0  # ISO 3382-2:2008 Annex B
+CURVATURE_LIMIT_PERCENT = 10.0  # ISO 3382-2:2008 Annex B
+TRUNCATION_MARGIN_DB = 20.0  # missing tail below the range's end: bias < 0.4 % (docstring)
+_END_FRACTION = 0.1  # the record's end power is its mean over the last 10 %
 
 
 # --- public functions --------------------------------------------------------------------
 
 
-def schroeder_curve(energy, noise_floor=None, *, bin_start_s=None, bin_width_s=None):
+def slowest_decay_time_s(min_absorption, max_chord_m, air_attenuation_per_m,
+                         speed_of_sound_m_s):
+    """The longest reverberation time a closed room can have, s (broadcasts over bands).
+
+    Every path between two reflections is a chord of the room, at most ``max_chord_m`` long
+    (the bounding box's diagonal bounds it), and every reflection keeps at most 1 - α_min of
+    the energy; the air takes m (Np/m, energy) along the way. So the energy of any ray, and
+    the room's, falls at least at the rate c (-ln(1 - α_min) / d_max + m) per second, and
+    T60 ≤ 6 ln 10 / that rate. Openings and scattering only shorten it. Far longer than
+    Sabine's or Eyring's T60 (d_max ≫ 4V/S): a bound that flags impossible fits, not a model.
+    """
+    alpha = np.clip(np.asarray(min_absorption, dtype=np.float64), 0.0, 1.0)
+    with np.errstate(divide="ignore"):
+        per_reflection = -np.log1p(-alpha)
+        rate = speed_of_sound_m_s * (per_reflection / max_chord_m
+                                     + np.asarray(air_attenuation_per_m, dtype=np.float64))
+        return np.where(rate > 0, 6.0 * math.log(10.0) / rate, np.inf)
+
+
+def schroeder_curve(energy, noise_floor=None, *, bin_start_s=None, bin_width_s=None,
+                    compensation="none"):
     """Backward-integrated energy decay curve in dB re its value at the first bin start.
 
-    ``energy``: float[..., T] bin totals. ``noise_floor``: the noise power (energy per unit
-    time, J/m² per s; per bin when no widths are given), scalar or shape (...): ``None``
-    estimates it (Lundeby), ``0`` declares a noise-free histogram whose empty tail is cut.
-    ``bin_start_s``, ``bin_width_s``: float[T]; without them the bins are taken as uniform and
-    of unit width. Returns float[..., T], the EDC at bin starts; NaN only where no energy is
-    left and no decay could be fitted to extrapolate (e.g. a histogram of one non-empty bin).
-    Where no decay stands out of the noise, the plain (untruncated) integral is returned.
+    ``energy``: float[..., T] bin totals. ``compensation``: ``"none"`` (the plain integral) or
+    ``"lundeby"``; ``noise_floor`` (only with ``"lundeby"``): the noise power (energy per
+    unit time, J/m² per s; per bin when no widths are given), scalar or shape (...); ``None``
+    estimates it, ``0`` compensates truncation only. ``bin_start_s``, ``bin_width_s``:
+    float[T]; without them the bins are uniform and of unit width. Returns float[..., T],
+    the EDC at bin starts; NaN where no energy is left and nothing is extrapolated.
     """
     e, edges, lead = _prepare(energy, bin_start_s, bin_width_s)
-    floors = _per_trace(noise_floor, lead, "noise_floor")
+    floors = _noise_floors(compensation, noise_floor, lead)
     curves = np.empty_like(e)
     for i in range(e.shape[0]):
-        curves[i] = _decay_curve(e[i], edges, floors[i])["edc_db"]
+        curves[i] = _decay_curve(e[i], edges, compensation, floors[i], math.inf)["edc_db"]
     return curves.reshape(*lead, e.shape[-1])
 
 
-def decay_times(energy, bin_start_s, bin_width_s, *, noise_floor=None) -> dict:
-    """EDT, T20 and T30 in s by least-squares lines through the EDC (ISO 3382-1 5.3.3, 5.3.4).
+def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_floor=None,
+                max_decay_time_s=None, onset_s=None) -> dict:
+    """EDT, T20 and T30 in s by least-squares lines through the EDC (ISO 3382-1 5.3.3, 5.3.4),
+    each checked (module docstring); a time that fails a check is NaN with its reason.
 
-    Ranges: EDT 0 to -10 dB (×6), T20 -5 to -25 dB (×3), T30 -5 to -35 dB (×2). A range whose
-    lower end the curve does not reach before its truncation point gives NaN and a reason.
+    Ranges: EDT 0 to -10 dB (×6), T20 -5 to -25 dB (×3), T30 -5 to -35 dB (×2).
+    ``compensation``, ``noise_floor``: see :func:`schroeder_curve`. ``max_decay_time_s``:
+    scalar or shape (...), the slowest physically possible decay (``None``: no bound).
+    ``onset_s`` (scalar or shape (...)): where the response starts (the direct sound, ISO
+    3382-1 A.3.4); the ranges are then counted from the curve's level there, so that energy
+    before it (a filter's pre-ringing, noise) does not stretch EDT. ``None``: the first bin.
 
     Returns a dict; each entry has the leading shape of ``energy`` (a float or str for 1-D):
-      ``edt_s``, ``t20_s``, ``t30_s``    decay times, s
+      ``edt_s``, ``t20_s``, ``t30_s``    decay times, s (NaN where undefined)
       ``<name>_r``                       correlation coefficient of the fit (near -1)
-      ``<name>_xi_permille``             non-linearity ξ = 1000 (1 - r²) (ISO 3382-1 Annex B)
+      ``<name>_xi_permille``             non-linearity ξ = 1000 (1 - r²)
       ``<name>_reason``                  '' or why the time is NaN
-      ``curvature_percent``              C = 100 (T30 / T20 - 1) (ISO 3382-1 Annex B)
-      ``floor_db``                       EDC level at the truncation point (fits stay above it)
+      ``curvature_percent``              C = 100 (T30 / T20 - 1), from the fitted lines
+      ``floor_db``                       the EDC's floor (fits stay above it)
       ``edc_db``                         the EDC itself, float[..., T]
+      ``compensation``                   the method, a str (one for all traces)
     """
+    if compensation not in COMPENSATIONS:
+        raise AnalysisError(f"compensation must be one of {sorted(COMPENSATIONS)}, "
+                            f"got {compensation!r}")
     e, edges, lead = _prepare(energy, bin_start_s, bin_width_s)
-    floors = _per_trace(noise_floor, lead, "noise_floor")
+    floors = _noise_floors(compensation, noise_floor, lead)
+    bounds = _bounds(max_decay_time_s, lead)
     n = e.shape[0]
-    out: dict = {"edc_db": np.empty_like(e), "floor_db": np.empty(n)}
+    onsets = (np.full(n, edges[0]) if onset_s is None
+              else np.broadcast_to(np.asarray(onset_s, dtype=np.float64), lead).reshape(n))
+    out: dict = {"edc_db": np.empty_like(e), "floor_db": np.empty(n),
+                 "curvature_percent": np.full(n, np.nan)}
     for name in DECAY_RANGES_DB:
         out[f"{name}_s"] = np.full(n, np.nan)
         out[f"{name}_r"] = np.full(n, np.nan)
         out[f"{name}_xi_permille"] = np.full(n, np.nan)
         out[f"{name}_reason"] = np.full(n, "", dtype=object)
     for i in range(n):
-        curve = _decay_curve(e[i], edges, floors[i])
+        curve = _decay_curve(e[i], edges, compensation, floors[i], bounds[i])
         out["edc_db"][i] = curve["edc_db"]
         out["floor_db"][i] = curve["floor_db"]
+        t, curve = _from_onset(edges[:-1], curve, onsets[i])
+        slopes = {}
         for name, (upper, lower) in DECAY_RANGES_DB.items():
-            if curve["failure"]:
-                out[f"{name}_reason"][i] = curve["failure"]
-                continue
-            slope, r, reason = _fit_range(edges[:-1], curve["edc_db"], upper, lower,
-                                          curve["floor_db"])
-            out[f"{name}_reason"][i] = reason
-            if not reason:
-                out[f"{name}_s"][i] = -60.0 / slope if slope < 0 else np.inf
-                out[f"{name}_r"][i] = r
-                out[f"{name}_xi_permille"][i] = 1000.0 * max(0.0, 1.0 - r * r)
-    out["curvature_percent"] = 100.0 * (out["t30_s"] / out["t20_s"] - 1.0)
+            fit = _checked_fit(t, curve, upper, lower, bounds[i], linear=name != "edt")
+            out[f"{name}_reason"][i] = fit["reason"]
+            out[f"{name}_r"][i] = fit["r"]
+            out[f"{name}_xi_permille"][i] = 1000.0 * max(0.0, 1.0 - fit["r"] ** 2)
+            slopes[name] = fit["slope"]
+            if not fit["reason"]:
+                out[f"{name}_s"][i] = -60.0 / fit["slope"]
+        # (4) Curvature from the two fitted lines (kept as a diagnostic even when T30 fails).
+        if slopes["t20"] < 0 and slopes["t30"] < 0:
+            c = 100.0 * (slopes["t20"] / slopes["t30"] - 1.0)
+            out["curvature_percent"][i] = c
+            if not out["t30_reason"][i] and not out["t20_reason"][i] \
+                    and abs(c) > CURVATURE_LIMIT_PERCENT:
+                out["t30_s"][i] = np.nan
+                out["t30_reason"][i] = (
+                    f"double slope: curvature C = {c:.1f} % (T30 against T20) is beyond ±"
+                    f"{CURVATURE_LIMIT_PERCENT:g} % (ISO 3382-2 Annex B); T20 and EDT describe "
+                    "it better")
     out["edc_db"] = out["edc_db"].reshape(*lead, e.shape[-1])
     for key, value in out.items():
         if key == "edc_db":
@@ -117,6 +183,7 @@ def decay_times(energy, bin_start_s, bin_width_s, *, noise_floor=None) -> dict:
         if key.endswith("_reason"):
             value = value.astype(str)
         out[key] = value.reshape(lead)[()] if lead else value[0].item()
+    out["compensation"] = compensation
     return out
 
 
@@ -209,15 +276,38 @@ def _edges(n_bins, bin_start_s, bin_width_s):
     return np.append(start, start[-1] + width[-1])
 
 
-def _per_trace(value, lead, name):
-    """A scalar or (lead)-shaped optional parameter as a list with one entry per trace."""
+def _per_trace(value, lead, name, *, allow_inf=False):
+    """A scalar or (lead)-shaped parameter as a float64 array with one entry per trace."""
     n = int(np.prod(lead, dtype=np.int64))
-    if value is None:
-        return [None] * n
     v = np.broadcast_to(np.asarray(value, dtype=np.float64), lead).reshape(n)
-    if np.any(~np.isfinite(v)) or np.any(v < 0):
-        raise AnalysisError(f"{name} must be finite and non-negative")
-    return [float(x) for x in v]
+    bad = np.isnan(v) | (np.isinf(v) if not allow_inf else False)
+    if np.any(bad) or np.any(v < 0):
+        raise AnalysisError(f"{name} must be {'' if allow_inf else 'finite and '}non-negative")
+    return v
+
+
+def _noise_floors(compensation, noise_floor, lead):
+    """Per-trace noise floors: None (estimate) or a power; only Lundeby uses them."""
+    if compensation not in COMPENSATIONS:
+        raise AnalysisError(f"compensation must be one of {sorted(COMPENSATIONS)}, "
+                            f"got {compensation!r}")
+    n = int(np.prod(lead, dtype=np.int64))
+    if noise_floor is None:
+        return [None] * n
+    if compensation == "none":
+        raise AnalysisError("noise_floor needs compensation='lundeby' (a simulated field has "
+                            "no noise floor; its whole record is integrated)")
+    return [float(x) for x in _per_trace(noise_floor, lead, "noise_floor")]
+
+
+def _bounds(max_decay_time_s, lead):
+    """Per-trace slowest possible decay times, s (inf: no bound)."""
+    if max_decay_time_s is None:
+        return np.full(int(np.prod(lead, dtype=np.int64)), np.inf)
+    v = _per_trace(max_decay_time_s, lead, "max_decay_time_s", allow_inf=True)
+    if np.any(v == 0):
+        raise AnalysisError("max_decay_time_s must be positive")
+    return v
 
 
 def _scalar(a):
@@ -228,143 +318,36 @@ def _scalar(a):
 # --- the decay curve ---------------------------------------------------------------------
 
 
-def _windows(cum, edges, t_from, t_to, width):
-    """Mean power in windows of ``width`` ending at t_to: (centres, means). At least one."""
-    width = min(width, t_to - t_from)
-    count = max(1, math.floor((t_to - t_from) / width + 1e-9))
-    bounds = t_to - width * np.arange(count, -1, -1)
-    energy = np.diff(np.interp(bounds, edges, cum))
-    return 0.5 * (bounds[:-1] + bounds[1:]), energy / width
-
-
-def _line(t, power):
-    """Least-squares line through 10 log10(power) vs t: (intercept_db, slope_db_per_s)."""
-    y = DB_PER_NEPER * np.log(power)
-    slope, intercept = np.polyfit(t - t[0], y, 1)
-    return intercept - slope * t[0], slope
-
-
-def _window_bias_db(slope_db_s, width_s):
-    """How far a window's mean power lies above an exponential's value at its centre, dB."""
-    x = 0.5 * abs(slope_db_s) * width_s / DB_PER_NEPER
-    return DB_PER_NEPER * math.log(math.sinh(x) / x) if x > 1e-8 else 0.0
-
-
-def _late_decay_without_noise(cum, edges, t_cut):
-    """Late decay line of a noise-free histogram ending at t_cut: (intercept_db, slope) or None.
-
-    A first line through all windows after the peak sets the window length; the second is
-    fitted over the last 20 dB before t_cut.
-    """
-    t0 = edges[0]
-    centres, power = _windows(cum, edges, t0, t_cut, (t_cut - t0) / _INITIAL_WINDOWS)
-    keep = (np.arange(power.size) >= np.argmax(power)) & (power > 0)
-    if keep.sum() < 2:
-        return None
-    a, b = _line(centres[keep], power[keep])
-    if not b < 0:
-        return None
-    width = 10.0 / -b / _WINDOWS_PER_10_DB
-    if width < t_cut - t0:
-        centres, power = _windows(cum, edges, t0, t_cut, width)
-        keep = ((np.arange(power.size) >= np.argmax(power)) & (power > 0)
-                & (centres >= t_cut - 20.0 / -b))
-        if keep.sum() >= 2:
-            a2, b2 = _line(centres[keep], power[keep])
-            if b2 < 0:
-                a, b = a2 - _window_bias_db(b2, width), b2
-    return a, b
-
-
-def _lundeby(cum, edges, noise_floor):
-    """Lundeby's iteration: (noise power, crosspoint t_x, intercept_db, slope); None when the
-    record ends in empty bins (no noise to find); a reason (str) when no decay stands out.
-
-    Steps (Lundeby, Vigran, Bietz & Vorländer 1995): 1 smooth; 2 noise from the last 10 %;
-    3 line from the peak to 10 dB above the noise; 4 crosspoint with the noise; 5-6 re-smooth
-    with 5 windows per 10 dB; 7 noise from 10 dB of decay past the crosspoint (at least the
-    last 10 %); 8 late line over 5..25 dB above the noise (noise subtracted); 9 new crosspoint,
-    repeat 7-9 until it settles.
-    """
-    t0, t_end = edges[0], edges[-1]
-    duration = t_end - t0
-
-    def mean_power(t_from):
-        return (cum[-1] - np.interp(t_from, edges, cum)) / (t_end - t_from)
-
-    # (1)-(2) Smooth; estimate the noise from the record's last 10 %.
-    centres, power = _windows(cum, edges, t0, t_end, duration / _INITIAL_WINDOWS)
-    t_tail = t_end - _NOISE_TAIL_FRACTION * duration
-    noise = mean_power(t_tail) if noise_floor is None else noise_floor
-    if noise <= 0:
-        return None
-    no_decay = "no decay found above the noise floor"
-    noise_db = DB_PER_NEPER * math.log(noise)
-    # (3) Line from the peak to the first window within 10 dB of the noise.
-    peak = int(np.argmax(power))
-    level = DB_PER_NEPER * np.log(np.maximum(power, 1e-300))
-    low = np.nonzero(level[peak:] < noise_db + 10.0)[0]
-    stop = peak + (low[0] if low.size else power.size - peak)
-    stop = max(stop, min(peak + 2, power.size))
-    if stop - peak < 2 or level[peak] < noise_db + 10.0:
-        return no_decay
-    a, b = _line(centres[peak:stop], power[peak:stop])
-    if not b < 0:
-        return no_decay
-    # (4) Preliminary crosspoint.
-    t_x = min(max((noise_db - a) / b, t0), t_end)
-    for _ in range(_MAX_ITERATIONS):
-        # (5)-(6) Re-smooth with a few windows per 10 dB of the current slope.
-        width = min(10.0 / -b / _WINDOWS_PER_10_DB, duration / 4)
-        centres, power = _windows(cum, edges, t0, t_end, width)
-        # (7) Noise from 10 dB of decay past the crosspoint, at least the last 10 %.
-        if noise_floor is None:
-            noise = mean_power(min(t_x + 10.0 / -b, t_tail))
-            if noise <= 0:
-                return None  # the noise window holds only empty bins
-            noise_db = DB_PER_NEPER * math.log(noise)
-        # (8) Late decay 5 to 25 dB above the noise, with the noise subtracted.
-        level = DB_PER_NEPER * np.log(np.maximum(power, 1e-300))
-        after_peak = np.arange(power.size) >= np.argmax(power)
-        keep = (after_peak & (level >= noise_db + 5.0) & (level <= noise_db + 25.0)
-                & (centres <= t_x))
-        if keep.sum() < 2:
-            keep = after_peak & (level >= noise_db + 5.0)
-        if keep.sum() < 2:
-            break
-        a_new, b_new = _line(centres[keep], power[keep] - noise)
-        if not b_new < 0:
-            break
-        a, b = a_new - _window_bias_db(b_new, width), b_new
-        # (9) New crosspoint; stop when it no longer moves.
-        t_new = min(max((noise_db - a) / b, t0), t_end)
-        settled = abs(t_new - t_x) < 1e-4 * duration
-        t_x = t_new
-        if settled:
-            break
-    return noise, t_x, a, b
-
-
-def _decay_curve(e, edges, noise_floor):
-    """EDC of one trace: {'edc_db': float[T], 'floor_db': float, 'failure': str}."""
-    cum = np.concatenate([[0.0], np.cumsum(e)])
+def _decay_curve(e, edges, compensation, noise_floor, max_decay_time_s):
+    """EDC of one trace: {'edc_db': float[T], 'floor_db', 'failure': str, 'end_power',
+    'total'}; ``end_power`` (J/m² per s, mean over the record's last 10 %) is kept for the
+    truncation check of the plain integral and 0 where the tail is compensated."""
+    cum = np.concatenate([[0.0], np.cumsum(e)])  # float64 running sum at the bin edges
     starts = edges[:-1]
     nonzero = np.nonzero(e > 0)[0]
     if nonzero.size == 0:
-        return {"edc_db": np.full(e.size, np.nan), "floor_db": np.nan,
-                "failure": "the histogram holds no energy"}
+        return {"edc_db": np.full(e.size, np.nan), "floor_db": np.nan, "end_power": 0.0,
+                "total": 0.0, "failure": "no energy: the histogram holds no energy"}
+    if compensation == "none":
+        return _plain_curve(e, edges, cum, nonzero[-1])
     t_last = edges[nonzero[-1] + 1]  # end of the last non-empty bin
+    slowest_db_s = -60.0 / max_decay_time_s
     # Find the truncation point t_x, the noise power N and the late decay line.
-    fit = None if noise_floor == 0 else _lundeby(cum, edges, noise_floor)
+    fit = lundeby(cum, edges, None if noise_floor is None else noise_floor) \
+        if noise_floor != 0 else None
     failure = fit if isinstance(fit, str) else ""
     if failure:  # plain Schroeder integral, flagged: decay times will not be fitted to it
         noise, t_x, a, b = 0.0, t_last, np.nan, np.nan
     elif fit is not None:
         noise, t_x, a, b = fit
-    else:  # noise-free: cut at the empty tail
+        if not b < slowest_db_s:
+            failure = (f"late decay slower than physically possible: Lundeby's iteration found "
+                       f"{b:.3g} dB/s, the room allows at most {slowest_db_s:.3g} dB/s; no real "
+                       "noise floor? (simulated fields need compensation='none')")
+    else:  # noise-free: cut at the empty tail, extrapolate the late decay after it
         noise, t_x = 0.0, t_last
-        late = _late_decay_without_noise(cum, edges, t_last)
-        a, b = late if late is not None else (np.nan, np.nan)
+        late = late_decay_without_noise(cum, edges, t_last)
+        a, b = late if late is not None and late[1] < slowest_db_s else (np.nan, np.nan)
     # Integrate the noise-subtracted energy up to t_x; add the late decay's energy after it.
     tau = DB_PER_NEPER / -b if b < 0 else 0.0  # energy time constant of the late decay, s
     tail = math.exp((a + b * t_x) / DB_PER_NEPER) * tau if tau > 0 else 0.0
@@ -377,29 +360,114 @@ def _decay_curve(e, edges, noise_floor):
         edc[after] = np.where(edc[after] > 0, edc[after], np.nan)  # nothing to extrapolate
     total = edc[0]
     if not total > 0:
-        return {"edc_db": np.full(e.size, np.nan), "floor_db": np.nan,
-                "failure": "no decay found above the noise floor"}
+        return {"edc_db": np.full(e.size, np.nan), "floor_db": np.nan, "end_power": 0.0,
+                "total": 0.0, "failure": "no decay: no decay found above the noise floor"}
     with np.errstate(divide="ignore", invalid="ignore"):
         edc_db = DB_PER_NEPER * np.log(edc / total)
         floor_db = DB_PER_NEPER * math.log(tail / total) if tail > 0 else -np.inf
     if tau == 0:
         # No late line: the curve is measured down to the last non-empty bin's start.
         floor_db = float(np.nanmin(edc_db))
-    return {"edc_db": edc_db, "floor_db": floor_db, "failure": failure}
+    return {"edc_db": edc_db, "floor_db": floor_db, "failure": failure, "end_power": 0.0,
+            "total": total}
+
+
+def _plain_curve(e, edges, cum, last):
+    """The plain backward integral (Schroeder 1965) of the whole record; ``last``: index of
+    the last non-empty bin. Sums in float64 from the end, so late bins lose no digits."""
+    edc = np.cumsum(e[::-1])[::-1]
+    total = edc[0]
+    with np.errstate(divide="ignore"):
+        edc_db = DB_PER_NEPER * np.log(edc / total)
+    edc_db[last + 1:] = np.nan
+    end_power = max(_end_power(e, edges, cum, edges[-1], require_dense=False),
+                    _end_power(e, edges, cum, edges[last + 1], require_dense=True))
+    return {"edc_db": edc_db, "floor_db": float(edc_db[last]), "failure": "",
+            "end_power": float(end_power), "total": float(total)}
+
+
+def _end_power(e, edges, cum, t_end, *, require_dense):
+    """Mean power over the last 10 % of [start, t_end], J/m² per s; with ``require_dense``,
+    0 unless at least half of that window's time lies in non-empty bins.
+
+    A Monte Carlo histogram is an unbiased estimate of the energy up to the record's end,
+    however thinly its late bins are filled: what it misses is what would arrive after the
+    record's end (t_end = the end). A histogram that stops while its bins are still densely
+    filled was cut short (rays dropped below an energy threshold): then the missing energy
+    starts at its last non-empty bin (t_end = that bin's end).
+    """
+    t_from = t_end - _END_FRACTION * (t_end - edges[0])
+    power = (np.interp(t_end, edges, cum) - np.interp(t_from, edges, cum)) / (t_end - t_from)
+    if require_dense:
+        covered = np.clip(np.minimum(edges[1:], t_end) - np.maximum(edges[:-1], t_from), 0, None)
+        if covered[e > 0].sum() < 0.5 * (t_end - t_from):
+            return 0.0
+    return float(power)
 
 
 # --- decay times -------------------------------------------------------------------------
 
 
-def _fit_range(t, y, upper, lower, floor_db):
-    """Continuous least-squares line through the piecewise-linear curve y(t) between the
-    last crossing of ``upper`` and the first crossing of ``lower``: (slope, r, reason)."""
+def _from_onset(t, curve, onset_s):
+    """(t, curve) with the curve starting at the onset, at 0 dB there (ISO 3382-1 A.3.4)."""
+    if not onset_s > t[0] or curve["failure"]:
+        return t, curve
+    keep = t > onset_s
+    y = curve["edc_db"]
+    finite = np.isfinite(y)
+    at = float(np.interp(onset_s, t[finite], y[finite])) if finite.any() else 0.0
+    shifted = dict(curve, edc_db=np.concatenate([[0.0], y[keep] - at]),
+                   floor_db=curve["floor_db"] - at, total=curve["total"] * 10 ** (at / 10))
+    return np.concatenate([[onset_s], t[keep]]), shifted
+
+
+def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear):
+    """The fit over one range and its checks (module docstring, 1-3 and 5; 3 only when
+    ``linear``): {'slope': dB/s, 'r', 'reason': '' or why the time is undefined}. A reason
+    reads 'kind: details', the kind a short fixed text that tables group by."""
+    if curve["failure"]:
+        return {"slope": np.nan, "r": np.nan, "reason": curve["failure"]}
+    y, floor_db = curve["edc_db"], curve["floor_db"]
+    # (1) The range is reached above the curve's floor.
     if lower < floor_db:
-        return np.nan, np.nan, (f"decay curve reaches only {floor_db:.1f} dB before its "
-                                f"truncation point, not {lower:g} dB")
+        return {"slope": np.nan, "r": np.nan,
+                "reason": f"range not reached: the decay curve reaches only {floor_db:.1f} dB "
+                          f"before its end, not {lower:g} dB"}
+    slope, r = _fit_range(t, y, upper, lower)
+    if math.isnan(slope):
+        return {"slope": np.nan, "r": np.nan,
+                "reason": f"range not reached: the decay curve does not reach {lower:g} dB"}
+    out = {"slope": slope, "r": r, "reason": ""}
+    # (2) A physically possible slope.
+    if not slope < 0:
+        out["reason"] = f"no decay: the curve does not fall over {upper:g} to {lower:g} dB"
+    elif -60.0 / slope > max_decay_time_s:
+        out["reason"] = (f"slower than physically possible: the fit gives {-60.0 / slope:.3g} s, "
+                         f"this room at most {max_decay_time_s:.3g} s (its least absorbing "
+                         "surface and the air)")
+    # (3) A straight line through the range.
+    elif linear and 1000.0 * (1.0 - r * r) > XI_LIMIT_PERMILLE:
+        out["reason"] = (f"curved decay: ξ = {1000.0 * (1.0 - r * r):.1f} ‰ > "
+                         f"{XI_LIMIT_PERMILLE:g} ‰ over {upper:g} to {lower:g} dB "
+                         "(ISO 3382-2 Annex B)")
+    # (5) The record does not cut the decay short.
+    elif curve["end_power"] > 0:
+        tail_db = DB_PER_NEPER * math.log(curve["end_power"] * DB_PER_NEPER / -slope
+                                          / curve["total"])
+        if tail_db > lower - TRUNCATION_MARGIN_DB:
+            out["reason"] = (f"record too short: about {tail_db:.0f} dB of the energy would "
+                             f"arrive after its end, less than {TRUNCATION_MARGIN_DB:g} dB below "
+                             f"{lower:g} dB (bake longer: max_time_s)")
+    return out
+
+
+def _fit_range(t, y, upper, lower):
+    """Continuous least-squares line through the piecewise-linear curve y(t) between the
+    last crossing of ``upper`` and the first crossing of ``lower``: (slope, r); NaNs when
+    the curve does not reach ``lower``."""
     below = np.nonzero(y <= lower)[0]
     if below.size == 0 or below[0] == 0:
-        return np.nan, np.nan, f"decay curve does not reach {lower:g} dB"
+        return np.nan, np.nan
     k = below[0]
     j = np.nonzero(y[:k] >= upper)[0][-1]  # y[0] = 0 dB >= upper
     # Exact crossing times, linear between bin starts.
@@ -418,7 +486,7 @@ def _fit_range(t, y, upper, lower, floor_db):
     cov = (h * (2 * p * yp + p * yq + q * yp + 2 * q * yq)).sum() / (6 * s0) - mt * my
     slope = cov / vt
     r = cov / math.sqrt(vt * vy) if vt * vy > 0 else -1.0
-    return slope, max(-1.0, min(1.0, r)), ""
+    return slope, max(-1.0, min(1.0, r))
 
 
 # --- energy ratios -----------------------------------------------------------------------

@@ -40,7 +40,17 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.analysis.decay import c50, c80, centre_time_s, d50, decay_times, strength_g_db
+from sonolux.analysis import consistency
+from sonolux.analysis.decay import (
+    COMPENSATIONS,
+    c50,
+    c80,
+    centre_time_s,
+    d50,
+    decay_times,
+    slowest_decay_time_s,
+    strength_g_db,
+)
 from sonolux.errors import AnalysisError
 from sonolux.sound.field import SoundField
 
@@ -73,7 +83,10 @@ class RoomParameters:
     positions_m: np.ndarray  # float[receiver, 3]
     values: dict[str, np.ndarray]
     reasons: dict[str, np.ndarray]  # 'edt', 't20', 't30': str[receiver, column], '' when fitted
+    compensation: str = "none"  # how the decay curves treat the record's end (decay.COMPENSATIONS)
+    outliers: list[dict] = field(default_factory=list)  # see analysis.consistency
     directional: dict[str, np.ndarray] | None = None
+    directional_reasons: dict[str, np.ndarray] | None = None  # like reasons, [receiver, dir, column]
     direction_names: list[str] = field(default_factory=list)
     theory: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -164,14 +177,16 @@ def _with_broadband(e: np.ndarray) -> np.ndarray:
 
 
 def _ratios(e: np.ndarray, start: np.ndarray, width: np.ndarray, onset: np.ndarray,
-            power_w: float) -> dict[str, np.ndarray]:
-    """Every parameter but JLF of traces float[..., T] with onsets float[...]."""
+            power_w: float, decay: dict[str, Any]) -> dict[str, np.ndarray]:
+    """Every parameter but JLF of traces float[..., T] with onsets float[...]; ``decay``:
+    keyword arguments of ``decay_times`` (compensation, slowest decay per column)."""
     out: dict[str, np.ndarray] = {}
     with np.errstate(invalid="ignore", divide="ignore"):
-        times = decay_times(e, start, width)
+        times = decay_times(e, start, width, onset_s=onset, **decay)
         for name in DECAY_NAMES:
             out[f"{name}_s"] = np.asarray(times[f"{name}_s"], dtype=np.float64)
             out[f"{name}_reason"] = np.asarray(times[f"{name}_reason"])
+            out[f"{name}_xi_permille"] = np.asarray(times[f"{name}_xi_permille"], dtype=np.float64)
         out["c50_db"] = np.asarray(c50(e, start, width, onset_s=onset), dtype=np.float64)
         out["c80_db"] = np.asarray(c80(e, start, width, onset_s=onset), dtype=np.float64)
         out["d50"] = np.asarray(d50(e, start, width, onset_s=onset), dtype=np.float64)
@@ -203,14 +218,38 @@ def _lateral_fractions(field_, energy, edges, onset, phi_s):
     return out
 
 
+def slowest_decay_s(field_: SoundField) -> np.ndarray | None:
+    """The slowest decay the baked room allows, s, per column (bands, then broadband: the
+    slowest band's); from the field's theory (``decay.slowest_decay_time_s``). Files without
+    the room's least absorption and extent are bounded by the air alone; None without theory."""
+    t = field_.theory
+    if not t or t.get("air_attenuation_per_m") is None:
+        return None
+    bands = len(field_.bands_hz)
+    alpha = t.get("min_absorption") or [0.0] * bands
+    chord = t.get("max_chord_m") or np.inf
+    c = float(t.get("speed_of_sound_m_s") or field_.settings["speed_of_sound_m_s"])
+    bound = slowest_decay_time_s(alpha, chord, t["air_attenuation_per_m"], c)
+    return np.append(bound, bound.max())
+
+
 def room_parameters(field_: SoundField, receivers=None, *, directional: bool = False,
-                    theory: bool = True) -> RoomParameters:
+                    theory: bool = True, compensation: str = "none") -> RoomParameters:
     """ISO 3382-1 parameters of the field's receivers (all, or the given indices).
 
     ``directional=True`` adds every parameter but JLF per direction bin (energy arriving from
     that bin only; G per direction is that bin's share of the strength). ``theory=True`` adds
     Sabine's and Eyring's T60 from the scene, when the scene can still be loaded.
+    ``compensation``: how decay curves treat the record's end, ``"none"`` (a simulated field:
+    the plain backward integral) or ``"lundeby"`` (a field with a real noise floor, e.g.
+    synthesised with noise); see :mod:`sonolux.analysis.decay`. Every decay time is checked
+    (undefined with its reason in ``reasons``), and receivers that stand out from their
+    neighbours are listed in ``outliers`` (:mod:`sonolux.analysis.consistency`).
     """
+    if compensation not in COMPENSATIONS:
+        raise AnalysisError(f"compensation must be one of {sorted(COMPENSATIONS)}, "
+                            f"got {compensation!r}")
+    decay = {"compensation": compensation, "max_decay_time_s": slowest_decay_s(field_)}
     idx = np.arange(field_.n_receivers) if receivers is None else np.atleast_1d(
         np.asarray(receivers, dtype=np.int64))
     if idx.size == 0:
@@ -226,23 +265,36 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
         energy = field_.energy[sel]  # float32[r, dir, band, T]
         omni = _with_broadband(energy.sum(axis=1, dtype=np.float64))  # [r, column, T]
         onset = onsets_s(omni[:, -1], edges)  # [r]
-        part = _ratios(omni, start, width, np.repeat(onset[:, None], omni.shape[1], 1), power_w)
+        part = _ratios(omni, start, width, np.repeat(onset[:, None], omni.shape[1], 1), power_w,
+                       decay)
         part.update(_lateral_fractions(field_, energy, edges, onset, phi_s[lo:lo + _CHUNK]))
         parts.append(part)
         if directional:
             e = _with_broadband(energy.astype(np.float64))  # [r, dir, column, T]
             on = np.broadcast_to(onset[:, None, None], e.shape[:-1])
-            dir_parts.append(_ratios(e, start, width, on, power_w))
+            dir_parts.append(_ratios(e, start, width, on, power_w, decay))
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     result = RoomParameters(
         bands_hz=np.asarray(field_.bands_hz, dtype=np.float64), receivers=idx,
         positions_m=positions,
         values={k: merged[k] for k in PARAMETERS},
         reasons={n: merged[f"{n}_reason"] for n in DECAY_NAMES},
-        direction_names=field_.direction_names)
+        compensation=compensation, direction_names=field_.direction_names)
+    inside = (np.linalg.norm(positions[:, None, :] - field_.source_positions_m[None], axis=2)
+              <= field_.radius_m).any(axis=1)
+    result.outliers = consistency.outliers(
+        result.values, {f"{n}_s": merged[f"{n}_xi_permille"] for n in DECAY_NAMES}, positions,
+        idx, result.columns, field_.grid_spacing_m, inside)
+    undefined = {n: int((merged[f"{n}_reason"] != "").sum()) for n in DECAY_NAMES}
+    if any(undefined.values()):
+        result.notes.append("undefined decay times (a fit failed a check; the reasons are listed "
+                            "per receiver): " + ", ".join(f"{n.upper()} {k}" for n, k in
+                                                          undefined.items() if k))
     if directional:
         result.directional = {k: np.concatenate([p[k] for p in dir_parts])
                               for k in PARAMETERS if k in dir_parts[0]}
+        result.directional_reasons = {n: np.concatenate([p[f"{n}_reason"] for p in dir_parts])
+                                      for n in DECAY_NAMES}
     if np.isnan(phi_s).any():
         result.notes.append(f"JLF is undefined at {int(np.isnan(phi_s).sum())} receiver(s) "
                             "whose sphere holds the source (no receiver-source line)")

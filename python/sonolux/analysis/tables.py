@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.analysis.decay import COMPENSATIONS
 from sonolux.analysis.params import PARAMETERS, RoomParameters
 
 #: Digits shown per unit.
@@ -61,7 +62,51 @@ def format_grid(p: RoomParameters, title: str) -> str:
             lines.append(_row(f"{_label(name) if stat == 'mean' else '':<12}{stat:>6}",
                               s[name][stat], unit, scale))
     lines += _theory_rows(p)
-    return "\n".join(lines + _notes(p))
+    return "\n".join(lines + _undefined_rows(p) + _outlier_rows(p) + _notes(p))
+
+
+def undefined_reasons(p: RoomParameters, name: str, column: int) -> list[tuple[str, int, str]]:
+    """Why ``name`` ('edt_s', ...) is undefined in ``column``: [(kind, receivers, example)]
+    grouped by the reason's kind (its text before the first ': '), the most frequent first;
+    [] for parameters without fits or where every fit passed."""
+    key = name.removesuffix("_s")
+    if key not in p.reasons:
+        return []
+    groups: dict[str, list[str]] = {}
+    for reason in p.reasons[key][:, column]:
+        if reason:
+            groups.setdefault(str(reason).split(": ", 1)[0], []).append(str(reason))
+    return sorted(((kind, len(v), v[0]) for kind, v in groups.items()), key=lambda x: -x[1])
+
+
+def describe_undefined(reasons: list[tuple[str, int, str]]) -> str:
+    """'3 receiver(s): curved decay (e.g. curved decay: ξ = 12 ‰ ...); ...'."""
+    return "; ".join(f"{k} receiver(s): {kind} (e.g. {example})" for kind, k, example in reasons)
+
+
+def _undefined_rows(p: RoomParameters) -> list[str]:
+    lines = []
+    for key in p.reasons:
+        for c, column in enumerate(p.columns):
+            for _kind, k, example in undefined_reasons(p, f"{key}_s", c):
+                lines.append(f"  {key.upper()} {column} undefined at {k} receiver(s): {example}"
+                             + (" (and similar)" if k > 1 else ""))
+    return lines
+
+
+def _outlier_rows(p: RoomParameters, shown: int = 10) -> list[str]:
+    if not p.outliers:
+        return []
+    lines = [f"  receivers standing out from their neighbours beyond the Monte Carlo scatter "
+             f"({len(p.outliers)}):"]
+    for o in p.outliers[:shown]:
+        label, unit, scale, _ = PARAMETERS[o["parameter"]]
+        lines.append(f"    #{o['receiver']} at {_xyz(o['position_m'])} m: {label} {o['column']} "
+                     f"{o['value'] * scale:.2f} {unit}, neighbours {o['neighbours_median'] * scale:.2f}"
+                     f" (σ {o['monte_carlo_sigma'] * scale:.3f}): {o['cause']}")
+    if len(p.outliers) > shown:
+        lines.append(f"    ... and {len(p.outliers) - shown} more (--json lists all)")
+    return lines
 
 
 def format_cell(p: RoomParameters, title: str, direction_names: list[str] | None = None) -> str:
@@ -90,7 +135,8 @@ def format_cell(p: RoomParameters, title: str, direction_names: list[str] | None
 
 
 def _notes(p: RoomParameters) -> list[str]:
-    return [f"  note: {n}" for n in p.notes]
+    method = COMPENSATIONS.get(p.compensation, p.compensation)
+    return [f"  note: {n}" for n in p.notes] + [f"  decay curves: {method}"]
 
 
 def _json_array(a: np.ndarray) -> Any:
@@ -118,6 +164,7 @@ def to_json(p: RoomParameters, *, field_path: str | None = None, scene: str = ""
            "parameters": params,
            "fit_failures": {n: [[r for r in row] for row in p.reasons[n].tolist()]
                             for n in p.reasons},
+           "compensation": p.compensation, "outliers": p.outliers,
            "theory": p.theory, "notes": p.notes}
     return out
 

@@ -22,10 +22,10 @@ def cmd_params(args: argparse.Namespace) -> int:
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"
     if args.at is not None:
         r = field.cell_at(*args.at)
-        p = room_parameters(field, [r], directional=True)
+        p = room_parameters(field, [r], directional=True, compensation=args.compensation)
         text = format_cell(p, title)
     else:
-        p = room_parameters(field)
+        p = room_parameters(field, compensation=args.compensation)
         text = format_grid(p, title)
     if args.json:
         print(json.dumps(to_json(p, field_path=str(args.field), scene=field.scene_name),
@@ -107,6 +107,11 @@ def add_commands(sub) -> None:
     params.add_argument("--at", type=parse.xy, default=None, metavar="X,Y",
                         help="one cell (position in metres) instead of the whole grid")
     params.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    params.add_argument("--compensation", choices=("none", "lundeby"), default="none",
+                        help="how decay curves treat the record's end: none (default; the "
+                             "plain backward integral, right for simulated fields) or lundeby "
+                             "(noise subtraction and truncation, for fields with a real noise "
+                             "floor)")
     params.set_defaults(func=cmd_params)
 
     maps = sub.add_parser(

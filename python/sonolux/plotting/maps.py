@@ -61,10 +61,37 @@ def _limits(values: np.ndarray, excluded: np.ndarray) -> tuple[float, float]:
     return (lo, hi) if hi > lo else (lo - 0.5, hi + 0.5)
 
 
+def _undefined_areas(fig, axes, names, params: RoomParameters, column: int,
+                     field: SoundField) -> list[dict]:
+    """Pixel boxes (from the image's top left) of the undefined receivers on each map."""
+    half = 0.5 * (field.grid_spacing_m or 2 * field.radius_m)
+    height_px = fig.get_size_inches()[1] * fig.dpi
+    out = []
+    for ax, name in zip(axes, names):
+        label = PARAMETERS[name][0]
+        reasons = params.reasons.get(name.removesuffix("_s"))
+        for r in np.nonzero(~np.isfinite(params.values[name][:, column]))[0]:
+            x, y = params.positions_m[r, :2]
+            (x0, y0), (x1, y1) = ax.transData.transform([(x - half, y - half),
+                                                         (x + half, y + half)])
+            why = (reasons[r, column] if reasons is not None else "") or "not defined here"
+            out.append({"box_px": (round(x0), round(height_px - y1), round(x1),
+                                   round(height_px - y0)),
+                        "title": f"{label} undefined at #{params.receivers[r]}: {why}"})
+    return out
+
+
 def plot_parameter_maps(field: SoundField, params: RoomParameters, path: str | Path, *,
                         names=MAP_NAMES, column: int = -1, outline=None,
-                        mark_m: tuple[float, float] | None = None) -> Path:
+                        mark_m: tuple[float, float] | None = None,
+                        undefined_areas: list | None = None) -> Path:
     """Maps of ``names`` (keys of PARAMETERS) for one column (default broadband).
+
+    Receivers where a value is undefined (a fit failed its checks, see ``params.reasons``)
+    are marked with a grey cross, never coloured. ``undefined_areas``: when a list is given,
+    one dict per such receiver and map is appended to it, {'box_px': (x0, y0, x1, y1) in the
+    saved image's pixels from its top left, 'title': 'T30 undefined at #12: why'}, so that an
+    HTML page can show the reason on hover (an image map).
 
     ``outline``: segments float[n, 2, 2] (see :func:`plan_section`) or None for the grid's
     extent. The colour scale leaves out the receivers whose sphere holds a source (their
@@ -117,6 +144,10 @@ def plot_parameter_maps(field: SoundField, params: RoomParameters, path: str | P
         ax.set_ylabel("y (m)")
         ax.set_title(f"{label} ({column_label})" + (f", {unit}" if unit else ""), fontsize=10)
         fig.colorbar(im, ax=ax, shrink=0.85, extend=extend)
+        undefined = ~np.isfinite(v)
+        if undefined.any():
+            ax.plot(params.positions_m[undefined, 0], params.positions_m[undefined, 1],
+                    marker="x", ls="none", ms=7, mec="0.45", mew=1.5, label="undefined")
         if outline is not None and len(outline):
             xy = outline.reshape(-1, 2)
             pad = 0.03 * np.ptp(xy, axis=0).max()
@@ -130,6 +161,10 @@ def plot_parameter_maps(field: SoundField, params: RoomParameters, path: str | P
                  f"{np.mean(params.positions_m[:, 2]):.2g} m (seen from above)")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path = Path(path)
+    fig.set_dpi(100)
+    if undefined_areas is not None:
+        fig.canvas.draw()
+        undefined_areas += _undefined_areas(fig, axes.flat, names, params, column, field)
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path

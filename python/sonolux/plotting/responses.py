@@ -99,12 +99,17 @@ def plot_azimuth_echograms(field: SoundField, receiver: int, path: str | Path, *
 
 def plot_decay_curves(field: SoundField, receiver: int, path: str | Path) -> Path:
     """Schroeder decay curves of one receiver per band and broadband, with T30 in the legend
-    and the T30 evaluation range (-5 to -35 dB) shaded."""
+    (or why it is undefined) and the T30 evaluation range (-5 to -35 dB) shaded. The curves
+    and fits are those of ``sonolux params`` (plain integral, the room's slowest decay)."""
+    from sonolux.analysis.params import onsets_s, slowest_decay_s
+
     plt = pyplot()
     omni = field.omni_energy(receiver)
     e = np.concatenate([omni, omni.mean(axis=0, keepdims=True)])
+    edges = np.append(field.bin_start_s, field.bin_start_s[-1] + field.bin_width_s[-1])
     with np.errstate(invalid="ignore", divide="ignore"):
-        d = decay_times(e, field.bin_start_s, field.bin_width_s)
+        d = decay_times(e, field.bin_start_s, field.bin_width_s, onset_s=onsets_s(e[-1], edges),
+                        max_decay_time_s=slowest_decay_s(field))
     fig, ax = plt.subplots(figsize=(8, 4.5))
     t = field.bin_start_s
     labels = [f"{b:g} Hz" for b in field.bands_hz] + ["broadband"]
@@ -113,7 +118,8 @@ def plot_decay_curves(field: SoundField, receiver: int, path: str | Path) -> Pat
         broadband = k == len(labels) - 1
         ax.plot(t, d["edc_db"][k], lw=2.2 if broadband else 1.1,
                 color="black" if broadband else _BAND_COLOURS[k % len(_BAND_COLOURS)],
-                label=f"{label}: T30 {t30:.2f} s" if np.isfinite(t30) else f"{label}: T30 -")
+                label=f"{label}: T30 {t30:.2f} s" if np.isfinite(t30) else
+                f"{label}: T30 undefined ({d['t30_reason'][k].split(': ')[0]})")
     ax.axhspan(-35, -5, color="#dddddd", alpha=0.5, lw=0, label="T30 range (-5 to -35 dB)")
     ax.set_xlim(0, _end_ms(field, receiver) / 1000)
     ax.set_ylim(-70, 2)

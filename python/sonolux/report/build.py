@@ -10,6 +10,7 @@ echograms per direction and decay curves, parameter maps, the light view and aur
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -21,7 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.analysis.params import PARAMETERS, RoomParameters, room_parameters, scene_of
-from sonolux.analysis.tables import DIRECTIONAL_SHOWN, format_value, label_of
+from sonolux.analysis.tables import (
+    DIRECTIONAL_SHOWN,
+    describe_undefined,
+    format_value,
+    label_of,
+    undefined_reasons,
+)
 from sonolux.errors import SonoluxError
 from sonolux.fieldfile import open_field
 from sonolux.report import extras
@@ -161,11 +168,12 @@ def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: Report
                "source). Sabine and Eyring include air absorption.</p>")
     out.append(_parameter_table(grid, summary=True))
     out += [h.note(n) for n in grid.notes]
+    out.append(_outlier_list(grid))
 
     out.append(f"<h3>At the cell ({xy[0]:g}, {xy[1]:g}) m</h3>")
     out.append(_parameter_table(one, summary=False))
     out.append("<p>Per direction (broadband): the energy arriving from that direction only.</p>")
-    rows = [[name] + [format_value(n, one.directional[n][0, d, -1]) for n in DIRECTIONAL_SHOWN]
+    rows = [[name] + [_direction_cell(one, n, d) for n in DIRECTIONAL_SHOWN]
             for d, name in enumerate(one.direction_names)]
     out.append(h.table(["direction"] + [label_of(n) for n in DIRECTIONAL_SHOWN], rows))
 
@@ -174,18 +182,21 @@ def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: Report
                         "laid out around a listener facing +x (front at the top, right on the "
                         "right); the paper's figure 7 shows the front and right panels."))
     edc = plot_decay_curves(f, cell, tmp / f"img/{slug}-decay.png")
-    out.append(h.figure(f"img/{edc.name}", "Schroeder decay curves (Lundeby truncation) per band "
-                        "and broadband; T30 is fitted over the shaded range."))
+    out.append(h.figure(f"img/{edc.name}", "Schroeder decay curves (the plain backward "
+                        "integral of the simulated record) per band and broadband; T30 is "
+                        "fitted over the shaded range."))
     outline = (plan_section(scene.vertices_m, scene.triangles, float(np.mean(f.positions_m[:, 2])))
                if scene is not None else None)
     for part, names in (("maps", ("t30_s", "c80_db", "d50", "g_db")),
                         ("maps-more", ("edt_s", "c50_db", "ts_s", "jlf"))):
+        areas: list = []
         png = plot_parameter_maps(f, grid, tmp / f"img/{slug}-{part}.png", names=names,
-                                  outline=outline, mark_m=xy)
-        out.append(h.figure(f"img/{png.name}", "Broadband parameters over the floor plan (x "
-                            "along the width, y up); star: the source, circle: the cell above. "
-                            "Cells whose sphere holds the source are left out of the colour "
-                            "scale."))
+                                  outline=outline, mark_m=xy, undefined_areas=areas)
+        out.append(h.image_map(f"img/{png.name}", "Broadband parameters over the floor plan (x "
+                               "along the width, y up); star: the source, circle: the cell above; "
+                               "grey crosses: undefined values (hover for the reason). Cells whose "
+                               "sphere holds the source are left out of the colour scale.",
+                               f"{slug}-{part}", areas))
 
     out.append(_joint_section(f, grid, path, tmp, slug, outline))
 
@@ -267,18 +278,73 @@ def _bake_statistics(f: SoundField) -> str:
                            "remaining %", "balance error"], rows)
 
 
+def _value_cell(p: RoomParameters, name: str, value: float, column: int, receiver=None):
+    """A formatted value, or 'undefined' with the reasons on hover where it is not finite."""
+    if math.isfinite(value):
+        return format_value(name, value)
+    if receiver is not None and name.removesuffix("_s") in p.reasons:
+        why = p.reasons[name.removesuffix("_s")][receiver, column] or "not defined here"
+        return h.undefined("undefined", why)
+    reasons = undefined_reasons(p, name, column)
+    if not reasons:
+        return h.undefined("undefined", "not defined at any receiver (e.g. no receiver-source "
+                                        "line, or no energy)")
+    return h.undefined("undefined", describe_undefined(reasons))
+
+
+def _direction_cell(p: RoomParameters, name: str, d: int):
+    value = p.directional[name][0, d, -1]
+    if math.isfinite(value):
+        return format_value(name, value)
+    why = (p.directional_reasons or {}).get(name.removesuffix("_s"))
+    return h.undefined("undefined", (why[0, d, -1] if why is not None else "") or "not defined")
+
+
+def _outlier_list(p: RoomParameters, shown: int = 12) -> str:
+    """The receivers that stand out from their neighbours (analysis.consistency)."""
+    if not p.outliers:
+        return ("<p>No receiver's EDT, T20 or T30 stands out from its neighbours beyond the "
+                "Monte Carlo scatter (4σ) and the just-noticeable difference (5 %).</p>")
+    rows = []
+    for o in p.outliers[:shown]:
+        label, unit, scale, _ = PARAMETERS[o["parameter"]]
+        rows.append([f"#{o['receiver']} ({o['position_m'][0]:g}, {o['position_m'][1]:g})",
+                     f"{label} {o['column']}", f"{o['value'] * scale:.2f} {unit}",
+                     f"{o['neighbours_median'] * scale:.2f} {unit}",
+                     f"{o['monte_carlo_sigma'] * scale:.3f} {unit}", o["cause"]])
+    more = f" ({len(p.outliers) - shown} more in sonolux params --json)" \
+        if len(p.outliers) > shown else ""
+    return ("<p>Receivers whose decay times stand out from their neighbours beyond the Monte "
+            f"Carlo scatter (4σ, estimated from all neighbour differences){more}:</p>"
+            + h.table(["receiver (x, y) m", "parameter", "value", "neighbours", "σ", "likely cause"],
+                      rows))
+
+
+def _partly(p: RoomParameters, name: str, text: str, column: int):
+    """A summary cell: its text, with the reasons on hover where some receivers are undefined."""
+    reasons = undefined_reasons(p, name, column)
+    if not reasons:
+        return text
+    return h.undefined(text + "*", "mean over the defined receivers; undefined at "
+                       + describe_undefined(reasons))
+
+
 def _parameter_table(p: RoomParameters, *, summary: bool) -> str:
     header = ["parameter"] + [c if c == "broadband" else f"{c} Hz" for c in p.columns]
     rows, classes = [], []
     s = p.summary() if summary else None
     for name in PARAMETERS:
         if summary:
-            rows.append([label_of(name)] + [format_value(name, v) for v in s[name]["mean"]])
+            rows.append([label_of(name)] + [
+                _partly(p, name, format_value(name, v), c) if math.isfinite(v)
+                else _value_cell(p, name, v, c) for c, v in enumerate(s[name]["mean"])])
             rows.append([""] + [f"{format_value(name, a)}–{format_value(name, b)}"
+                                if math.isfinite(a) else "–"
                                 for a, b in zip(s[name]["min"], s[name]["max"])])
             classes += ["", "sub"]
         else:
-            rows.append([label_of(name)] + [format_value(name, v) for v in p.values[name][0]])
+            rows.append([label_of(name)] + [_value_cell(p, name, v, c, receiver=0)
+                                            for c, v in enumerate(p.values[name][0])])
             classes.append("")
     for label, key in (("Sabine T60 s", "sabine_t60_s"), ("Eyring T60 s", "eyring_t60_s")):
         if key in p.theory:

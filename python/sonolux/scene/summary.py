@@ -33,7 +33,10 @@ def theory(scene: Scene) -> dict[str, Any]:
     """The room's measures and the reverberation that theory expects, per simulated band:
     volume_m3, area_m2, mean_free_path_m (4V/S, None without surfaces), bands_hz,
     mean_absorption, air_attenuation_per_m, speed_of_sound_m_s, sabine_t60_s and eyring_t60_s
-    (None where infinite). JSON-ready; the bake writes it into the field file."""
+    (None where infinite); min_absorption (the least absorbing surface's coefficient per band)
+    and max_chord_m (the bounding box's diagonal, no path between two reflections is longer):
+    the slowest decay the room allows (``analysis.decay.slowest_decay_time_s``). JSON-ready;
+    the bake writes it into the field file."""
     settings, air = scene.settings, scene.settings.air
     volume_m3, area_m2 = scene.volume_m3, scene.area_m2
     by_material = scene.area_by_material_m2()
@@ -41,8 +44,13 @@ def theory(scene: Scene) -> dict[str, Any]:
     freq_hz = np.asarray(settings.bands_hz, dtype=np.float64)
     # Absorption area per band: sum over materials of area x absorption coefficient.
     absorption_area = np.zeros(bands.shape[0])
+    min_absorption = np.ones(bands.shape[0])
     for m in scene.materials:
         absorption_area += by_material[m.name] * m.absorption[bands]
+        if by_material[m.name] > 0:
+            min_absorption = np.minimum(min_absorption, m.absorption[bands])
+    corners = (scene.vertices_m.min(axis=0), scene.vertices_m.max(axis=0)) \
+        if scene.vertices_m.size else (np.zeros(3), np.zeros(3))
     mean_absorption = absorption_area / area_m2 if area_m2 > 0 else np.zeros_like(absorption_area)
     m_air = np.asarray(air_energy_attenuation_per_m(freq_hz, air.temperature_c,
                                                     air.humidity_percent, air.pressure_kpa))
@@ -54,6 +62,8 @@ def theory(scene: Scene) -> dict[str, Any]:
         "bands_hz": list(settings.bands_hz),
         "mean_absorption": _round(mean_absorption),
         "air_attenuation_per_m": _round(m_air, 12),
+        "min_absorption": _round(min_absorption),
+        "max_chord_m": float(np.linalg.norm(corners[1] - corners[0])),
         "speed_of_sound_m_s": c,
         "sabine_t60_s": _finite_or_none(sabine_t60(volume_m3, absorption_area, m_air, c)),
         "eyring_t60_s": _finite_or_none(eyring_t60(volume_m3, area_m2, mean_absorption, m_air, c)),
