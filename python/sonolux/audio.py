@@ -3,13 +3,12 @@ temporary file beside the target and are renamed, so an interrupted run leaves n
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from sonolux.errors import SonoluxError
+from sonolux.outputs import atomic_output
 
 
 def write_wav(path: str | Path, samples: np.ndarray, sample_rate_hz: int,
@@ -17,18 +16,55 @@ def write_wav(path: str | Path, samples: np.ndarray, sample_rate_hz: int,
     """Writes float32[samples, channels] (or [samples]) as WAV (32-bit float by default)."""
     import soundfile as sf
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp.wav", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_output(path) as tmp:
         sf.write(tmp, np.asarray(samples, np.float32), int(sample_rate_hz), subtype=subtype,
                  format="WAV")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return Path(path)
+
+
+#: Where the peak of a written response or auralization goes by default, in dBFS.
+NORMALIZE_PEAK_DBFS = -1.0
+
+
+def set_level(samples: np.ndarray, gain_db: float | None = None,
+              calibrated: bool = False) -> tuple[np.ndarray, float, list[str]]:
+    """The samples at the level to write, the gain applied in dB, and notes for the user.
+
+    The level chain: the field holds energy in J/m² per bin for the sources' power (in W);
+    its pressure responses and auralizations are in those units, so their size depends on the
+    power and the room, not on what a sound file can hold. Two modes:
+
+    - **normalized** (the default): the peak is scaled to :data:`NORMALIZE_PEAK_DBFS`, so the
+      file is safe to play; the gain applied is returned (and printed by the commands).
+    - **calibrated** (``calibrated=True`` or a ``gain_db``): the samples times
+      ``10^(gain_db / 20)``, nothing else, so levels compare between files. A peak above full
+      scale is kept in a float file and noted (never clipped in silence).
+
+    NaN or infinite samples are refused (an :class:`~sonolux.errors.AnalysisError`)."""
+    from sonolux.errors import AnalysisError
+
+    y = np.asarray(samples, np.float32)
+    if not np.all(np.isfinite(y)):
+        raise AnalysisError("the rendered audio holds NaN or infinite samples (a damaged field "
+                            "file, or a gain too large for 32-bit floats)")
+    notes: list[str] = []
+    peak = float(np.max(np.abs(y))) if y.size else 0.0
+    if gain_db is None and not calibrated:
+        if peak == 0.0:
+            notes.append("the output is silent (the field holds no energy at this point)")
+            return y, 0.0, notes
+        gain = 10 ** (NORMALIZE_PEAK_DBFS / 20) / peak
+        return (y * np.float32(gain)).astype(np.float32), 20 * float(np.log10(gain)), notes
+    gain_db = 0.0 if gain_db is None else float(gain_db)
+    y = (y * np.float32(10 ** (gain_db / 20))).astype(np.float32)
+    out_peak = peak * 10 ** (gain_db / 20)
+    if not np.all(np.isfinite(y)):
+        raise AnalysisError(f"gain_db = {gain_db:g} overflows 32-bit floats (peak {peak:.3g})")
+    if out_peak > 1.0:
+        notes.append(f"warning: the peak is {20 * np.log10(out_peak):+.1f} dBFS, above full "
+                     "scale: kept in the float file as asked (calibrated), but players will "
+                     "clip it; leave out --calibrated/--gain-db to normalise")
+    return y, gain_db, notes
 
 
 def read_audio(path: str | Path) -> tuple[np.ndarray, int]:

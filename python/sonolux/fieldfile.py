@@ -40,8 +40,6 @@ direction, band] and it had no ``theory``.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime, timezone
@@ -52,6 +50,7 @@ import numpy as np
 
 from sonolux.errors import FieldFileError, SonoluxError
 from sonolux.light.field import LightField
+from sonolux.outputs import atomic_output
 from sonolux.sound.field import SoundField
 
 SCHEMA = "sonolux-field/2"
@@ -85,36 +84,20 @@ def save_fields(path: str | Path, *, sound: SoundField | None = None,
         raise SonoluxError(f"{path}: nothing to write (neither a sound nor a light field)")
     first: SoundField | LightField = sound if sound is not None else light  # type: ignore[assignment]
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs.update(schema=SCHEMA, sonolux_version=__version__,
-                           created_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                           scene_name=first.scene_name, scene_origin=first.scene_origin)
-            if bake is not None:
-                f.attrs["bake"] = _json(bake)
-            if sound is not None:
-                _write_sound(f, sound)
-            if light is not None:
-                _write_light(f, light)
-        _follow_umask(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs.update(schema=SCHEMA, sonolux_version=__version__,
+                       created_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                       scene_name=first.scene_name, scene_origin=first.scene_origin)
+        if bake is not None:
+            f.attrs["bake"] = _json(bake)
+        if sound is not None:
+            _write_sound(f, sound)
+        if light is not None:
+            _write_light(f, light)
     for field in (sound, light):
         if field is not None:
             field.path = str(path)
     return path
-
-
-def _follow_umask(path: Path) -> None:
-    """mkstemp makes files 0600; a field file gets the permissions of any file made here."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, 0o666 & ~umask)
 
 
 def _write_sound(f: Any, field: SoundField) -> None:

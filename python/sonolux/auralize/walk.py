@@ -32,6 +32,7 @@ import numpy as np
 
 from sonolux.auralize.offline import AuralizeSettings, response_samples, run_blocks
 from sonolux.errors import SonoluxError
+from sonolux.outputs import write_atomically
 
 CONTROL_HZ = 1000.0  # rate at which the cell is looked up along the path
 
@@ -266,8 +267,6 @@ def auralize_walk(field, dry: np.ndarray, path: WalkPath,
 def plot_walk(field, path: WalkPath, info: dict, png: str | Path) -> Path:
     """A plan view of the path over the receiver grid: cells visited shaded, headings as
     arrows every second, sources as stars. Written to a temporary file, then renamed."""
-    import os
-    import tempfile
 
     import matplotlib
 
@@ -305,13 +304,9 @@ def plot_walk(field, path: WalkPath, info: dict, png: str | Path) -> Path:
                  f"{path.duration_s:.1f} s (arrows: heading, every second)")
     ax.legend(loc="upper right", fontsize=8)
     png = Path(png)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{png.name}.", suffix=".png", dir=png.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
-        os.replace(tmp, png)
+        write_atomically(png, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight",
+                                                      format="png"))
     finally:
         plt.close(fig)
-        Path(tmp).unlink(missing_ok=True)
     return png

@@ -16,8 +16,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -25,6 +23,7 @@ import numpy as np
 
 from sonolux.errors import SonoluxError
 from sonolux.light.field import LUMINANCE_RGB
+from sonolux.outputs import write_atomically
 
 KEY_VALUE = 0.18
 #: The incident meter exposes a white Lambertian surface under the average light to this value:
@@ -83,17 +82,7 @@ def to_srgb8(linear: np.ndarray, scale: float, curve: str = "aces",
 
 
 def _atomic(path: str | Path, write: Callable[[str], None]) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomically(path, lambda tmp: write(str(tmp)))
 
 
 def write_png(path: str | Path, srgb8: np.ndarray) -> Path:

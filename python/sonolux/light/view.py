@@ -17,6 +17,7 @@ from sonolux.light import image
 from sonolux.light.camera import Camera, default_camera
 from sonolux.light.field import LightField
 from sonolux.light.render import Renderable, incident_exposure, render
+from sonolux.memory import check_render
 
 METERS = ("incident", "reflected")
 
@@ -69,6 +70,7 @@ def render_view(field: LightField, png: str | Path, settings: ViewSettings | Non
     exposure scale and meter reading, seconds, the files written)."""
     settings = (settings or ViewSettings()).validate()
     camera = settings.camera(field)
+    check_render(camera.width, camera.height, settings.samples)
     started = time.perf_counter()
     renderable = Renderable.of(field)
     rays = render(renderable, camera, samples=settings.samples, keep_samples=True)
