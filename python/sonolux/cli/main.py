@@ -93,6 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
+    except SystemExit as done:  # --help, --version, or a usage error (printed, status 2)
+        return done.code if isinstance(done.code, int) else EXIT_USAGE
     return _run(args.func, args)
 
 
