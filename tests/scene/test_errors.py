@@ -177,7 +177,7 @@ def test_air_out_of_range(library):
 
 def test_integer_settings_reject_floats_and_bools(library):
     err = error_of({"settings": {"seed": 1.5}, "geometry": []}, library)
-    assert err.allowed == "an integer >= 0"
+    assert err.allowed == "an integer in [0, 18446744073709551615]"
     err = error_of({"settings": {"sample_rate_hz": True}, "geometry": []}, library)
     assert err.key == "settings.sample_rate_hz"
 
