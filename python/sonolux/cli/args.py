@@ -97,6 +97,7 @@ def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
         return v
 
     parse.__name__ = "integer" if integer else "number"
+    parse.bounds = (lo, hi, lo_open, hi_open, integer)  # type: ignore[attr-defined]  (for tests)
     return parse
 
 
