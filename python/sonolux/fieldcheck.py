@@ -109,8 +109,9 @@ def check_sound(path: str, a: dict[str, Any]) -> None:
     c.number("quantum", a["quantum"], nan_ok=False)
 
 
-def check_light(path: str, a: dict[str, Any]) -> None:
-    """The arrays of a light field, as read (``a``: the LightField's keyword arguments)."""
+def check_light(path: str, a: dict[str, Any], n_lights: int) -> None:
+    """The arrays of a light field, as read (``a``: the LightField's keyword arguments), of a
+    bake of ``n_lights`` lights (as many names as are stored)."""
     c = Checker(path, "light")
     c.number("patch_size_m", a["patch_size_m"], positive=True)
     tris = c.array("scene/triangles", a["triangles"], 2, lo=0, kind="iu", shape=(None, 3))
@@ -126,9 +127,19 @@ def check_light(path: str, a: dict[str, Any]) -> None:
     c.array("patch_area_m2", a["patch_area_m2"], 1, lo=0.0, shape=(n_p,))
     c.array("flux_w", a["flux_w"], 2, lo=0.0, shape=(n_p, 3))
     c.array("hits", a["hits"], 1, lo=0, kind="iu", shape=(n_p,))
-    c.array("scene/material_index", a["material_index"], 1, lo=0, kind="iu", shape=(n_t,))
-    for name in ("rho", "specular", "roughness", "emitted_radiance", "emitter_radiance",
-                 "light_power_w"):
-        c.array(name, a[name], np.asarray(a[name]).ndim, lo=0.0)
-    c.array("emitters/triangles_m", a["emitter_triangles_m"], 3, shape=(None, 3, 3))
+    rho = c.array("scene/rho", a["rho"], 2, lo=0.0, shape=(None, 3))
+    n_m = rho.shape[0]
+    index = c.array("scene/material_index", a["material_index"], 1, lo=0, kind="iu", shape=(n_t,))
+    if index.size and int(np.max(index)) >= n_m:
+        raise c.fail("scene/material_index", f"names material {np.max(index)} of {n_m}")
+    c.array("scene/specular", a["specular"], 1, lo=0.0, shape=(n_m,))
+    c.array("scene/roughness", a["roughness"], 1, lo=0.0, shape=(n_m,))
+    c.array("scene/emitted_radiance", a["emitted_radiance"], 2, lo=0.0, shape=(n_t, 3))
+    emitters = c.array("emitters/triangles_m", a["emitter_triangles_m"], 3, shape=(None, 3, 3))
+    n_e = emitters.shape[0]
+    c.array("emitters/radiance", a["emitter_radiance"], 2, lo=0.0, shape=(n_e, 3))
+    owner = c.array("emitters/light", a["emitter_light"], 1, lo=0, kind="iu", shape=(n_e,))
+    power = c.array("lights/power_w", a["light_power_w"], 1, lo=0.0, shape=(n_lights,))
+    if owner.size and int(np.max(owner)) >= power.shape[0]:
+        raise c.fail("emitters/light", f"names light {np.max(owner)} of {power.shape[0]}")
 

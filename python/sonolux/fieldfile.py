@@ -266,7 +266,7 @@ def _read_light(f: Any, path: str) -> LightField:
             emitter_triangles_m=c.dataset(e, "triangles_m"),
             emitter_radiance=c.dataset(e, "radiance"), emitter_light=c.dataset(e, "light"),
             light_power_w=c.dataset(lights, "power_w"))
-        check_light(path, arrays)
+        check_light(path, arrays, len(lights["names"]))
         return LightField(
             **arrays, surface_tag=np.array(_strings(s["surface_tag"]), dtype=str),
             material_names=_strings(s["material_names"]), light_names=_strings(lights["names"]),
