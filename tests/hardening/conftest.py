@@ -25,6 +25,13 @@ settings.register_profile("long", max_examples=1500, deadline=None,
                                                  HealthCheck.too_slow])
 settings.load_profile(os.environ.get("SONOLUX_HYPOTHESIS", "default"))
 
+
+@pytest.fixture(autouse=True)
+def crash_logs_in_tmp(tmp_path, monkeypatch):
+    """A crash log (of a bug this corpus finds) goes to the test's folder, not /tmp."""
+    monkeypatch.setenv("SONOLUX_LOG_DIR", str(tmp_path))
+
+REPO_SCENES = Path(__file__).resolve().parents[2] / "python" / "sonolux" / "data" / "scenes"
 #: What must never reach a user's screen.
 FORBIDDEN = ("Traceback", "panicked", "internal error", "PanicException")
 

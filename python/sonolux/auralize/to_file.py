@@ -108,7 +108,12 @@ def auralize_to_file(field: SoundField, dry: str, output: str | Path, listening:
         elif x.size < path.duration_s * fs:
             notes.append(f"the dry signal ({x.size / fs:.2f} s) is shorter than the walk "
                          f"({path.duration_s:.2f} s); --loop repeats it")
-        y, info = auralize_walk(field, x, path, settings, walk)
+        try:
+            y, info = auralize_walk(field, x, path, settings, walk)
+        except SonoluxError as exc:  # name the path file in what the walk found wrong
+            if str(listening.path_file) in str(exc):
+                raise
+            raise SonoluxError(f"{listening.path_file}: {exc}") from None
         png = Path(listening.png) if listening.png else Path(output).with_suffix(".png")
         plot_walk(field, path, info, png)
         where = (f"along {listening.path_file} ({path.duration_s:.2f} s, "

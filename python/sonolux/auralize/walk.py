@@ -76,7 +76,11 @@ def load_path(file: str | Path, speed_m_s: float = 1.2) -> WalkPath:
     path = Path(file)
     if not path.exists():
         raise SonoluxError(f"{path}: no such path file")
-    text = path.read_text(encoding="utf-8-sig")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SonoluxError(f"{path}: not a UTF-8 text file (byte {exc.start}); a path is CSV "
+                           "(time,x,y,heading) or JSON") from None
     if path.suffix.lower() == ".json" or text.lstrip().startswith(("[", "{")):
         return _from_json(text, str(path), speed_m_s)
     return _from_csv(text, str(path), speed_m_s)
@@ -105,6 +109,10 @@ def _from_csv(text: str, src: str, speed: float) -> WalkPath:
     keys = []
     for line, row in enumerate(rows[1:], start=2):
         rec = dict(zip(header, row))
+        missing = [k for k in ("x", "y") if rec.get(k, "").strip() == ""]
+        if missing:
+            raise SonoluxError(f"{src}:{line}: the row has no {missing[0]!r} "
+                               f"({len(row)} values for the {len(header)} columns)")
         keys.append({k: _number(rec.get(k), f"{src}:{line}", k) for k in header
                      if k in ("time", "x", "y", "heading") and rec.get(k, "").strip() != ""})
     return _keys(keys, src, speed)
