@@ -95,6 +95,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     except SystemExit as done:  # --help, --version, or a usage error (printed, status 2)
         return done.code if isinstance(done.code, int) else EXIT_USAGE
+    for name, value in vars(args).items():  # no file name or text can hold a NUL byte
+        for text in value if isinstance(value, list) else [value]:
+            if isinstance(text, str) and "\x00" in text:
+                print(f"sonolux {args.command}: error: {name} = {text.split(chr(0))[0]!r}... "
+                      "holds a NUL byte, which no file name or text may hold", file=sys.stderr)
+                return EXIT_USAGE
     return _run(args.func, args)
 
 

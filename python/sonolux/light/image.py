@@ -85,10 +85,34 @@ def _atomic(path: str | Path, write: Callable[[str], None]) -> Path:
     return write_atomically(path, lambda tmp: write(str(tmp)))
 
 
+#: The picture formats by suffix: the file holds what its name says.
+PICTURE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG"}
+
+
+def picture_format(path: str | Path) -> str:
+    """The format of a picture file by its suffix, or an error naming the path."""
+    fmt = PICTURE_FORMATS.get(Path(path).suffix.lower())
+    if fmt is None:
+        raise SonoluxError(f"{path}: a picture is written as .png, .jpg or .jpeg (the format "
+                           "follows the name)")
+    return fmt
+
+
 def write_png(path: str | Path, srgb8: np.ndarray) -> Path:
+    """Writes sRGB uint8[h, w, 3] as PNG, or as JPEG (quality 92) when the name says .jpg."""
     from PIL import Image
 
-    return _atomic(path, lambda tmp: Image.fromarray(srgb8, "RGB").save(tmp, format="PNG"))
+    fmt = picture_format(path)
+    extra = {"quality": 92} if fmt == "JPEG" else {}
+    return _atomic(path, lambda tmp: Image.fromarray(srgb8, "RGB").save(tmp, format=fmt, **extra))
+
+
+def hdr_format(path: str | Path) -> str:
+    """The suffix of an HDR image (.pfm or .exr), or an error naming the path."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in HDR_SUFFIXES:
+        raise SonoluxError(f"{path}: an HDR image must end in " + " or ".join(HDR_SUFFIXES))
+    return suffix
 
 
 def write_hdr(path: str | Path, linear: np.ndarray) -> Path:

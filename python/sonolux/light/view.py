@@ -69,6 +69,9 @@ def render_view(field: LightField, png: str | Path, settings: ViewSettings | Non
     """Renders the view and writes ``png`` (and ``hdr``): a dict of what was done (camera,
     exposure scale and meter reading, seconds, the files written)."""
     settings = (settings or ViewSettings()).validate()
+    image.picture_format(png)  # before the work: a name that says another format is an error
+    if hdr:
+        image.hdr_format(hdr)
     camera = settings.camera(field)
     check_render(camera.width, camera.height, settings.samples)
     started = time.perf_counter()
