@@ -19,6 +19,11 @@ from sonolux.errors import SonoluxError
 
 from .conftest import assert_usage_error, run
 
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10
+    import tomli as tomllib
+
 REPO = Path(__file__).resolve().parents[2]
 SCENES = [*sorted((REPO / "python/sonolux/data/scenes").glob("*.toml")),
           *sorted((REPO / "examples/scenes").glob("*.toml"))]
