@@ -11,15 +11,57 @@ from sonolux.errors import SonoluxError
 from sonolux.outputs import atomic_output
 
 
+#: WAVE_FORMAT_EXTENSIBLE speaker bits (Microsoft, "Multiple channel audio data and WAVE
+#: files", 2017) of the channel names our layouts use.
+SPEAKER_BITS = {"L": 0x1, "R": 0x2, "C": 0x4, "LFE": 0x8, "Lrs": 0x10, "Rrs": 0x20,
+                "Ls": 0x200, "Rs": 0x400, "Lss": 0x200, "Rss": 0x400,
+                "left": 0x1, "right": 0x2}
+
+
+def channel_mask(channel_names: list[str] | tuple[str, ...] | None) -> int:
+    """The dwChannelMask of a WAV with these channels: their speaker bits when every channel
+    has one and they come in the order of their bits (as the format requires); else 0, "no
+    speaker assigned" (cube8's corners, ambisonic components: the docs give their order)."""
+    if not channel_names:
+        return 0
+    bits = [SPEAKER_BITS.get(n) for n in channel_names]
+    if any(b is None for b in bits) or any(a >= b for a, b in zip(bits, bits[1:])):  # type: ignore[operator]
+        return 0
+    return sum(bits)  # type: ignore[arg-type]
+
+
 def write_wav(path: str | Path, samples: np.ndarray, sample_rate_hz: int,
-              subtype: str = "FLOAT") -> Path:
-    """Writes float32[samples, channels] (or [samples]) as WAV (32-bit float by default)."""
+              subtype: str = "FLOAT", channel_names: list[str] | tuple[str, ...] | None = None
+              ) -> Path:
+    """Writes float32[samples, channels] (or [samples]) as WAV (32-bit float by default).
+
+    More than two channels (or named channels) are written as WAVE_FORMAT_EXTENSIBLE with the
+    channel mask of :func:`channel_mask`, so that players do not guess the layout."""
     import soundfile as sf
 
+    x = np.asarray(samples, np.float32)
+    n_channels = 1 if x.ndim == 1 else x.shape[1]
+    extensible = n_channels > 2 or channel_names is not None
     with atomic_output(path) as tmp:
-        sf.write(tmp, np.asarray(samples, np.float32), int(sample_rate_hz), subtype=subtype,
-                 format="WAV")
+        sf.write(tmp, x, int(sample_rate_hz), subtype=subtype,
+                 format="WAVEX" if extensible else "WAV")
+        if extensible:
+            _set_channel_mask(tmp, channel_mask(channel_names))
     return Path(path)
+
+
+def _set_channel_mask(path: Path, mask: int) -> None:
+    """Writes dwChannelMask into the extensible 'fmt ' chunk of the WAV at ``path``."""
+    import struct
+
+    with open(path, "r+b") as f:
+        head = f.read(256)
+        at = head.find(b"fmt ")
+        size, tag = struct.unpack("<IH", head[at + 4: at + 10]) if at >= 0 else (0, 0)
+        if size < 40 or tag != 0xFFFE:
+            raise SonoluxError(f"{path}: the WAV writer made no extensible header")
+        f.seek(at + 8 + 20)  # cbSize, wValidBitsPerSample, then dwChannelMask
+        f.write(struct.pack("<I", mask))
 
 
 #: Where the peak of a written response or auralization goes by default, in dBFS.

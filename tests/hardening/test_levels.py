@@ -99,3 +99,21 @@ def test_a_bad_gain_is_refused(capsys, baked, gain):
     code, _, err = run(capsys, "ir", field, "--at", "1,1", f"--gain-db={gain}", "-o",
                        baked / "g.wav")
     assert_usage_error(code, err, "--gain-db", repr(gain))
+
+
+MASKS = {"binaural": 0x3, "stereo": 0x3, "5.1": 0x60F, "7.1": 0x63F, "cube8": 0, "ambisonics": 0}
+
+
+@pytest.mark.parametrize(("layout", "mask"), sorted(MASKS.items()))
+def test_every_layout_writes_its_channel_mask(capsys, field_file, tmp_path, layout, mask):
+    import struct
+
+    out = tmp_path / "l.wav"
+    code, _, err = run(capsys, "auralize", field_file, "builtin:clicks:0.2", "--at", "4.5,1.25",
+                       "--layout", layout, "-o", out)
+    assert code == 0, err
+    head = out.read_bytes()[:100]
+    at = head.find(b"fmt ")
+    size, tag = struct.unpack("<IH", head[at + 4: at + 10])
+    assert (size, tag) == (40, 0xFFFE)  # WAVE_FORMAT_EXTENSIBLE
+    assert struct.unpack("<I", head[at + 28: at + 32])[0] == mask

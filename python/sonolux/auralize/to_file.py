@@ -126,7 +126,7 @@ def auralize_to_file(field: SoundField, dry: str, output: str | Path, listening:
     if out.subtype != "FLOAT" and peak > 1.0:
         raise SonoluxError(f"the peak is {20 * np.log10(peak):+.1f} dBFS: {out.subtype} would "
                            "clip; lower --gain-db, leave out --calibrated, or keep FLOAT")
-    write_wav(output, y, fs, subtype=out.subtype)
+    write_wav(output, y, fs, subtype=out.subtype, channel_names=info["channels"])
     notes.extend(level_notes)
     return {"what": what, "where": where, "info": info, "channels": int(y.shape[1]),
             "seconds": y.shape[0] / fs, "sample_rate_hz": fs,
