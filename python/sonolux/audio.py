@@ -10,7 +10,6 @@ import numpy as np
 from sonolux.errors import SonoluxError
 from sonolux.outputs import atomic_output
 
-
 #: WAVE_FORMAT_EXTENSIBLE speaker bits (Microsoft, "Multiple channel audio data and WAVE
 #: files", 2017) of the channel names our layouts use.
 SPEAKER_BITS = {"L": 0x1, "R": 0x2, "C": 0x4, "LFE": 0x8, "Lrs": 0x10, "Rrs": 0x20,

@@ -14,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sonolux.cli import args as parse
-from sonolux.cli.main import build_parser
+from sonolux.cli.app import build_parser
 
 from .conftest import assert_usage_error, run
 

@@ -7,6 +7,7 @@ SceneError naming its key, never another exception."""
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import pytest

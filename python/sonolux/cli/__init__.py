@@ -1,6 +1,6 @@
 """The ``sonolux`` command line: thin shells over the library, one module per family.
 
-- :mod:`~sonolux.cli.main`: the parser, the error handling, :func:`main`;
+- :mod:`~sonolux.cli.app`: the parser and the error handling (:func:`main` here loads it);
 - :mod:`~sonolux.cli.args`: parsers of the values the commands share (X,Y, counts, ranges);
 - :mod:`~sonolux.cli.failures`: one line for every way a run can fail (signals, crash logs);
 - :mod:`~sonolux.cli.scene`: ``check``, ``bake``, ``info``, ``ir``, ``experiment``;
@@ -22,7 +22,7 @@ from collections.abc import Sequence
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``sonolux`` command; returns the exit status."""
     try:
-        from sonolux.cli.main import main as run
+        from sonolux.cli.app import main as run
     except KeyboardInterrupt:  # while the commands load: nothing was written yet
         print("sonolux: interrupted", file=sys.stderr, flush=True)
         # Exit at once: an interrupt inside an extension module's import can leave the
