@@ -12,6 +12,7 @@ import json
 import sys
 
 from sonolux.cli import args as parse
+from sonolux.limits import MAX_THREADS
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -29,6 +30,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_bake(args: argparse.Namespace) -> int:
     import time
+    from dataclasses import replace
 
     from sonolux.fieldfile import save_fields
     from sonolux.light.info import format_info as format_light
@@ -40,6 +42,9 @@ def cmd_bake(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     scene = load_scene(args.scene)
+    overrides = {k: v for k, v in (("seed", args.seed), ("threads", args.threads)) if v is not None}
+    if overrides:  # the command line wins over the scene's [settings]
+        scene = replace(scene, settings=replace(scene.settings, **overrides))
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
@@ -47,7 +52,8 @@ def cmd_bake(args: argparse.Namespace) -> int:
         scene, sound=args.sound, light=args.light, load_s=load_s,
         sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
                                    azimuth_bands=args.azimuth_bands,
-                                   elevation_bands=args.elevation_bands, ray_range=args.range),
+                                   elevation_bands=args.elevation_bands, ray_range=args.range,
+                                   air_absorption=not args.no_air),
         light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
         progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
     for field in (baked.sound, baked.light):
@@ -187,6 +193,14 @@ def add_commands(sub) -> None:
                       help="light particles, or 'auto' (printed with the reason); default auto")
     bake.add_argument("--patch-size", type=parse.number(0.001, 100, unit="m"), default=0.25, metavar="M",
                       help="size of the light's surface patches in metres (default 0.25)")
+    bake.add_argument("--seed", type=parse.seed, default=None,
+                      help="seed of the random numbers (default: the scene's, else 1)")
+    bake.add_argument("--threads", type=parse.number(0, MAX_THREADS, integer=True), default=None,
+                      help="worker threads, 0 = every core (default: the scene's, else 0); "
+                           "the result does not depend on it")
+    bake.add_argument("--no-air", action="store_true",
+                      help="leave out the air's absorption (for comparisons with theory that "
+                           "leaves it out)")
     bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     bake.set_defaults(func=cmd_bake)
 
