@@ -146,6 +146,21 @@ def _write_paper_filters(field, r: int, direction: str | None, args: argparse.Na
     return 0
 
 
+def cmd_merge(args: argparse.Namespace) -> int:
+    from sonolux.fieldfile import save_fields
+    from sonolux.sound.info import format_info
+    from sonolux.sound.merge import merge_parts, missing_ranges
+
+    merged = merge_parts(args.parts, allow_missing=args.partial)
+    path = save_fields(args.output, sound=merged)
+    print(format_info(merged, path))
+    gaps = missing_ranges(merged)
+    if gaps:
+        print(f"sonolux: warning: rays {', '.join(f'{a}:{b}' for a, b in gaps)} are missing "
+              "(--partial)", file=sys.stderr)
+    return 0
+
+
 def cmd_experiment(args: argparse.Namespace) -> int:
     from sonolux.experiment import run
 
@@ -228,6 +243,18 @@ def add_commands(sub) -> None:
     parse.add_level_options(ir)
     ir.add_argument("-o", "--output", required=True, help="the WAV file to write")
     ir.set_defaults(func=cmd_ir)
+
+    merge = sub.add_parser(
+        "merge", help="merge the ray ranges of a bake into one field file",
+        description="Add up the parts of a bake traced as ray ranges (sonolux bake --range "
+                    "FIRST:END, on one machine or several) into one field file, the same bits "
+                    "as the bake done at once. Parts of another bake and overlapping ranges are "
+                    "refused; missing ranges are named.")
+    merge.add_argument("parts", metavar="PART", nargs="+", help="field files of ray ranges")
+    merge.add_argument("-o", "--output", required=True, help="the merged field file to write")
+    merge.add_argument("--partial", action="store_true",
+                       help="write the field even if some ranges are missing")
+    merge.set_defaults(func=cmd_merge)
 
     exp = sub.add_parser("experiment", help="the paper's three rooms, baked and compared",
                          description="Bake the paper's three rooms, print T30 of the central "
