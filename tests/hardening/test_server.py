@@ -101,3 +101,17 @@ def test_a_client_that_leaves_is_not_reported(server):
         c.close()  # a reset, mid-answer
     time.sleep(0.5)
     assert "Traceback" not in errors.getvalue()
+
+
+def test_the_bundle_cache_keeps_the_most_recent(tmp_path):
+    from sonolux.web.serve import clean_cache
+
+    folder = tmp_path / "web"
+    folder.mkdir()
+    for k in range(12):
+        (folder / f"b{k:02d}").mkdir()
+        os.utime(folder / f"b{k:02d}", (1000 + k, 1000 + k))
+    (folder / "x.partial").mkdir()
+    keep = folder / "b00"  # the one in use, however old
+    clean_cache(folder, keep=keep, most=4)
+    assert sorted(p.name for p in folder.iterdir()) == ["b00", "b09", "b10", "b11"]

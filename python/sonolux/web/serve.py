@@ -76,11 +76,30 @@ def cached_bundle(field_path: str | Path, options: WebExportOptions | None = Non
         shutil.rmtree(out)
     if (out / "field.json").exists():
         (log or (lambda _m: None))(f"bundle in the cache: {out}")
+        os.utime(out)  # used now: the last to be cleaned
         return out
     summary = export_web(field_path, out, options, log=log)
     if log:
         log(summary.describe())
+    clean_cache(out.parent, keep=out)
     return out
+
+
+#: Bundles kept in the cache (the most recently used); older ones are removed.
+CACHE_BUNDLES = 8
+
+
+def clean_cache(folder: Path, keep: Path, most: int = CACHE_BUNDLES) -> list[Path]:
+    """Removes all but the ``most`` most recently used bundles in ``folder`` (never ``keep``),
+    and leftovers of interrupted exports; returns what was removed."""
+    entries = [p for p in folder.iterdir() if p.is_dir() and p != keep]
+    leftovers = [p for p in entries if p.name.endswith((".partial", ".old"))]
+    bundles = sorted((p for p in entries if p not in leftovers),
+                     key=lambda p: p.stat().st_mtime, reverse=True)
+    removed = leftovers + bundles[max(most - 1, 0):]
+    for p in removed:
+        shutil.rmtree(p, ignore_errors=True)
+    return removed
 
 
 def viewer_dir() -> Path:
