@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.analysis.params import PARAMETERS, RoomParameters
+from sonolux.outputs import write_atomically
 from sonolux.plotting import pyplot
 from sonolux.sound.field import SoundField
 
@@ -130,6 +131,6 @@ def plot_parameter_maps(field: SoundField, params: RoomParameters, path: str | P
                  f"{np.mean(params.positions_m[:, 2]):.2g} m (seen from above)")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     path = Path(path)
-    fig.savefig(path, dpi=100)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
     plt.close(fig)
     return path
