@@ -98,10 +98,21 @@ def test_a_picture_name_of_another_format_is_refused_before_rendering(capsys, fi
 
 def test_a_leftover_of_a_killed_run_is_replaced(capsys, field_file, tmp_path):
     out = tmp_path / "ir.wav"
-    (tmp_path / "ir.partial.wav").write_bytes(b"half a file")
+    dead = 2**22 + 7  # above any pid_max: no such process
+    (tmp_path / f"ir.partial-{dead}.wav").write_bytes(b"half a file")
+    (tmp_path / "ir.partial-1.wav").write_bytes(b"a live writer's (pid 1 is always running)")
     code, _, err = run(capsys, "ir", field_file, "--at", "1,1", "-o", out)
     assert code == 0, err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["ir.wav"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ir.partial-1.wav", "ir.wav"]
+
+
+def test_a_leftover_folder_of_a_killed_export_is_removed(capsys, field_file, tmp_path):
+    dead = 2**22 + 7
+    (tmp_path / f"web.partial-{dead}").mkdir()
+    (tmp_path / f"web.old-{dead}").mkdir()
+    code, _, err = run(capsys, "export", field_file, "--web", tmp_path / "web")
+    assert code == 0, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["web"]
 
 
 def test_a_failed_run_keeps_the_previous_output(capsys, field_file, tmp_path):

@@ -111,7 +111,8 @@ def test_the_bundle_cache_keeps_the_most_recent(tmp_path):
     for k in range(12):
         (folder / f"b{k:02d}").mkdir()
         os.utime(folder / f"b{k:02d}", (1000 + k, 1000 + k))
-    (folder / "x.partial").mkdir()
+    (folder / "b01.partial-123").mkdir()  # another export, maybe running: left alone
     keep = folder / "b00"  # the one in use, however old
     clean_cache(folder, keep=keep, most=4)
-    assert sorted(p.name for p in folder.iterdir()) == ["b00", "b09", "b10", "b11"]
+    assert sorted(p.name for p in folder.iterdir()) == ["b00", "b01.partial-123", "b09", "b10",
+                                                        "b11"]

@@ -90,13 +90,14 @@ CACHE_BUNDLES = 8
 
 
 def clean_cache(folder: Path, keep: Path, most: int = CACHE_BUNDLES) -> list[Path]:
-    """Removes all but the ``most`` most recently used bundles in ``folder`` (never ``keep``),
-    and leftovers of interrupted exports; returns what was removed."""
+    """Removes all but the ``most`` most recently used bundles in ``folder`` (never ``keep``;
+    a killed export's leftovers are removed by the next export of that bundle, see
+    :func:`sonolux.outputs.atomic_folder`); returns what was removed."""
     entries = [p for p in folder.iterdir() if p.is_dir() and p != keep]
-    leftovers = [p for p in entries if p.name.endswith((".partial", ".old"))]
-    bundles = sorted((p for p in entries if p not in leftovers),
+    leftovers = [p for p in entries if "." in p.name]  # NAME.partial-PID, NAME.old-PID: never
+    bundles = sorted((p for p in entries if p not in leftovers),  # removed here (another run's)
                      key=lambda p: p.stat().st_mtime, reverse=True)
-    removed = leftovers + bundles[max(most - 1, 0):]
+    removed = bundles[max(most - 1, 0):]
     for p in removed:
         shutil.rmtree(p, ignore_errors=True)
     return removed
