@@ -159,7 +159,8 @@ def format_value(value: Any, limit: int = 60) -> str:
         if isinstance(v, int):
             return str(v)
         if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+            text = v.replace("\\", "\\\\").replace('"', '\\"')
+            return '"' + "".join(c if c.isprintable() else repr(c)[1:-1] for c in text) + '"'
         if isinstance(v, dict):
             return "{" + ", ".join(f"{k} = {render(x)}" for k, x in v.items()) + "}"
         if isinstance(v, (list, tuple)):

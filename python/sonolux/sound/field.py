@@ -97,8 +97,8 @@ class SoundField:
         """The receiver whose cell holds the position: the nearest receiver in plan (in 3D when
         z is given). A position farther than one cell (or 2 radii for listed points) from every
         receiver is outside the field: an error names the nearest one."""
-        p = np.array([check_number(name, v) for name, v in zip("xyz", (x, y, z))
-                      if v is not None], float)
+        p = np.array([check_number("x", x), check_number("y", y)]
+                     + ([] if z is None else [check_number("z", z)]), float)
         d = np.linalg.norm(self.positions_m[:, : p.size] - p, axis=1)
         k = int(np.argmin(d))
         reach = (self.grid_spacing_m or 2 * self.radius_m) * (np.sqrt(2) / 2 + 1e-9)
@@ -145,9 +145,13 @@ class SoundField:
 
     def paper_filters(self, receiver: int, length: int = 3840) -> np.ndarray:
         """The paper's filters: float64[direction, band, length] energy taps at the sample rate."""
+        from sonolux.memory import check_memory
         from sonolux.sound.synthesis import paper_filters
 
         receiver = self.receiver_index(receiver)
+        length = check_number("length", length, 0, 10_000_000, integer=True, unit="taps")
+        check_memory(2.0 * 8 * self.energy.shape[1] * self.energy.shape[2] * length,
+                     "the paper's filters", f"length = {length:,} taps")
         return np.stack([paper_filters(self.energy[receiver, d].astype(np.float64),
                                        self.bin_start_s, self.bin_width_s, self.sample_rate_hz,
                                        length) for d in range(self.energy.shape[1])])
