@@ -18,7 +18,8 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet "maturin>=1.9,<2" "numpy>=1.24" "scipy>=1.10" "h5py>=3.8" "trimesh>=4.0" \
-	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "pytest>=8" "hypothesis>=6.100" "ruff>=0.6" \
+	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "dask>=2024.1" "distributed>=2024.1" "av>=12" "pytest>=8" \
+	    "hypothesis>=6.100" "ruff>=0.6" \
 	    "mypy>=1.10"
 	touch $(STAMP)
 
@@ -45,7 +46,7 @@ test-web: build ## the viewer's unit tests and browser tests (headless Chromium;
 web: ## rebuild the viewer (web/) into python/sonolux/web_dist, which ships it (needs Node.js)
 	cd web && { test -x node_modules/.bin/vite || npm install --no-audit --no-fund; } && npm run build
 
-PEERS := pyrato pyroomacoustics mitsuba embreex
+PEERS := pyrato pyroomacoustics mitsuba embreex pyradiance
 
 $(VENV)/.peers-stamp: $(STAMP)
 	@echo "installing the peers used by slow checks and benchmarks (not runtime dependencies): $(PEERS)"
@@ -66,13 +67,17 @@ ci: test lint ## what .ci/run does
 demo: build ## the paper's experiment: three rooms checked, baked, compared (out/demo)
 	$(VENV)/bin/sonolux check paper-large
 	$(VENV)/bin/sonolux experiment -o out/demo
+	$(VENV)/bin/sonolux film out/demo/paper-small.h5 --path examples/walks/paper-small.csv \
+	    --fps 12 --size 480x270 -o out/demo/walk-paper-small.mp4
 
 bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomacoustics, memory bandwidth), results in benchmarks/results
 	$(PY) benchmarks/bvh.py
 	$(PY) benchmarks/sound.py
 	$(PY) benchmarks/mesh_room.py
 	$(PY) benchmarks/light.py
+	$(PY) benchmarks/radiance.py
 	$(PY) benchmarks/auralize.py
+	$(PY) benchmarks/dask_bake.py
 	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
 
 validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md

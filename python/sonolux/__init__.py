@@ -23,13 +23,13 @@ if TYPE_CHECKING:
     from sonolux.errors import SceneError, SonoluxError
     from sonolux.fieldfile import open_field as open
     from sonolux.fieldfile import open_light_field
-    from sonolux.light.bake import bake_light
     from sonolux.light.field import LightField
     from sonolux.light.options import LightOptions
+    from sonolux.light.ranges import bake as bake_light
     from sonolux.scene import Scene, load_scene
-    from sonolux.sound.bake import bake
     from sonolux.sound.field import SoundField
     from sonolux.sound.options import SoundOptions
+    from sonolux.sound.ranges import bake
 
 #: Public name -> (module, name in it).
 _LAZY = {
@@ -37,12 +37,12 @@ _LAZY = {
     "SonoluxError": ("sonolux.errors", "SonoluxError"),
     "open": ("sonolux.fieldfile", "open_field"),
     "open_light_field": ("sonolux.fieldfile", "open_light_field"),
-    "bake_light": ("sonolux.light.bake", "bake_light"),
+    "bake_light": ("sonolux.light.ranges", "bake"),
     "LightField": ("sonolux.light.field", "LightField"),
     "LightOptions": ("sonolux.light.options", "LightOptions"),
     "Scene": ("sonolux.scene", "Scene"),
     "load_scene": ("sonolux.scene", "load_scene"),
-    "bake": ("sonolux.sound.bake", "bake"),
+    "bake": ("sonolux.sound.ranges", "bake"),
     "SoundField": ("sonolux.sound.field", "SoundField"),
     "SoundOptions": ("sonolux.sound.options", "SoundOptions"),
 }

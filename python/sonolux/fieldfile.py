@@ -31,6 +31,11 @@ Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m
     /light/emitters/...    triangles_m float64[emitter, corner, 3], radiance
                            float64[emitter, channel], light int32[emitter]
     /light/lights/...      names and kinds str[light], power_w float64[light]
+    /light/workplane       (when the scene has a work plane) attrs: height_m, spacing_m;
+                           positions_m float64[cell, 3] (centres), grid_index int64[cell, 2],
+                           illuminance_lx float64[cell], hits uint64[cell], and
+                           daylight_factor_percent float64[cell] when an overcast sky is the
+                           only light
 
 Both groups are optional, at least one is there; readers ignore groups they do not know.
 Format 1 (``sonolux-field/1``) still opens: its ``/sound/counts`` was [time, receiver,
@@ -51,6 +56,7 @@ import numpy as np
 from sonolux.errors import FieldFileError, SonoluxError
 from sonolux.fieldcheck import Checker, check_light, check_sound
 from sonolux.light.field import LightField
+from sonolux.light.workplane import WorkplaneResult
 from sonolux.outputs import atomic_output
 from sonolux.sound.field import SoundField
 
@@ -157,6 +163,17 @@ def _write_light(f: Any, field: LightField) -> None:
     lights["names"] = np.array(field.light_names, dtype=text)
     lights["kinds"] = np.array(field.light_kinds, dtype=text)
     lights["power_w"] = field.light_power_w
+    wp = field.workplane
+    if wp is not None:
+        w = g.create_group("workplane")
+        w.attrs["height_m"] = float(wp.height_m)
+        w.attrs["spacing_m"] = float(wp.spacing_m)
+        w["positions_m"] = np.asarray(wp.positions_m, np.float64)
+        w["grid_index"] = np.asarray(wp.grid_index, np.int64)
+        w["illuminance_lx"] = np.asarray(wp.illuminance_lx, np.float64)
+        w["hits"] = np.asarray(wp.hits, np.uint64)
+        if wp.daylight_factor_percent is not None:
+            w["daylight_factor_percent"] = np.asarray(wp.daylight_factor_percent, np.float64)
 
 
 # --- reading ---------------------------------------------------------------------------------
@@ -249,6 +266,13 @@ def _strings(d: Any) -> list[str]:
     return [v.decode() if isinstance(v, bytes) else str(v) for v in d[...]]
 
 
+def _read_workplane(w: Any) -> WorkplaneResult:
+    df = w["daylight_factor_percent"][...] if "daylight_factor_percent" in w else None
+    return WorkplaneResult(float(w.attrs["height_m"]), float(w.attrs["spacing_m"]),
+                           w["positions_m"][...], w["grid_index"][...], w["illuminance_lx"][...],
+                           w["hits"][...], df)
+
+
 def _read_light(f: Any, path: str) -> LightField:
     if "light" not in f:
         raise FieldFileError(f"{path}: the file holds no light field (/light is missing; it was "
@@ -273,7 +297,8 @@ def _read_light(f: Any, path: str) -> LightField:
             light_kinds=_strings(lights["kinds"]),
             settings=json.loads(g.attrs["settings"]), stats=json.loads(g.attrs["stats"]),
             scene_name=str(f.attrs.get("scene_name", "")),
-            scene_origin=str(f.attrs.get("scene_origin", "")), path=path)
+            scene_origin=str(f.attrs.get("scene_origin", "")), path=path,
+            workplane=_read_workplane(g["workplane"]) if "workplane" in g else None)
     except KeyError as exc:
         raise FieldFileError(f"{path}: the light field is incomplete ({exc.args[0]} is "
                              "missing)") from None

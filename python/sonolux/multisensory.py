@@ -56,8 +56,14 @@ def default_senses(scene: Scene) -> dict[str, bool]:
 def bake_senses(scene: Scene | str | Path | dict, *, sound: bool | None = None,
                 light: bool | None = None, sound_options: SoundOptions | None = None,
                 light_options: LightOptions | None = None, progress: bool = False,
-                log: Callable[[str], None] | None = None, load_s: float | None = None) -> Baked:
+                log: Callable[[str], None] | None = None, load_s: float | None = None,
+                sound_baker: Callable[..., SoundField] | None = None,
+                light_baker: Callable[..., LightField] | None = None) -> Baked:
     """Bakes sound and light of one scene in one run (None = whatever the scene has).
+
+    ``sound_baker`` replaces :func:`sonolux.sound.bake.bake` (same arguments), e.g. by the bake
+    in checkpointed ranges or on a Dask cluster (:func:`sonolux.sound.ranges.bake`);
+    ``light_baker`` does the same for :func:`sonolux.light.bake.bake_light`.
 
     ``scene`` may be loaded already; then ``load_s``, the seconds its loading took, lets the
     report say what sharing saved (otherwise it is timed here)."""
@@ -82,11 +88,12 @@ def bake_senses(scene: Scene | str | Path | dict, *, sound: bool | None = None,
     out: dict[str, Any] = {"sound": None, "light": None}
     if want["sound"]:
         t = time.perf_counter()
-        out["sound"] = bake_sound(loaded, sound_options, progress=progress, log=log)
+        out["sound"] = (sound_baker or bake_sound)(loaded, sound_options, progress=progress, log=log)
         seconds["sound_s"] = time.perf_counter() - t
     if want["light"]:
         t = time.perf_counter()
-        out["light"] = bake_light(loaded, light_options, progress=progress, log=log)
+        out["light"] = (light_baker or bake_light)(loaded, light_options, progress=progress,
+                                                   log=log)
         seconds["light_s"] = time.perf_counter() - t
     total = time.perf_counter() - started + (load_s if isinstance(scene, Scene) else 0.0)
     senses = [k for k in ("sound", "light") if want[k]]

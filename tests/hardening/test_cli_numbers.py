@@ -31,6 +31,9 @@ TEMPLATES = {
     "report": ["f.h5", "-o", "r"],
     "auralize": ["f.h5", "builtin:speech", "--at", "1,1", "-o", "x.wav"],
     "serve": ["f.h5"],
+    "merge": ["a.h5", "b.h5", "-o", "m.h5"],
+    "maps": ["f.h5", "-o", "m.png"],
+    "film": ["f.h5", "--path", "walk.csv", "-o", "film.mp4"],
 }
 
 #: The shared parsers that take more than one number, and text each must refuse.
@@ -78,6 +81,11 @@ def _allowed(text: str, bounds) -> bool:
 CASES = [(command, option, value)
          for command, option, kind in number_options()
          for value in (bad_numbers(kind.bounds) if hasattr(kind, "bounds") else SHAPED[kind])]
+
+
+def test_every_command_has_a_template():
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert set(sub.choices) <= set(TEMPLATES)
 
 
 def test_every_command_has_its_numbers_covered():

@@ -77,6 +77,58 @@ def test_a_mirror_floor_shows_the_light(core):
     assert img[15, 15] == pytest.approx(0.9 * le, rel=1e-9)
 
 
+def test_the_glossy_lobe_is_phongs():
+    # Phong's lobe cos^n θ about the mirror direction has E[cos θ] = (n + 1) / (n + 2): drawn
+    # 200 000 times (standard error of the mean below 1e-4), about a mirror direction tilted so
+    # that no draw falls below the surface.
+    from sonolux.light.render import _uniforms, glossy_directions
+
+    k = 200_000
+    mirror = np.tile([np.sin(0.2), 0.0, np.cos(0.2)], (k, 1))
+    normal = np.tile([0.0, 0.0, 1.0], (k, 1))
+    for roughness in (0.1, 0.3):
+        n = 2 / roughness**2 - 2
+        d = glossy_directions(mirror, normal, np.full(k, roughness),
+                              *_uniforms(np.arange(k, dtype=np.uint64), 0))
+        assert np.allclose(np.linalg.norm(d, axis=1), 1.0)
+        cos = d @ mirror[0]
+        assert cos.mean() == pytest.approx((n + 1) / (n + 2), abs=5e-4)
+        assert np.allclose(d[:, :2].mean(axis=0), mirror[0, :2] * cos.mean(), atol=3e-3)
+    assert np.array_equal(glossy_directions(mirror[:3], normal[:3], np.zeros(3),
+                                            np.full(3, 0.5), np.full(3, 0.5)), mirror[:3])
+
+
+def test_a_glossy_floor_shows_the_light_spread_by_its_lobe(core):
+    # Black walls, an all-specular floor of roughness 0.3 (n = 20.2), the light 2.99 m above.
+    # Looking straight down from 1.5 m, a ray reflects at the floor into the lobe about the
+    # vertical; it sees ρ Le with the probability P that the lobe sends it into the light,
+    # P = ∫ (n + 1) / (2π) cos^n θ dω over the light, integrated here on a fine grid (P = 0.068).
+    # 400 000 rays with their own draws: relative standard error 0.6%, so within 3% (measured
+    # -1.2% with 100 000 rays).
+    from sonolux.light.render import Renderable, shade
+
+    scene = sonolux.load_scene({
+        "materials": {"gloss": {"absorption": 0.1, "diffuse_rgb": [0.9, 0.9, 0.9], "specular": 1.0,
+                                "roughness": 0.3},
+                      "black": {"absorption": 1.0, "diffuse_rgb": [0.0, 0.0, 0.0]}},
+        "geometry": [{"type": "shoebox", "size_m": [4, 4, 3],
+                      "materials": {"default": "black", "floor": "gloss"}}],
+        "lights": [{"center_m": [2, 2, 2.99], "size_m": [1.0, 0.2], "power_w": 10}],
+    })
+    r = Renderable.of(bake_light(scene, particles=20_000))
+    k = 400_000
+    got = shade(r, np.tile([2.0, 2.0, 1.5], (k, 1)), np.tile([0.0, 0.0, -1.0], (k, 1)))
+    le = 10.0 / (np.pi * 0.2)
+    n = 2 / 0.3**2 - 2
+    x, y = np.meshgrid(np.linspace(1.5, 2.5, 801), np.linspace(1.9, 2.1, 161))
+    dist2 = (x - 2) ** 2 + (y - 2) ** 2 + 2.99**2
+    cos = 2.99 / np.sqrt(dist2)
+    p_light = np.trapezoid(np.trapezoid((n + 1) / (2 * np.pi) * cos**n * cos / dist2,
+                                        x[0], axis=1), y[:, 0])
+    assert got[:, 0].mean() == pytest.approx(0.9 * le * p_light, rel=0.03)
+    assert 0.05 < p_light < 0.6  # the test sees a spread lobe, neither a mirror nor nothing
+
+
 @pytest.mark.parametrize(("change", "field"), [
     ({"fov_deg": 0.0}, "fov_deg"), ({"fov_deg": 180.0}, "fov_deg"), ({"fov_deg": -10.0}, "fov_deg"),
     ({"width": 0}, "width"), ({"height": 100_000}, "height"), ({"pitch_deg": 90.0}, "pitch_deg"),

@@ -125,6 +125,9 @@ impl LightSettings {
 /// (incident flux per RGB channel), hits uint64[patch] (particles that landed there), stats
 /// (a dict) and cancelled. With `lighting` (luminaires, sky, sun, glazing, a work plane: see
 /// [`Lighting`]) and a work plane, also plane_flux_w float64[cell, 3] and plane_hits uint64[cell].
+/// The exact sums behind them: flux_counts uint64[patch, 3] (and plane_flux_counts) with
+/// flux = counts × flux_quantum_w, and stats["energy_counts"] (emitted, absorbed, escaped,
+/// roulette × channel, Python ints) × stats["energy_quantum_w"]: ranges of one bake add up.
 #[pyfunction]
 #[pyo3(signature = (geometry, optics, emitters, settings, progress = None, lighting = None))]
 pub(crate) fn trace_light<'py>(
@@ -165,9 +168,12 @@ pub(crate) fn trace_light<'py>(
     out.set_item("patch_area_m2", res.patches.area.clone().into_pyarray(py))?;
     out.set_item("flux_w", res.flux.iter().flatten().copied().collect::<Vec<f64>>().into_pyarray(py).reshape([n, 3])?)?;
     out.set_item("hits", res.hits.into_pyarray(py))?;
+    out.set_item("flux_counts", res.flux_counts.into_iter().flatten().collect::<Vec<u64>>().into_pyarray(py).reshape([n, 3])?)?;
+    out.set_item("flux_quantum_w", res.quantum)?;
     if plane.is_some() {
         let cells = res.plane_flux.len();
         out.set_item("plane_flux_w", res.plane_flux.into_iter().flatten().collect::<Vec<f64>>().into_pyarray(py).reshape([cells, 3])?)?;
+        out.set_item("plane_flux_counts", res.plane_counts.into_iter().flatten().collect::<Vec<u64>>().into_pyarray(py).reshape([cells, 3])?)?;
         out.set_item("plane_hits", res.plane_hits.into_pyarray(py))?;
     }
     out.set_item("cancelled", res.cancelled)?;
@@ -180,6 +186,9 @@ pub(crate) fn trace_light<'py>(
     s.set_item("flux_absorbed_w", st.absorbed.to_vec())?;
     s.set_item("flux_escaped_w", st.escaped.to_vec())?;
     s.set_item("flux_roulette_w", st.roulette.to_vec())?;
+    // Python ints: exact, so that the tallies of ray ranges add up to the bake's.
+    s.set_item("energy_counts", st.energy_counts.iter().map(|k| k.to_vec()).collect::<Vec<Vec<i128>>>())?;
+    s.set_item("energy_quantum_w", core::TALLY_QUANTUM_W)?;
     out.set_item("stats", s)?;
     Ok(out)
 }

@@ -4,6 +4,7 @@
 - :mod:`~sonolux.cli.args`: parsers of the values the commands share (X,Y, counts, ranges);
 - :mod:`~sonolux.cli.failures`: one line for every way a run can fail (signals, crash logs);
 - :mod:`~sonolux.cli.scene`: ``check``, ``bake``, ``info``, ``ir``, ``experiment``;
+- :mod:`~sonolux.cli.spread`: the checkpoint, resume and Dask flags of ``bake``; ``merge``;
 - :mod:`~sonolux.cli.light`: ``render`` and ``export`` (glTF and the web bundle);
 - :mod:`~sonolux.cli.measure`: ``params`` and ``report``;
 - :mod:`~sonolux.cli.listen`: ``auralize`` and ``serve``.

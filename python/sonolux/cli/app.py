@@ -15,7 +15,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from sonolux.cli import light, listen, measure, scene
+from sonolux.cli import light, listen, measure, scene, spread
 from sonolux.cli.failures import (
     ISSUES_URL,
     Terminated,
@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"sonolux {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for family in (scene, light, measure, listen):
+    for family in (scene, spread, light, measure, listen):
         family.add_commands(sub)
     return parser
 

@@ -1,8 +1,10 @@
 """The listening commands: ``auralize`` (a dry signal heard at a point or along a walk, as a WAV
-file) and ``serve`` (the walk-through viewer in the browser).
+file), ``film`` (the walk seen and heard, as a video) and ``serve`` (the walk-through viewer in
+the browser).
 
     sonolux auralize field.h5 dry.wav --at X,Y --heading DEG --layout binaural -o out.wav
     sonolux auralize field.h5 builtin:speech --path walk.csv --layout cube8 -o walk.wav
+    sonolux film field.h5 --path walk.csv -o walk.mp4 [--dry builtin:speech] [--fps 25]
     sonolux serve FIELD [--port N] [--host 127.0.0.1] [--open] [--rebuild] [--max-length-s S]
 """
 
@@ -50,6 +52,35 @@ def cmd_auralize(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_film(args: argparse.Namespace) -> int:
+    from sonolux.fieldfile import contents, open_field, open_light_field
+    from sonolux.film import FilmSettings, make_film
+    from sonolux.progress import ProgressLine
+
+    has = contents(args.field)
+    missing = [s for s in ("sound", "light") if not has[s]]
+    if missing:
+        from sonolux.errors import SonoluxError
+
+        raise SonoluxError(f"{args.field}: a film needs both senses; this file has no "
+                           f"{' and no '.join(missing)} (bake the scene with both)")
+    width, height = args.size
+    settings = FilmSettings(fps=args.fps, width_px=width, height_px=height, fov_deg=args.fov,
+                            eye_height_m=args.eye_height, samples=args.samples,
+                            layout=args.layout, crf=args.crf)
+    done = make_film(open_field(args.field), open_light_field(args.field), args.dry, args.path,
+                     args.output, settings,
+                     progress=None if args.quiet else ProgressLine("film", unit="frames"))
+    print(f"{done['frames']} frames at {done['fps']:g} fps ({done['size_px'][0]}x"
+          f"{done['size_px'][1]}, eye at {done['eye_height_m']:.2f} m) and {done['layout']} "
+          f"sound of {done['dry']}, {done['duration_s']:.2f} s through {len(done['cells'])} "
+          f"cells, made in {done['seconds']:.1f} s -> {done['output']} "
+          f"({done['bytes'] / 1e6:.1f} MB)")
+    for note in done["notes"]:
+        print(f"sonolux: note: {note}", file=sys.stderr)
+    return 0
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     import webbrowser
 
@@ -71,7 +102,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def add_commands(sub) -> None:
-    """Adds ``auralize`` and ``serve`` to the subcommand table ``sub``."""
+    """Adds ``auralize``, ``film`` and ``serve`` to the subcommand table ``sub``."""
     p = sub.add_parser(
         "auralize", help="hear a sound field: a dry signal at a point or along a path",
         description="Convolve a dry (anechoic) signal with the responses of the cell at X,Y (or "
@@ -120,6 +151,38 @@ def add_commands(sub) -> None:
     p.add_argument("--png", default=None,
                    help="the walk's plan view (default: the output's name with .png)")
     p.set_defaults(func=cmd_auralize)
+
+    f = sub.add_parser(
+        "film", help="the walk-through film: the lit room seen and heard along a path (MP4)",
+        description="Render the lit room from the walker's eye along a path (the camera of "
+                    "sonolux render, one frame every 1/FPS s) and mux the walk's binaural or "
+                    "stereo soundtrack (as sonolux auralize --path makes it), in sync, into an "
+                    "MP4, MKV or MOV (H.264 and AAC through PyAV). The field file needs both "
+                    "senses. The sound is never written above full scale.")
+    f.add_argument("field", metavar="FIELD", help="a field file with sound and light")
+    f.add_argument("--path", required=True, metavar="FILE",
+                   help="the walk: CSV (time,x,y,heading) or JSON, as for auralize")
+    f.add_argument("-o", "--output", required=True, help="the film to write (.mp4, .mkv, .mov)")
+    f.add_argument("--dry", default="builtin:speech", metavar="DRY",
+                   help="what is heard: a sound file or builtin:NAME (default builtin:speech)")
+    f.add_argument("--fps", type=parse.number(1, 120, unit="frames per second"),
+                   default=25.0, help="frames per second (default 25)")
+    f.add_argument("--size", type=parse.size_px, default=(640, 360), metavar="WxH",
+                   help="pixels, both even (default 640x360)")
+    f.add_argument("--fov", type=parse.number(0, 170, lo_open=True, hi_open=True, unit="degrees"),
+                   default=70.0, metavar="DEG",
+                   help="vertical field of view (default 70)")
+    f.add_argument("--eye-height", type=parse.number(0, 100, lo_open=True, hi_open=True, unit="m"),
+                   default=None, metavar="M",
+                   help="the camera's height (default: the receivers', where the ears are)")
+    f.add_argument("--samples", type=parse.number(1, 16, integer=True), default=1,
+                   help="samples² rays per pixel (default 1)")
+    f.add_argument("--layout", choices=("binaural", "stereo"), default="binaural",
+                   help="the soundtrack (default binaural, for headphones)")
+    f.add_argument("--crf", type=parse.number(0, 51, integer=True), default=20,
+                   help="H.264 quality, 0 (best) to 51 (default 20)")
+    f.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    f.set_defaults(func=cmd_film)
 
     s = sub.add_parser(
         "serve", help="walk through a field in the browser: see it and hear it",

@@ -1,5 +1,6 @@
-"""The measuring commands: ``params`` (ISO 3382-1 parameters of a sound field) and ``report``
-(a static HTML report of one or more fields)."""
+"""The measuring commands: ``params`` (ISO 3382-1 parameters of a sound field), ``maps`` (light
+and sound over one floor plan, with criteria) and ``report`` (a static HTML report of one or
+more fields)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import json
 import sys
 from pathlib import Path
 
+from sonolux.analysis.joint import DEFAULT_CRITERIA
 from sonolux.cli import args as parse
 
 
@@ -33,6 +35,55 @@ def cmd_params(args: argparse.Namespace) -> int:
     return 0
 
 
+def _criterion(text: str):
+    from sonolux.analysis.joint import Criterion
+    from sonolux.errors import SonoluxError
+
+    try:
+        return Criterion.parse(text)
+    except SonoluxError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def cmd_maps(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from sonolux.analysis.joint import Criterion, joint_map
+    from sonolux.analysis.params import room_parameters, scene_of
+    from sonolux.fieldfile import contents, open_field, open_light_field
+    from sonolux.plotting.joint import plot_joint_map
+    from sonolux.plotting.maps import plan_section
+
+    has = contents(args.field)
+    sound = open_field(args.field) if has["sound"] else None
+    light = open_light_field(args.field) if has["light"] else None
+    params = room_parameters(sound, theory=False) if sound is not None else None
+    criteria = args.require if args.require else [Criterion.parse(t) for t in DEFAULT_CRITERIA]
+    joint = joint_map(sound, params, light, [] if args.no_criteria else criteria)
+    height = float(np.mean(joint.positions_m[:, 2]))
+    if light is not None:
+        outline = plan_section(light.vertices_m, light.triangles, height)
+    else:
+        scene, _ = scene_of(sound)
+        outline = plan_section(scene.vertices_m, scene.triangles, height) if scene else None
+    written = [plot_joint_map(joint, args.output, outline)]
+    for path in (args.csv, args.json):
+        if path:
+            written.append(joint.write(path))
+    summary = joint.summary()
+    print(f"{joint.scene_name}: {summary['cells']} cells")
+    for name, value in summary.items():
+        if name.startswith("mean_") and value is not None:
+            print(f"  mean {name[5:]:<24} {value:.3g}")
+    for text, counts in summary["criteria"].items():
+        print(f"  {text:<28} pass {counts['pass']:>5}  fail {counts['fail']:>5}  "
+              f"undefined {counts['undefined']:>5}")
+    for note in joint.notes:
+        print(f"  note: {note}")
+    print("-> " + ", ".join(str(p) for p in written))
+    return 0
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     from sonolux.report.build import ReportOptions, build_report
 
@@ -46,7 +97,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def add_commands(sub) -> None:
-    """Adds ``params`` and ``report`` to the subcommand table ``sub``."""
+    """Adds ``params``, ``maps`` and ``report`` to the subcommand table ``sub``."""
     params = sub.add_parser(
         "params", help="ISO 3382-1 room-acoustic parameters of a sound field",
         description="EDT, T20, T30, C50, C80, D50, Ts, G and the early lateral energy fraction "
@@ -57,6 +108,25 @@ def add_commands(sub) -> None:
                         help="one cell (position in metres) instead of the whole grid")
     params.add_argument("--json", action="store_true", help="print machine-readable JSON")
     params.set_defaults(func=cmd_params)
+
+    maps = sub.add_parser(
+        "maps", help="light and sound over one floor plan, with the cells that fail criteria",
+        description="One floor plan for both senses: illuminance (and daylight factor) on the "
+                    "work plane beside STI, C50, G and T30 at the receivers (ISO 3382-1 single "
+                    "numbers: the mean of 500 Hz and 1 kHz), with every cell that fails a "
+                    "criterion flagged; a picture, and the cells as CSV or JSON.")
+    maps.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
+    maps.add_argument("-o", "--output", required=True, metavar="PNG", help="the picture to write")
+    maps.add_argument("--csv", default=None, metavar="FILE", help="also write the cells as CSV")
+    maps.add_argument("--json", default=None, metavar="FILE", help="also write them as JSON")
+    maps.add_argument("--require", type=_criterion, action="append", default=[],
+                      metavar="NAME>=LIMIT",
+                      help="a criterion (repeatable), NAME>=LIMIT or NAME<=LIMIT, NAME one of "
+                           "illuminance_lx, daylight_factor_percent, sti, c50_db, c80_db, "
+                           "d50, g_db, edt_s, t30_s (default: " + ", ".join(DEFAULT_CRITERIA)
+                           + ", where the field has them)")
+    maps.add_argument("--no-criteria", action="store_true", help="flag nothing")
+    maps.set_defaults(func=cmd_maps)
 
     report = sub.add_parser(
         "report", help="a static HTML report of one or more sound fields",

@@ -12,6 +12,7 @@ import json
 import sys
 
 from sonolux.cli import args as parse
+from sonolux.cli import spread
 from sonolux.limits import MAX_THREADS
 
 
@@ -48,18 +49,22 @@ def cmd_bake(args: argparse.Namespace) -> int:
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
-    baked = bake_senses(
-        scene, sound=args.sound, light=args.light, load_s=load_s,
-        sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
-                                   azimuth_bands=args.azimuth_bands,
-                                   elevation_bands=args.elevation_bands, ray_range=args.range,
-                                   air_absorption=not args.no_air),
-        light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
-        progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
-    for field in (baked.sound, baked.light):
-        if field is not None and field.stats.get("cancelled"):
-            print("sonolux: stopped early: the field holds what was traced so far", file=sys.stderr)
-    path = save_fields(args.output, sound=baked.sound, light=baked.light, bake=baked.report)
+    with spread.bakers(args) as (sound_baker, light_baker, written):
+        baked = bake_senses(
+            scene, sound=args.sound, light=args.light, load_s=load_s,
+            sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
+                                       azimuth_bands=args.azimuth_bands,
+                                       elevation_bands=args.elevation_bands, ray_range=args.range,
+                                       air_absorption=not args.no_air),
+            light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
+            progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
+            sound_baker=sound_baker, light_baker=light_baker)
+        for field in (baked.sound, baked.light):
+            if field is not None and field.stats.get("cancelled"):
+                print("sonolux: stopped early: the field holds what was traced so far",
+                      file=sys.stderr)
+        path = save_fields(args.output, sound=baked.sound, light=baked.light, bake=baked.report)
+        written()
     if baked.sound is not None:
         print(format_sound(baked.sound, path))
     if baked.light is not None:
@@ -146,21 +151,6 @@ def _write_paper_filters(field, r: int, direction: str | None, args: argparse.Na
     return 0
 
 
-def cmd_merge(args: argparse.Namespace) -> int:
-    from sonolux.fieldfile import save_fields
-    from sonolux.sound.info import format_info
-    from sonolux.sound.merge import merge_parts, missing_ranges
-
-    merged = merge_parts(args.parts, allow_missing=args.partial)
-    path = save_fields(args.output, sound=merged)
-    print(format_info(merged, path))
-    gaps = missing_ranges(merged)
-    if gaps:
-        print(f"sonolux: warning: rays {', '.join(f'{a}:{b}' for a, b in gaps)} are missing "
-              "(--partial)", file=sys.stderr)
-    return 0
-
-
 def cmd_experiment(args: argparse.Namespace) -> int:
     from sonolux.experiment import run
 
@@ -217,6 +207,7 @@ def add_commands(sub) -> None:
                       help="leave out the air's absorption (for comparisons with theory that "
                            "leaves it out)")
     bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    spread.add_bake_flags(bake)
     bake.set_defaults(func=cmd_bake)
 
     inf = sub.add_parser("info", help="summarise a field file (sound and light)",
@@ -243,18 +234,6 @@ def add_commands(sub) -> None:
     parse.add_level_options(ir)
     ir.add_argument("-o", "--output", required=True, help="the WAV file to write")
     ir.set_defaults(func=cmd_ir)
-
-    merge = sub.add_parser(
-        "merge", help="merge the ray ranges of a bake into one field file",
-        description="Add up the parts of a bake traced as ray ranges (sonolux bake --range "
-                    "FIRST:END, on one machine or several) into one field file, the same bits "
-                    "as the bake done at once. Parts of another bake and overlapping ranges are "
-                    "refused; missing ranges are named.")
-    merge.add_argument("parts", metavar="PART", nargs="+", help="field files of ray ranges")
-    merge.add_argument("-o", "--output", required=True, help="the merged field file to write")
-    merge.add_argument("--partial", action="store_true",
-                       help="write the field even if some ranges are missing")
-    merge.set_defaults(func=cmd_merge)
 
     exp = sub.add_parser("experiment", help="the paper's three rooms, baked and compared",
                          description="Bake the paper's three rooms, print T30 of the central "

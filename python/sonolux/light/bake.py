@@ -102,14 +102,18 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
     }
 
 
-def _trace(scene: Scene, arrays: dict[str, Any], options: LightOptions, particles: int,
-           progress: Any = None) -> dict[str, Any]:
+def trace_particles(scene: Scene, arrays: dict[str, Any], options: LightOptions, particles: int,
+                    progress: Any = None, first: int = 0, end: int | None = None,
+                    threads: int | None = None) -> dict[str, Any]:
+    """The core's result (see ``_core.trace_light``) for particles ``first..end`` of a bake of
+    ``particles`` (default: all of them) on ``threads`` engine threads (default: the scene's)."""
     optics = engine.Optics(arrays["rho"], arrays["specular"], arrays["roughness"])
     emitters = engine.Emitters(arrays["emitters"], arrays["emitter_flux"])
     settings = engine.LightSettings(
-        particles=particles, first_ray=0, end_ray=particles, seed=scene.settings.seed,
-        threads=scene.settings.threads, patch_size_m=float(options.patch_size_m),
-        max_bounces=options.max_bounces)
+        particles=particles, first_ray=first, end_ray=particles if end is None else end,
+        seed=scene.settings.seed,
+        threads=scene.settings.threads if threads is None else threads,
+        patch_size_m=float(options.patch_size_m), max_bounces=options.max_bounces)
     lighting = engine.Lighting(sources=arrays["sources"], transmittance=arrays["transmittance"],
                                work_plane=arrays["work_plane"])
     return engine.trace_light(scene.geometry, optics, emitters, settings, progress, lighting)
@@ -120,7 +124,7 @@ def auto_particles(scene: Scene, options: LightOptions, arrays: dict[str, Any]) 
     ``options.hits_per_patch`` times (its noise is then about 1/sqrt of that). A pilot run of
     PILOT_PARTICLES particles measures how many surfaces a particle hits before roulette ends
     it (in a closed room, about 1 / (1 − the mean reflectance it meets))."""
-    pilot = _trace(scene, arrays, options, PILOT_PARTICLES)
+    pilot = trace_particles(scene, arrays, options, PILOT_PARTICLES)
     n_patches = int(pilot["patch_area_m2"].shape[0])
     hits_each = pilot["stats"]["bounces"] / PILOT_PARTICLES
     wanted = options.hits_per_patch * n_patches / max(hits_each, 1e-9)
@@ -157,13 +161,22 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
     callback = (ProgressLine(f"light {scene.name}", unit="particles") if progress is True
                 else (progress or None))
     started = time.perf_counter()
-    out = _trace(scene, arrays, options, particles, callback)
-    seconds = time.perf_counter() - started
+    out = trace_particles(scene, arrays, options, particles, callback)
+    out["stats"] = dict(out["stats"], seconds=time.perf_counter() - started)
+    return light_field(scene, options, arrays, particles, why, out)
+
+
+def light_field(scene: Scene, options: LightOptions, arrays: dict[str, Any], particles: int,
+                why: str, out: dict[str, Any]) -> LightField:
+    """The :class:`LightField` of the core's result ``out`` (whose stats carry the seconds the
+    tracing took) for a bake of ``particles`` particles."""
     stats = dict(out["stats"])
-    stats.update(seconds=seconds,
-                 particles_per_second=stats["particles"] / seconds if seconds > 0 else None,
+    seconds = stats["seconds"]
+    stats.update(particles_per_second=stats["particles"] / seconds if seconds > 0 else None,
                  hits_per_particle=stats["bounces"] / max(stats["particles"], 1),
                  cancelled=bool(out["cancelled"]))
+    stats.pop("energy_counts", None)
+    stats.pop("energy_quantum_w", None)
     settings = {"particles": particles, "particles_reason": why, "seed": scene.settings.seed,
                 "threads": scene.settings.threads, "patch_size_m": float(options.patch_size_m),
                 "hits_per_patch": options.hits_per_patch, "max_bounces": options.max_bounces,

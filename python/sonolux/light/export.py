@@ -1,7 +1,9 @@
 """Export for viewers: the geometry with the baked light as vertex colours, in binary glTF.
 
 Every triangle is cut into its patches; the patches' corners are shared where the picture
-smooths (:mod:`sonolux.light.patches`), and each corner's colour is the smoothed radiance there,
+smooths (:mod:`sonolux.light.patches`), the seams where patches of different sizes meet are
+closed (no T-junctions, so no hairline cracks: :mod:`sonolux.light.seams`), and each corner's
+colour is the smoothed radiance there,
 exposed as by an incident-light meter (a white surface under the area-weighted log-average
 light is exposed to 0.6; ``exposure_ev`` stops more),
 tone-mapped (:mod:`sonolux.light.image`) and left linear: glTF's COLOR_0 is linear and viewers
@@ -25,6 +27,7 @@ import numpy as np
 from sonolux.light.field import LightField
 from sonolux.light.image import INCIDENT_WHITE, LOG_DELTA, _atomic, luminance, tone_map
 from sonolux.light.patches import patch_mesh
+from sonolux.light.seams import close_seams
 
 UNLIT = "KHR_materials_unlit"
 
@@ -83,9 +86,12 @@ def export_gltf(field: LightField, path: str | Path, *, exposure_ev: float = 0.0
         vertices = mesh.corners_m.reshape(-1, 3)
         faces = np.arange(vertices.shape[0]).reshape(-1, 3)
         colours = np.repeat(radiance, 3, axis=0)
+    # Closed seams: the stored (tone-mapped) colours are what a viewer interpolates, so an
+    # inserted vertex is interpolated in them (see sonolux.light.seams).
+    vertices, faces, shown = close_seams(vertices, faces, tone_map(colours * scale, curve))
     scene = trimesh.Scene()
     surfaces = trimesh.Trimesh(to_y_up(vertices), faces, process=False,
-                               vertex_colors=_rgba8(tone_map(colours * scale, curve)))
+                               vertex_colors=_rgba8(shown))
     scene.add_geometry(surfaces, geom_name="surfaces", node_name="surfaces")
     rect = field.rectangle_emitters
     if np.any(rect):

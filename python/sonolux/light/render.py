@@ -9,7 +9,12 @@ For each pixel (``samples`` × ``samples`` rays on a fixed grid inside it, avera
 2. at the surface: the diffuse radiance stored on the patches, interpolated linearly between
    their shared corners (:mod:`sonolux.light.patches`), plus the surface's own emission;
 3. a material with a specular share s reflects: the ray follows the mirror direction and adds
-   s ρ × what it sees there (up to ``max_bounces`` times). Glossy surfaces are drawn as mirrors.
+   s ρ × what it sees there (up to ``max_bounces`` times). A rough one (``roughness`` r > 0)
+   spreads it as the light tracer does (``glossy`` in the core's ``light/mod.rs``): the
+   direction is drawn from a Phong lobe cos^n around the mirror direction, n = 2 / r² − 2, a
+   direction below the surface mirrored back above it. The draws are a hash of (ray, bounce),
+   so a picture is the same every time and however it is cut into chunks; its glossy noise
+   falls as 1 / samples.
 
 The result is linear radiance, float32[H, W, 3] in W/m²/sr; :mod:`sonolux.light.image` makes
 files of it.
@@ -115,11 +120,55 @@ def _barycentric(p: np.ndarray, tri: np.ndarray, vertices: np.ndarray,
     return (d22 * d1 - d12 * d2) / det, (d11 * d2 - d12 * d1) / det
 
 
+#: Below this roughness a specular surface is a mirror (as in the core).
+MIRROR_ROUGHNESS = 1e-4
+
+
+def _uniforms(ray_ids: np.ndarray, bounce: int) -> tuple[np.ndarray, np.ndarray]:
+    """Two uniforms in [0, 1) per ray, a SplitMix64 hash of (ray, bounce) (Steele, Lea and
+    Flood, "Fast splittable pseudorandom number generators", OOPSLA 2014)."""
+    out = []
+    with np.errstate(over="ignore"):
+        for draw in (0, 1):
+            z = ray_ids.astype(np.uint64) * np.uint64(4) + np.uint64(2 * bounce + draw)
+            z = z * np.uint64(0x9E3779B97F4A7C15) + np.uint64(0x2545F4914F6CDD1D)
+            z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+            z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+            z = z ^ (z >> np.uint64(31))
+            out.append((z >> np.uint64(11)).astype(np.float64) / float(1 << 53))
+    return out[0], out[1]
+
+
+def glossy_directions(mirror: np.ndarray, normal: np.ndarray, roughness: np.ndarray,
+                      u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
+    """float[k, 3]: directions from the Phong lobe cos^n θ (θ from the unit ``mirror``
+    direction), n = 2 / roughness² − 2, by inverting its distribution: cos θ = u1^(1/(n+1)),
+    φ = 2π u2 (the core's ``glossy``); below the surface (unit ``normal``) mirrored back."""
+    n = np.maximum(2.0 / np.maximum(roughness, MIRROR_ROUGHNESS) ** 2 - 2.0, 0.0)
+    cos = u1 ** (1.0 / (n + 1.0))
+    sin = np.sqrt(np.maximum(1.0 - cos * cos, 0.0))
+    phi = 2 * np.pi * u2
+    # An orthonormal frame around each mirror direction (Duff et al., JCGT 2017).
+    sign = np.where(mirror[:, 2] >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + mirror[:, 2])
+    b = mirror[:, 0] * mirror[:, 1] * a
+    t1 = np.column_stack([1 + sign * mirror[:, 0] ** 2 * a, sign * b, -sign * mirror[:, 0]])
+    t2 = np.column_stack([b, sign + mirror[:, 1] ** 2 * a, -mirror[:, 1]])
+    d = (t1 * (sin * np.cos(phi))[:, None] + t2 * (sin * np.sin(phi))[:, None]
+         + mirror * cos[:, None])
+    below = _dot(d, normal)
+    d = np.where((below < 0)[:, None], d - 2 * below[:, None] * normal, d)
+    rough = roughness > MIRROR_ROUGHNESS
+    return np.where(rough[:, None], d, mirror)
+
+
 def shade(r: Renderable, origins: np.ndarray, dirs: np.ndarray, *, max_bounces: int = 4,
-          smooth: bool = True, threads: int = 0) -> np.ndarray:
-    """float64[k, 3]: the radiance arriving along rays (origins float64[k, 3], unit dirs)."""
+          smooth: bool = True, threads: int = 0, ray_ids: np.ndarray | None = None) -> np.ndarray:
+    """float64[k, 3]: the radiance arriving along rays (origins float64[k, 3], unit dirs);
+    ``ray_ids`` (default 0..k-1) number the rays for their glossy draws."""
     f = r.field
     k = dirs.shape[0]
+    ids = np.arange(k, dtype=np.uint64) if ray_ids is None else np.asarray(ray_ids, np.uint64)
     out = np.zeros((k, 3))
     weight = np.ones((k, 3))
     live = np.arange(k)
@@ -161,7 +210,9 @@ def shade(r: Renderable, origins: np.ndarray, dirs: np.ndarray, *, max_bounces: 
             break
         weight[live[go]] *= f.rho[m[go]] * spec[go][:, None]
         n = np.where(facing[:, None], n, -n)[go]
-        d = d[go] - 2 * _dot(d[go], n)[:, None] * n
+        mirror = d[go] - 2 * _dot(d[go], n)[:, None] * n
+        u1, u2 = _uniforms(ids[live[go]], bounce)
+        d = glossy_directions(mirror, n, f.roughness[m[go]], u1, u2)
         o = p[go] + n * r.epsilon_m
         live = live[go]
     return out
@@ -212,7 +263,8 @@ def render(field: LightField | Renderable, camera: Camera, *, samples: int = 2,
     for a in range(0, flat.shape[0], CHUNK_RAYS):
         d = flat[a:a + CHUNK_RAYS]
         out[a:a + CHUNK_RAYS] = shade(r, np.broadcast_to(origin, d.shape), d,
-                                      max_bounces=max_bounces, smooth=smooth, threads=threads)
+                                      max_bounces=max_bounces, smooth=smooth, threads=threads,
+                                      ray_ids=np.arange(a, a + d.shape[0], dtype=np.uint64))
     out = out.reshape(camera.height, camera.width, samples * samples, 3).astype(np.float32)
     return out if keep_samples else out.mean(axis=2)
 

@@ -170,8 +170,40 @@ def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: Report
                             "Cells whose sphere holds the source are left out of the colour "
                             "scale."))
 
+    out.append(_joint_section(f, grid, path, tmp, slug, outline))
+
     if options.auralize:
         out.append("<h3>Listening</h3>" + _auralizations(f, path, tmp, slug, xy))
+    return "\n".join(out)
+
+
+def _joint_section(f: SoundField, grid: RoomParameters, path: Path, tmp: Path, slug: str,
+                   outline) -> str:
+    """Light and sound over one floor plan (``sonolux maps``), when the file has a work plane."""
+    from sonolux.analysis.joint import DEFAULT_CRITERIA, Criterion, joint_map
+    from sonolux.fieldfile import contents, open_light_field
+    from sonolux.plotting.joint import plot_joint_map
+
+    out = ["<h3>Light and sound on one floor plan</h3>"]
+    light = open_light_field(path) if contents(path)["light"] else None
+    if light is None or light.workplane is None:
+        return "\n".join(out + [h.note("No joint map: the file has no light baked on a work "
+                                        "plane (add [workplane] to the scene and bake light "
+                                        "and sound together).")])
+    joint = joint_map(f, grid, light, [Criterion.parse(t) for t in DEFAULT_CRITERIA])
+    png = plot_joint_map(joint, tmp / f"img/{slug}-joint.png", outline)
+    wp = light.workplane.summary()
+    out.append(f"<p>Work plane at {wp['height_m']:g} m: mean {wp['mean_lx']:.0f} lx, minimum "
+               f"{wp['min_lx']:.0f} lx, uniformity U₀ = E_min/E_mean = "
+               f"{wp['uniformity_min_over_mean']:.2f} (EN 12464-1).</p>")
+    rows = [[text, c["pass"], c["fail"], c["undefined"]]
+            for text, c in joint.summary()["criteria"].items()]
+    if rows:
+        out.append(h.table(["criterion", "pass", "fail", "undefined"], rows))
+    out += [h.note(n) for n in joint.notes]
+    out.append(h.figure(f"img/{png.name}", "Illuminance on the work plane beside the "
+                        "room-acoustic single numbers at the receivers (ISO 3382-1: mean of "
+                        "500 Hz and 1 kHz); red crosses fail a criterion."))
     return "\n".join(out)
 
 

@@ -88,6 +88,12 @@ pub struct LightResult {
     /// and how many particle paths crossed it.
     pub plane_flux: Vec<[f64; 3]>,
     pub plane_hits: Vec<u64>,
+    /// The exact sums behind `flux` and `plane_flux`: flux = count × `quantum` W. The quantum
+    /// depends on the lights only, so the counts of ray ranges of one bake add up (as integers)
+    /// to the counts of the bake done at once, and so do the stats' `energy_counts`.
+    pub flux_counts: Vec<[u64; 3]>,
+    pub plane_counts: Vec<[u64; 3]>,
+    pub quantum: f64,
     pub stats: LightStats,
     pub cancelled: bool,
 }
@@ -103,6 +109,9 @@ pub struct LightStats {
     pub absorbed: [f64; 3],
     pub escaped: [f64; 3],
     pub roulette: [f64; 3],
+    /// The exact tallies behind emitted, absorbed, escaped and roulette (in that order), in
+    /// units of [`TALLY_QUANTUM_W`]: ranges of one bake add up to the bake done at once.
+    pub energy_counts: [[i128; 3]; 4],
 }
 
 /// What a scene's light comes from besides its materials: the sources, each material's
@@ -131,6 +140,10 @@ impl FluxSums {
         (0..self.hits.len()).map(|p| std::array::from_fn(|c| self.counts[p * 3 + c].load(Ordering::Relaxed) as f64 * self.quantum)).collect()
     }
 
+    fn counts(&self) -> Vec<[u64; 3]> {
+        (0..self.hits.len()).map(|p| std::array::from_fn(|c| self.counts[p * 3 + c].load(Ordering::Relaxed))).collect()
+    }
+
     fn add(&self, patch: usize, flux: [f64; 3], rng: &mut Stream) {
         let u = rng.uniform();
         for c in 0..3 {
@@ -155,12 +168,13 @@ const EMITTED: usize = 0;
 const ABSORBED: usize = 1;
 const ESCAPED: usize = 2;
 const ROULETTE: usize = 3;
-const TALLY_QUANTUM: f64 = 1.0 / 18_446_744_073_709_551_616.0;
+/// The unit of the stats' energy tallies: 2⁻⁶⁴ W.
+pub const TALLY_QUANTUM_W: f64 = 1.0 / 18_446_744_073_709_551_616.0;
 
 impl Tally {
     fn add(&mut self, kind: usize, v: [f64; 3]) {
         for c in 0..3 {
-            self.energy[kind][c] += (v[c] / TALLY_QUANTUM).round() as i128;
+            self.energy[kind][c] += (v[c] / TALLY_QUANTUM_W).round() as i128;
         }
     }
 }
@@ -262,13 +276,16 @@ pub fn trace_light_sources(
             }
         }
     }
-    let w = |k: usize| energy[k].map(|v| v as f64 * TALLY_QUANTUM);
+    let w = |k: usize| energy[k].map(|v| v as f64 * TALLY_QUANTUM_W);
     (stats.emitted, stats.absorbed, stats.escaped, stats.roulette) = (w(EMITTED), w(ABSORBED), w(ESCAPED), w(ROULETTE));
+    stats.energy_counts = energy;
     let flux = sums.flux();
+    let flux_counts = sums.counts();
+    let plane_counts = plane_sums.counts();
     let hits = sums.hits.iter().map(|h| h.load(Ordering::Relaxed)).collect();
     let plane_flux = plane_sums.flux();
     let plane_hits = plane_sums.hits.iter().map(|h| h.load(Ordering::Relaxed)).collect();
-    Ok(LightResult { patches, flux, hits, plane_flux, plane_hits, stats, cancelled })
+    Ok(LightResult { patches, flux, hits, plane_flux, plane_hits, flux_counts, plane_counts, quantum, stats, cancelled })
 }
 
 struct LightScene<'a> {

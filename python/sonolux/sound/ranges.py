@@ -1,0 +1,231 @@
+"""The sound bake in ray ranges: checkpointed, resumable, spread over a Dask cluster.
+
+:class:`SoundRanges` is the sound bake's :class:`sonolux.ranges.RangeWork`: it traces a range
+with :func:`sonolux.sound.bake.bake` (``ray_range``, which keeps the tracer's exact fixed-point
+counts), sums ranges as integers (:class:`SoundSum`) and turns the complete sum into the
+:class:`SoundField` of the bake: energy = counts × quantum, computed exactly as the core does, so
+the field has the bits of one bake done at once.
+
+:func:`bake` is ``sonolux.bake``: the plain bake, or with ``client=`` (a ``dask.distributed``
+Client) and/or ``checkpoint=`` (a side file) the bake in ranges.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sonolux import range_bake, ranges
+from sonolux.checkpoint import fingerprint
+from sonolux.errors import SonoluxError
+from sonolux.scene.schema import Scene
+from sonolux.sound.bake import auto_rays, band_arrays
+from sonolux.sound.bake import bake as bake_whole
+from sonolux.sound.field import SoundField
+from sonolux.sound.options import SoundOptions
+from sonolux.version import __version__
+
+#: Statistics that add up over ranges; ``energy_*`` arrays add up too.
+SUMMED_STATS = ("rays", "segments", "surface_hits", "escaped_rays", "deposits", "seconds")
+#: The SoundField arrays a sum carries besides the counts (small: bins, bands, points).
+SMALL_ARRAYS = ("bin_start_s", "bin_width_s", "bands_hz", "positions_m", "source_positions_m",
+                "source_powers_w")
+@dataclass
+class SoundSum:
+    """The exact sum of some ray ranges of one sound bake: ``counts``
+    uint64[receiver, direction, band, time] (energy = counts × quantum), the summed statistics,
+    and ``template``, the rest of the field (its energy left out)."""
+
+    counts: np.ndarray
+    stats: dict[str, Any]
+    template: SoundField
+
+    @classmethod
+    def of(cls, field: SoundField) -> SoundSum:
+        if field.counts is None:
+            raise SonoluxError("a sound field without counts cannot be summed (bake a ray range)")
+        template = replace(field, energy=np.zeros((0,), np.float32), counts=None, path=None)
+        return cls(np.ascontiguousarray(field.counts, np.uint64), dict(field.stats), template)
+
+    def add(self, other: SoundSum) -> SoundSum:
+        t, o = self.template, other.template
+        if t.quantum != o.quantum or self.counts.shape != other.counts.shape:
+            raise SonoluxError("these ranges come from different bakes and cannot be summed")
+        np.add(self.counts, other.counts, out=self.counts)
+        self.stats = combine_stats(self.stats, other.stats)
+        return self
+
+
+def combine_stats(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
+    """The statistics of two ranges together: counts and energies add, the maximum of the
+    reflections is kept, the mean free path is weighted by the surface hits."""
+    out = dict(a)
+    for k, v in a.items():
+        if k in SUMMED_STATS or k.startswith("energy_"):
+            out[k] = np.add(v, b.get(k, 0)).tolist() if isinstance(v, (list, np.ndarray)) \
+                else v + b.get(k, 0)
+    out["max_reflections"] = max(a.get("max_reflections", 0), b.get("max_reflections", 0))
+    wa, wb = a.get("surface_hits", 0), b.get("surface_hits", 0)
+    for k in ("mean_free_path_m", "free_path_relative_variance"):
+        if k in a and k in b and wa + wb > 0:
+            out[k] = (a[k] * wa + b[k] * wb) / (wa + wb)
+    out["escapes"] = (list(a.get("escapes", [])) + list(b.get("escapes", [])))[:20]
+    out["saturated"] = bool(a.get("saturated")) or bool(b.get("saturated"))
+    out["cancelled"] = bool(a.get("cancelled")) or bool(b.get("cancelled"))
+    return out
+
+
+def energy_of(counts: np.ndarray, quantum: float) -> np.ndarray:
+    """float32 energy = counts × quantum, rounded once from float64 as the core does; one
+    receiver at a time so that no float64 copy of the whole field is made."""
+    energy = np.empty(counts.shape, np.float32)
+    for r in range(counts.shape[0]):
+        energy[r] = counts[r].astype(np.float64) * quantum
+    return energy
+
+
+class SoundRanges:
+    """The sound bake of ``scene`` with ``options`` as a :class:`sonolux.ranges.RangeWork`.
+
+    The automatic ray count is resolved here, once; ``options.ray_range`` (if any) is the part
+    of the bake this run traces. Pickled (for Dask), it carries the scene's content without its
+    BVH, which a worker rebuilds once from the triangles."""
+
+    kind = "sound"
+    unit = "rays"
+
+    def __init__(self, scene: Scene, options: SoundOptions | None = None,
+                 log: Callable[[str], None] | None = None) -> None:
+        options = (options or SoundOptions()).validate()
+        if options.rays == "auto":
+            arrays = band_arrays(scene)
+            if not options.air_absorption:
+                arrays["air"] = np.zeros_like(arrays["air"])
+            rays, why = auto_rays(scene, options, arrays)
+            if log:
+                log(why)
+        else:
+            rays = int(options.rays)
+        self.total = rays
+        self.target = tuple(options.ray_range or (0, rays))
+        if self.target[1] > rays:
+            raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
+        self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None)
+        self.max_field_bytes = options.max_field_bytes
+        self.scene, self.name = scene, scene.name
+        self.stamp = {"scene": fingerprint(ranges.scene_content(scene)),
+                      "settings": fingerprint(self.options), "version": __version__}
+        self.fingerprint = fingerprint("sound", self.stamp)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return dict(self.__dict__, scene=replace(self.scene, geometry=None))
+
+    def loaded_scene(self, threads: int | None = None) -> Scene:
+        return ranges.loaded_scene(self.scene, self.stamp["scene"], threads)
+
+    def trace(self, first: int, end: int, threads: int | None = None,
+              progress: ranges.Progress | None = None) -> SoundSum:
+        options = replace(self.options, ray_range=(first, end),
+                          max_field_bytes=self.max_field_bytes)
+        return SoundSum.of(bake_whole(self.loaded_scene(threads), options, progress=progress))
+
+    def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
+        return part if total is None else total.add(part)
+
+    def encode(self, total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        return encode_sum(total)
+
+    def decode(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
+        return decode_sum(meta, arrays)
+
+    def finish(self, total: SoundSum, done: list[ranges.Range]) -> SoundField:
+        return field_of_sum(total, done, self.total, self.fingerprint)
+
+
+def encode_sum(total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """A sum as JSON-able metadata and exact arrays (for the checkpoint)."""
+    t = total.template
+    meta = {"settings": t.settings, "stats": total.stats, "theory": t.theory,
+            "scene_name": t.scene_name, "scene_origin": t.scene_origin,
+            "radius_m": t.radius_m, "grid_spacing_m": t.grid_spacing_m, "quantum": t.quantum}
+    arrays = {"counts": total.counts, **{k: getattr(t, k) for k in SMALL_ARRAYS}}
+    if t.grid_index is not None:
+        arrays["grid_index"] = np.asarray(t.grid_index)
+    return _jsonable(meta), arrays
+
+
+def decode_sum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
+    """The sum that :func:`encode_sum` wrote."""
+    template = SoundField(
+        energy=np.zeros((0,), np.float32), **{k: arrays[k] for k in SMALL_ARRAYS},
+        radius_m=meta["radius_m"], grid_index=arrays.get("grid_index"),
+        grid_spacing_m=meta["grid_spacing_m"], settings=meta["settings"], stats={},
+        scene_name=meta["scene_name"], scene_origin=meta["scene_origin"],
+        quantum=meta["quantum"], theory=meta["theory"])
+    return SoundSum(np.array(arrays["counts"], np.uint64), meta["stats"], template)
+
+
+def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
+                 fingerprint: str | None) -> SoundField:
+    """The field of the summed ranges ``done`` of a bake of ``rays`` rays. A whole bake looks as
+    if done at once (no counts); a part keeps its counts and says which ranges it holds."""
+    t = total.template
+    parts = ranges.join(done)
+    settings = dict(t.settings, ray_range=[parts[0][0], parts[-1][1]])
+    if fingerprint:
+        settings["fingerprint"] = fingerprint
+    settings.pop("ray_ranges", None)
+    whole = parts == [(0, rays)]
+    if len(parts) > 1:
+        settings["ray_ranges"] = [list(r) for r in parts]
+    stats = dict(total.stats)
+    seconds = stats.get("seconds") or 0.0
+    for k, n in (("rays_per_second", "rays"), ("segments_per_second", "segments")):
+        stats[k] = stats.get(n, 0) / seconds if seconds > 0 else None
+    return replace(t, energy=energy_of(total.counts, t.quantum),
+                   counts=None if whole else total.counts, settings=settings, stats=stats)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def bake(scene: Scene, options: SoundOptions | None = None, *, client: Any = None,
+         checkpoint: str | Path | None = None, resume: bool = False, restart: bool = False,
+         checkpoint_every_s: float = 60.0, range_rays: int | None = None,
+         tasks: int | None = None, progress: bool | Callable[[int, int, float], bool] = False,
+         log: Callable[[str], None] | None = None, **overrides: Any) -> SoundField:
+    """Traces the scene's sound sources into a sound field over its receivers.
+
+    ``options`` (or keyword overrides such as ``rays=100_000``) set the bake, as for
+    :func:`sonolux.sound.bake.bake`; ``progress=True`` prints a progress line, or pass
+    ``f(done, total, elapsed_s) -> bool``; ``log`` receives one-line notes.
+
+    ``client``: a ``dask.distributed.Client``: the rays are traced as ``tasks`` ranges on its
+    workers (default 2 per worker thread) and summed exactly: the same bits as here.
+    ``checkpoint``: a side file that finished ranges are written to every
+    ``checkpoint_every_s``; ``resume=True`` continues from it, ``restart=True`` discards it; it
+    is removed when the bake is complete. ``range_rays`` fixes the rays per range in this process.
+    """
+    options = replace(options or SoundOptions(), **overrides)
+    if client is None and checkpoint is None:
+        return bake_whole(scene, options, progress=progress, log=log)
+    work = SoundRanges(scene, options, log=log)
+    field, _ = range_bake.bake_ranges(work, client=client, checkpoint=checkpoint, resume=resume,
+                           restart=restart, checkpoint_every_s=checkpoint_every_s,
+                           range_rays=range_rays, tasks=tasks, progress=progress, log=log)
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)
+    return field
