@@ -17,8 +17,6 @@ from typing import TYPE_CHECKING, Any
 # no heavy linear algebra, so one BLAS thread is enough (a user's own setting wins).
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from sonolux.version import __version__  # noqa: E402  (after the environment is set)
-
 if TYPE_CHECKING:
     from sonolux.errors import SceneError, SonoluxError
     from sonolux.fieldfile import open_field as open
@@ -30,9 +28,11 @@ if TYPE_CHECKING:
     from sonolux.sound.field import SoundField
     from sonolux.sound.options import SoundOptions
     from sonolux.sound.ranges import bake
+    from sonolux.version import __version__
 
 #: Public name -> (module, name in it).
 _LAZY = {
+    "__version__": ("sonolux.version", "__version__"),
     "SceneError": ("sonolux.errors", "SceneError"),
     "SonoluxError": ("sonolux.errors", "SonoluxError"),
     "open": ("sonolux.fieldfile", "open_field"),
