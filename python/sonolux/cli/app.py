@@ -15,7 +15,7 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from sonolux.cli import light, listen, measure, scene, spread
+from sonolux.cli import _interrupted, light, listen, measure, scene, spread
 from sonolux.cli.failures import (
     ISSUES_URL,
     Terminated,
@@ -78,6 +78,9 @@ def _run(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) ->
         print(f"sonolux: error: {describe_os_error(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except Exception as exc:  # a bug of sonolux, not of the user's input
+        if _interrupted(exc):  # Ctrl-C wrapped by an extension module while it loaded
+            print("sonolux: interrupted (no partial output was kept)", file=sys.stderr)
+            return EXIT_INTERRUPTED
         if os.environ.get("SONOLUX_DEBUG"):
             raise
         log = write_crash_log(exc)
