@@ -22,10 +22,12 @@ from collections.abc import Sequence
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``sonolux`` command; returns the exit status."""
+    from sonolux.cli.failures import interrupted
+
     try:
         from sonolux.cli.app import main as run
     except BaseException as exc:  # noqa: BLE001
-        if not _interrupted(exc):
+        if not interrupted(exc):
             raise
         # Ctrl-C while the commands load (an extension module may wrap it in its own error):
         # nothing was written yet.
@@ -34,16 +36,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         # interpreter to re-raise it at exit (status -2 instead of 130).
         os._exit(130)
     return run(argv)
-
-
-def _interrupted(exc: BaseException | None) -> bool:
-    """Whether ``exc`` is a KeyboardInterrupt or was caused by one."""
-    seen = 0
-    while exc is not None and seen < 20:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        exc, seen = exc.__cause__ or exc.__context__, seen + 1
-    return False
 
 
 __all__ = ["main"]

@@ -15,11 +15,12 @@ import os
 import sys
 from collections.abc import Callable, Sequence
 
-from sonolux.cli import _interrupted, light, listen, measure, scene, spread
+from sonolux.cli import light, listen, measure, scene, spread
 from sonolux.cli.failures import (
     ISSUES_URL,
     Terminated,
     describe_os_error,
+    interrupted,
     one_line,
     stop_on_sigterm,
     write_crash_log,
@@ -78,7 +79,7 @@ def _run(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) ->
         print(f"sonolux: error: {describe_os_error(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except Exception as exc:  # a bug of sonolux, not of the user's input
-        if _interrupted(exc):  # Ctrl-C wrapped by an extension module while it loaded
+        if interrupted(exc):  # Ctrl-C wrapped by an extension module while it loaded
             print("sonolux: interrupted (no partial output was kept)", file=sys.stderr)
             return EXIT_INTERRUPTED
         if os.environ.get("SONOLUX_DEBUG"):

@@ -26,6 +26,17 @@ class Terminated(BaseException):  # noqa: N818  (a signal, like KeyboardInterrup
     """The process received SIGTERM; raised in the main thread like KeyboardInterrupt."""
 
 
+def interrupted(exc: BaseException | None) -> bool:
+    """Whether ``exc`` is a KeyboardInterrupt or was caused by one (an extension module that
+    is loading may wrap Ctrl-C in an error of its own)."""
+    seen = 0
+    while exc is not None and seen < 20:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc, seen = exc.__cause__ or exc.__context__, seen + 1
+    return False
+
+
 def one_line(exc: BaseException) -> str:
     """The exception's message with its lines joined by "; "."""
     text = str(exc).strip() or type(exc).__name__
