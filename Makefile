@@ -54,7 +54,7 @@ $(VENV)/.peers-stamp: $(STAMP)
 
 test-all: build $(VENV)/.peers-stamp test-web ## every test, the slow statistical and peer checks too
 	cargo test --release -p sonolux-core --quiet -- --include-ignored
-	$(PY) -m pytest -q -m "slow or not slow"
+	SONOLUX_HYPOTHESIS=long $(PY) -m pytest -q -m "slow or not slow"
 
 lint: build ## ruff, the binding's stubs against the built module (stubtest), clippy
 	$(VENV)/bin/ruff check python tests benchmarks examples

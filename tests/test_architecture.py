@@ -99,7 +99,7 @@ def is_command(name: str) -> bool:
 
 
 def test_the_walker_sees_the_package():
-    assert {"sonolux.engine", "sonolux.fieldfile", "sonolux.cli.main"} <= set(MODULES)
+    assert {"sonolux.engine", "sonolux.fieldfile", "sonolux.cli.app"} <= set(MODULES)
     assert "sonolux.fieldfile" in GRAPH["sonolux.cli.scene"]  # imported inside a function
 
 

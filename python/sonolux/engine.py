@@ -69,7 +69,46 @@ def core_available() -> bool:
     return True
 
 
+def _converted(make: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """``make(*args, **kwargs)``, where the binding's own argument conversion fails with a
+    TypeError or OverflowError (a negative number for a count, text for a length) turned into
+    an InvalidInputError: pyo3's message names the argument."""
+    try:
+        return make(*args, **kwargs)
+    except (TypeError, OverflowError) as exc:
+        raise InvalidInputError(f"{getattr(make, '__name__', 'engine')}: {exc}") from None
+
+
+class _Checked:
+    """A settings class of the binding, made and used as the class itself, whose conversion
+    errors are :class:`InvalidInputError` (see :func:`_converted`)."""
+
+    def __init__(self, cls: Any) -> None:
+        self._cls = cls
+        self.__name__ = cls.__name__
+        self.__doc__ = cls.__doc__
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return _converted(self._cls, *args, **kwargs)
+
+    def __getattr__(self, name: str) -> Any:
+        attr = getattr(self._cls, name)
+        if callable(attr):  # Directivity.omni(), Directivity.cone(...)
+            return lambda *args, **kwargs: _converted(attr, *args, **kwargs)
+        return attr
+
+    def __instancecheck__(self, obj: Any) -> bool:
+        return isinstance(obj, self._cls)
+
+
+#: The binding's settings classes, whose arguments come from users (through the library).
+_SETTINGS = ("Acoustics", "Directivity", "Emitters", "Lighting", "LightSettings", "Optics",
+             "Receivers", "SoundSettings", "SoundSource")
+
+
 def __getattr__(name: str) -> Any:
+    if name in _SETTINGS:
+        return _Checked(getattr(core(), name))
     if name in _FROM_CORE:
         return getattr(core(), name)
     raise AttributeError(f"module 'sonolux.engine' has no attribute {name!r}")

@@ -50,6 +50,92 @@ class AnalysisError(SonoluxError, ValueError):
     """Data that the analysis cannot take (an empty selection, a malformed histogram)."""
 
 
+class SettingError(SonoluxError, ValueError):
+    """A setting given on the command line or to the API that is not allowed; the message
+    names the setting, the value given and what is allowed (see :func:`check_number`)."""
+
+
+class OutputError(SonoluxError):
+    """An output that cannot be written where it was asked (a missing or read-only folder, a
+    full disk); the message names the file."""
+
+
+class MemoryLimitError(SonoluxError):
+    """A run refused before it allocates: the estimate, what the machine has, and the settings
+    that drive it (see :mod:`sonolux.memory`)."""
+
+
+class DamagedFileError(SonoluxError):
+    """An input file that exists but cannot be read as what it claims to be (truncated,
+    damaged, the wrong kind, or holding values outside what it may hold)."""
+
+
+def interval_text(lo: float | None, hi: float | None, lo_open: bool = False,
+                  hi_open: bool = False) -> str:
+    """``in [0, 1]``, ``> 0``, ``in (0, 180]``, ``<= 5``; empty without bounds."""
+    def g(x: float) -> str:
+        return str(x) if isinstance(x, int) else f"{x:g}"
+    if lo is not None and hi is not None:
+        return f"in {'(' if lo_open else '['}{g(lo)}, {g(hi)}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {g(lo)}"
+    if hi is not None:
+        return f"{'<' if hi_open else '<='} {g(hi)}"
+    return ""
+
+
+def range_text(lo: float | None, hi: float | None, lo_open: bool = False,
+               hi_open: bool = False, what: str = "a number") -> str:
+    """``a number in [0, 1]``, ``an integer >= 0``, ``a finite number``..."""
+    interval = interval_text(lo, hi, lo_open, hi_open)
+    if interval:
+        return f"{what} {interval}"
+    return "a finite " + what.split(" ", 1)[1]
+
+
+def number_allowed(v: Any, lo: float | None = None, hi: float | None = None,
+                   lo_open: bool = False, hi_open: bool = False, integer: bool = False) -> bool:
+    """Whether ``v`` is a number (not a bool), finite, whole when ``integer``, within the bounds.
+
+    The one test behind every number a user gives: scene keys (:mod:`sonolux.scene.schema`),
+    command-line values (:mod:`sonolux.cli.args`) and API settings (:func:`check_number`).
+    numpy scalars count as numbers; a float that is whole (``3.0``) is not an integer.
+    """
+    if isinstance(v, bool) or not isinstance(v, (int, float)) and not _is_numpy_number(v):
+        return False
+    if integer and not (isinstance(v, int) or _is_numpy_integer(v)):
+        return False
+    if not integer and not math.isfinite(float(v)):
+        return False
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        return False
+    return not (hi is not None and (v >= hi if hi_open else v > hi))
+
+
+def _is_numpy_number(v: Any) -> bool:
+    kind = getattr(getattr(v, "dtype", None), "kind", None)
+    return getattr(v, "ndim", None) == 0 and kind in ("i", "u", "f")
+
+
+def _is_numpy_integer(v: Any) -> bool:
+    return _is_numpy_number(v) and v.dtype.kind in ("i", "u")
+
+
+def check_number(name: str, v: Any, lo: float | None = None, hi: float | None = None, *,
+                 lo_open: bool = False, hi_open: bool = False, integer: bool = False,
+                 none_ok: bool = False, unit: str = "") -> Any:
+    """``v`` as an int or float if :func:`number_allowed`, else a :class:`SettingError`
+    ``NAME = VALUE is not allowed: an integer in [1, 64]``. ``None`` passes when ``none_ok``."""
+    if v is None and none_ok:
+        return None
+    if number_allowed(v, lo, hi, lo_open, hi_open, integer):
+        return int(v) if integer else float(v)
+    allowed = range_text(lo, hi, lo_open, hi_open, "an integer" if integer else "a number")
+    if unit:
+        allowed += f" {unit}"
+    raise SettingError(f"{name} = {format_value(v)} is not allowed: {allowed}")
+
+
 _MISSING = object()
 
 
@@ -73,7 +159,8 @@ def format_value(value: Any, limit: int = 60) -> str:
         if isinstance(v, int):
             return str(v)
         if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+            text = v.replace("\\", "\\\\").replace('"', '\\"')
+            return '"' + "".join(c if c.isprintable() else repr(c)[1:-1] for c in text) + '"'
         if isinstance(v, dict):
             return "{" + ", ".join(f"{k} = {render(x)}" for k, x in v.items()) + "}"
         if isinstance(v, (list, tuple)):

@@ -21,6 +21,7 @@ from sonolux.analysis.decay import decay_times
 from sonolux.audio import write_wav
 from sonolux.fieldfile import save_fields
 from sonolux.multisensory import bake_senses
+from sonolux.outputs import write_atomically
 from sonolux.scene import load_scene
 from sonolux.scene.summary import summarize
 from sonolux.sound.options import SoundOptions
@@ -144,5 +145,5 @@ def plot_figure7(results: dict[str, Any], path: Path) -> None:
     fig.suptitle("Energy arriving at the central cell from the front and from the right, per "
                  "millisecond (the paper's figure 7)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)

@@ -45,8 +45,6 @@ direction, band] and it had no ``theory``.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime, timezone
@@ -56,8 +54,10 @@ from typing import Any
 import numpy as np
 
 from sonolux.errors import FieldFileError, SonoluxError
+from sonolux.fieldcheck import Checker, check_light, check_sound
 from sonolux.light.field import LightField
 from sonolux.light.workplane import WorkplaneResult
+from sonolux.outputs import atomic_output
 from sonolux.sound.field import SoundField
 
 SCHEMA = "sonolux-field/2"
@@ -91,36 +91,20 @@ def save_fields(path: str | Path, *, sound: SoundField | None = None,
         raise SonoluxError(f"{path}: nothing to write (neither a sound nor a light field)")
     first: SoundField | LightField = sound if sound is not None else light  # type: ignore[assignment]
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs.update(schema=SCHEMA, sonolux_version=__version__,
-                           created_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                           scene_name=first.scene_name, scene_origin=first.scene_origin)
-            if bake is not None:
-                f.attrs["bake"] = _json(bake)
-            if sound is not None:
-                _write_sound(f, sound)
-            if light is not None:
-                _write_light(f, light)
-        _follow_umask(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs.update(schema=SCHEMA, sonolux_version=__version__,
+                       created_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                       scene_name=first.scene_name, scene_origin=first.scene_origin)
+        if bake is not None:
+            f.attrs["bake"] = _json(bake)
+        if sound is not None:
+            _write_sound(f, sound)
+        if light is not None:
+            _write_light(f, light)
     for field in (sound, light):
         if field is not None:
             field.path = str(path)
     return path
-
-
-def _follow_umask(path: Path) -> None:
-    """mkstemp makes files 0600; a field file gets the permissions of any file made here."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, 0o666 & ~umask)
 
 
 def _write_sound(f: Any, field: SoundField) -> None:
@@ -206,7 +190,10 @@ def open_file(path: str | Path) -> Iterator[Any]:
     except OSError as exc:
         raise FieldFileError(f"{path}: not an HDF5 file sonolux can read ({exc})") from None
     with f:
-        schema = f.attrs.get("schema")
+        try:
+            schema = f.attrs.get("schema")
+        except (OSError, ValueError, TypeError) as exc:
+            raise FieldFileError(f"{path}: damaged HDF5 file ({' '.join(str(exc).split())})") from None
         if isinstance(schema, bytes):
             schema = schema.decode()
         if schema not in READABLE:
@@ -246,27 +233,33 @@ def _read_sound(f: Any, path: str) -> SoundField:
         raise FieldFileError(f"{path}: the file holds no sound field (/sound is missing; it was "
                              "baked without sound: run sonolux bake with --sound)")
     g = f["sound"]
+    c = Checker(path, "sound")
     try:
         spacing = float(g.attrs["grid_spacing_m"])
-        counts = g["counts"][...] if "counts" in g else None
+        counts = c.dataset(g, "counts") if "counts" in g else None
         if counts is not None and f.attrs["schema"] == "sonolux-field/1":
             counts = np.ascontiguousarray(counts.transpose(1, 2, 3, 0))  # was [time, r, d, b]
         theory = g.attrs.get("theory")
-        return SoundField(
-            energy=g["energy"][...], bin_start_s=g["bin_start_s"][...],
-            bin_width_s=g["bin_width_s"][...], bands_hz=g["bands_hz"][...],
-            positions_m=g["receivers_m"][...], radius_m=float(g.attrs["radius_m"]),
-            grid_index=g["grid_index"][...] if "grid_index" in g else None,
+        arrays = dict(
+            energy=c.dataset(g, "energy"), bin_start_s=c.dataset(g, "bin_start_s"),
+            bin_width_s=c.dataset(g, "bin_width_s"), bands_hz=c.dataset(g, "bands_hz"),
+            positions_m=c.dataset(g, "receivers_m"), radius_m=float(g.attrs["radius_m"]),
+            grid_index=c.dataset(g, "grid_index") if "grid_index" in g else None,
             grid_spacing_m=None if np.isnan(spacing) else spacing,
-            source_positions_m=g["sources_m"][...], source_powers_w=g["source_powers_w"][...],
+            source_positions_m=c.dataset(g, "sources_m"),
+            source_powers_w=c.dataset(g, "source_powers_w"),
             settings=json.loads(g.attrs["settings"]), stats=json.loads(g.attrs["stats"]),
-            scene_name=str(f.attrs.get("scene_name", "")),
-            scene_origin=str(f.attrs.get("scene_origin", "")), counts=counts,
-            quantum=float(g.attrs["quantum"]), path=path,
+            counts=counts, quantum=float(g.attrs["quantum"]),
             theory=json.loads(theory) if theory is not None else None)
+        check_sound(path, arrays)
+        return SoundField(**arrays, scene_name=str(f.attrs.get("scene_name", "")),
+                          scene_origin=str(f.attrs.get("scene_origin", "")), path=path)
     except KeyError as exc:
         raise FieldFileError(f"{path}: the sound field is incomplete ({exc.args[0]} is "
                              "missing)") from None
+    except (ValueError, TypeError, OSError) as exc:  # JSON, attributes, truncated chunks
+        raise FieldFileError(f"{path}: the sound field cannot be read "
+                             f"({' '.join(str(exc).split())})") from None
 
 
 def _strings(d: Any) -> list[str]:
@@ -285,18 +278,23 @@ def _read_light(f: Any, path: str) -> LightField:
         raise FieldFileError(f"{path}: the file holds no light field (/light is missing; it was "
                              "baked without light: run sonolux bake with --light)")
     g = f["light"]
+    c = Checker(path, "light")
     try:
         s, e, lights = g["scene"], g["emitters"], g["lights"]
-        return LightField(
+        arrays = dict(
             patch_size_m=float(g.attrs["patch_size_m"]),
-            patch_resolution=g["patch_resolution"][...], patch_offset=g["patch_offset"][...],
-            patch_area_m2=g["patch_area_m2"][...], flux_w=g["flux_w"][...], hits=g["hits"][...],
-            **{name: s[name][...] for name in LIGHT_SCENE_ARRAYS},
-            surface_tag=np.array(_strings(s["surface_tag"]), dtype=str),
-            material_names=_strings(s["material_names"]),
-            emitter_triangles_m=e["triangles_m"][...], emitter_radiance=e["radiance"][...],
-            emitter_light=e["light"][...], light_names=_strings(lights["names"]),
-            light_kinds=_strings(lights["kinds"]), light_power_w=lights["power_w"][...],
+            patch_resolution=c.dataset(g, "patch_resolution"),
+            patch_offset=c.dataset(g, "patch_offset"), patch_area_m2=c.dataset(g, "patch_area_m2"),
+            flux_w=c.dataset(g, "flux_w"), hits=c.dataset(g, "hits"),
+            **{name: c.dataset(s, name) for name in LIGHT_SCENE_ARRAYS},
+            emitter_triangles_m=c.dataset(e, "triangles_m"),
+            emitter_radiance=c.dataset(e, "radiance"), emitter_light=c.dataset(e, "light"),
+            light_power_w=c.dataset(lights, "power_w"))
+        check_light(path, arrays, len(lights["names"]))
+        return LightField(
+            **arrays, surface_tag=np.array(_strings(s["surface_tag"]), dtype=str),
+            material_names=_strings(s["material_names"]), light_names=_strings(lights["names"]),
+            light_kinds=_strings(lights["kinds"]),
             settings=json.loads(g.attrs["settings"]), stats=json.loads(g.attrs["stats"]),
             scene_name=str(f.attrs.get("scene_name", "")),
             scene_origin=str(f.attrs.get("scene_origin", "")), path=path,
@@ -304,3 +302,6 @@ def _read_light(f: Any, path: str) -> LightField:
     except KeyError as exc:
         raise FieldFileError(f"{path}: the light field is incomplete ({exc.args[0]} is "
                              "missing)") from None
+    except (ValueError, TypeError, OSError) as exc:  # JSON, attributes, truncated chunks
+        raise FieldFileError(f"{path}: the light field cannot be read "
+                             f"({' '.join(str(exc).split())})") from None

@@ -20,6 +20,7 @@ from sonolux.errors import SonoluxError
 from sonolux.light.bake import bake_light
 from sonolux.light.field import LightField
 from sonolux.light.options import LightOptions
+from sonolux.memory import check_patches
 from sonolux.scene import Scene, load_scene
 from sonolux.sound.bake import bake as bake_sound
 from sonolux.sound.field import SoundField
@@ -80,6 +81,9 @@ def bake_senses(scene: Scene | str | Path | dict, *, sound: bool | None = None,
         raise SonoluxError(f"{loaded.origin}: nothing to bake: "
                            + ("the scene has no sound source (with a receiver) and no light"
                               if sound is None and light is None else "both --no-sound and --no-light"))
+    if want["light"]:  # refuse a light bake that cannot fit before the sound is traced
+        check_patches(loaded.vertices_m, loaded.triangles,
+                      (light_options or LightOptions()).validate().patch_size_m)
     seconds: dict[str, float] = {}
     out: dict[str, Any] = {"sound": None, "light": None}
     if want["sound"]:

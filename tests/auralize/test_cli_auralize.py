@@ -77,10 +77,9 @@ def test_a_walk_writes_audio_and_its_plan_view(capsys, tmp_path, field_file):
 
 def test_bad_input_is_a_clear_error(capsys, tmp_path, field_file):
     out = tmp_path / "out.wav"
-    with pytest.raises(SystemExit) as e:
-        cli.main(["auralize", str(field_file), "builtin:speech", "--at", "0.5,0.5", "--layout",
-                  "quad", "-o", str(out)])
-    assert e.value.code == 2 and "invalid choice: 'quad'" in capsys.readouterr().err
+    code = cli.main(["auralize", str(field_file), "builtin:speech", "--at", "0.5,0.5", "--layout",
+                     "quad", "-o", str(out)])
+    assert code == 2 and "invalid choice: 'quad'" in capsys.readouterr().err
     code, _, err = run(capsys, "auralize", field_file, tmp_path / "missing.wav", "--at",
                        "0.5,0.5", "-o", out)
     assert code == 2 and "missing.wav: no such audio file" in err

@@ -80,9 +80,9 @@ def test_no_sound_and_no_light_each_leave_their_half_out(tmp_path, capsys, core)
 
 def test_cli_camera_errors_name_the_field(tmp_path, small_light, capsys):
     path = save_fields(tmp_path / "l.h5", light=small_light)
-    for args, word in ((["--fov", "0"], "fov_deg"), (["--camera=-1,1,1"], "outside the room"),
+    for args, word in ((["--fov", "0"], "--fov"), (["--camera=-1,1,1"], "outside the room"),
                        (["--camera", "1,1,1", "--look-at", "1,1,1"], "look_at_m"),
-                       (["--size", "0x10"], "width"), (["--hdr", "x.tiff"], ".pfm")):
+                       (["--size", "0x10"], "--size"), (["--hdr", "x.tiff"], ".pfm")):
         assert main(["render", str(path), "-o", str(tmp_path / "v.png"), *args]) == 2
         err = capsys.readouterr().err
         assert word in err and "Traceback" not in err

@@ -71,8 +71,7 @@ def test_params_errors_are_clear(capsys, tmp_path, field_file):
     assert code == 2 and "not a sonolux field file" in err
     code, _, err = run(capsys, "params", str(field_file), "--at", "40,40")
     assert code == 2 and "outside the sound field" in err
-    with pytest.raises(SystemExit):
-        cli.main(["params", str(field_file), "--at", "1;2"])
+    assert cli.main(["params", str(field_file), "--at", "1;2"]) == 2
 
 
 def test_params_compensation_is_chosen_and_named(capsys, field_file):
@@ -80,6 +79,5 @@ def test_params_compensation_is_chosen_and_named(capsys, field_file):
     assert code == 0 and "decay curves: plain backward integral" in out
     code, out, _ = run(capsys, "params", str(field_file), "--compensation", "lundeby", "--json")
     assert code == 0 and json.loads(out)["compensation"] == "lundeby"
-    with pytest.raises(SystemExit) as exc:
-        cli.main(["params", str(field_file), "--compensation", "chu"])
-    assert exc.value.code == 2 and "--compensation" in capsys.readouterr().err
+    assert cli.main(["params", str(field_file), "--compensation", "chu"]) == 2
+    assert "--compensation" in capsys.readouterr().err

@@ -78,6 +78,19 @@ pub(crate) fn report_progress(
     })
 }
 
+/// Memory this process may still take (MemAvailable of /proc/meminfo), or no limit where the
+/// system does not say. Large allocations are checked against it before they are made.
+pub(crate) fn available_memory_bytes() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| {
+            let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+            let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+            Some(kib.saturating_mul(1024))
+        })
+        .unwrap_or(u64::MAX)
+}
+
 /// Checks a thread count (0: all cores).
 pub(crate) fn check_threads(threads: usize) -> PyResult<usize> {
     if threads > MAX_THREADS {

@@ -12,6 +12,8 @@ use crate::{check_threads, invalid, to_py, Geometry};
 
 /// Patches of at most this many a triangle's edge (so at most its square a triangle).
 const MAX_PATCHES_PER_EDGE: u32 = 4096;
+/// What a patch takes in the core and in the arrays handed back (sonolux.memory has the sum).
+const BYTES_PER_PATCH: f64 = 96.0;
 
 /// The patch layout of `geometry` for patches of `size_m`.
 pub(crate) fn patches_of(geometry: &Geometry, size_m: f64) -> PyResult<Patches> {
@@ -19,6 +21,21 @@ pub(crate) fn patches_of(geometry: &Geometry, size_m: f64) -> PyResult<Patches> 
         return Err(invalid(format!("patch_size_m: {size_m} is not a positive length")));
     }
     let m = &geometry.mesh;
+    // Count the patches before making them: a size too small for the mesh is refused, not
+    // an allocation that aborts the process.
+    let mut count = 0.0;
+    for t in 0..m.triangles.len() {
+        let [a, b, c] = m.corners(t).map(|v| v.as_dvec3());
+        let k = ((b - a).cross(c - a).length().sqrt() / size_m).ceil().clamp(1.0, MAX_PATCHES_PER_EDGE as f64);
+        count += k * k;
+    }
+    let need = count * BYTES_PER_PATCH;
+    if need > crate::available_memory_bytes() as f64 {
+        return Err(invalid(format!(
+            "patch_size_m: {size_m} m makes {count:.3e} patches, about {:.3} GB, more than this machine has available; use larger patches",
+            need / 1e9
+        )));
+    }
     Ok(Patches::new((0..m.triangles.len()).map(|t| m.corners(t).map(|v| v.as_dvec3())), size_m, MAX_PATCHES_PER_EDGE))
 }
 

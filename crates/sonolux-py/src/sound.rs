@@ -131,8 +131,9 @@ impl Receivers {
         if p.iter().any(|v| !v.is_finite()) {
             return Err(invalid("receivers positions_m: every coordinate must be finite"));
         }
-        if !(radius_m > 0.0 && radius_m.is_finite()) {
-            return Err(invalid(format!("receivers radius_m: {radius_m} is not a positive length")));
+        // A sphere's energy density divides by its volume: below 0.1 mm that underflows.
+        if !((1e-4..=1e4).contains(&radius_m)) {
+            return Err(invalid(format!("receivers radius_m: {radius_m} is not a length from 0.0001 to 10000 m")));
         }
         let centres = p.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect();
         Ok(Receivers { inner: core::Receivers::new(centres, radius_m) })
@@ -202,7 +203,8 @@ impl SoundSettings {
             late_bin_s,
             n_azimuth: azimuth_bands,
             n_elevation: elevation_bands,
-            max_field_bytes,
+            // Never more than this machine has: the core allocates what this allows.
+            max_field_bytes: max_field_bytes.min(crate::available_memory_bytes()),
         };
         Ok(SoundSettings { inner, keep_counts })
     }

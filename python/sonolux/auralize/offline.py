@@ -9,6 +9,7 @@ a point) unless one is chosen; or a built-in signal ``builtin:NAME[:SECONDS]`` (
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from math import gcd
@@ -19,7 +20,8 @@ from scipy.signal import resample_poly
 from sonolux.auralize.render import check_layout
 from sonolux.auralize.signals import builtin, is_builtin
 from sonolux.auralize.stream import StreamRenderer
-from sonolux.errors import SonoluxError
+from sonolux.errors import SonoluxError, check_number
+from sonolux.limits import MAX_SEED
 
 
 @dataclass
@@ -44,14 +46,15 @@ class AuralizeSettings:
 
     def validate(self) -> AuralizeSettings:
         check_layout(self.layout)
-        if not 0.005 <= self.fade_s <= 0.5:
-            raise SonoluxError(f"fade_s = {self.fade_s} is not allowed: 0.005 to 0.5 s "
-                               "(20 to 50 ms hides the change of cell without smearing it)")
-        if not 0.1 <= self.heading_step_deg <= 15:
-            raise SonoluxError(f"heading_step_deg = {self.heading_step_deg} is not allowed: "
-                               "0.1 to 15 degrees")
-        if self.tail_s is not None and not 0 <= self.tail_s <= 60:
-            raise SonoluxError(f"tail_s = {self.tail_s} is not allowed: 0 to 60 s")
+        # 20 to 50 ms of fade hides the change of cell without smearing it.
+        check_number("fade_s", self.fade_s, 0.005, 0.5, unit="s")
+        check_number("heading_step_deg", self.heading_step_deg, 0.1, 15, unit="degrees")
+        check_number("tail_s", self.tail_s, 0, 60, none_ok=True, unit="s")
+        check_number("block", self.block, 16, 262144, integer=True, unit="samples")
+        check_number("order", self.order, 1, 7, integer=True)
+        check_number("seed", self.seed, 0, MAX_SEED, integer=True)
+        if self.hrtf is not None and not isinstance(self.hrtf, (str, os.PathLike)):
+            raise SonoluxError(f"hrtf = {self.hrtf!r} is not allowed: the path of a SOFA file")
         return self
 
     def renderer(self, field) -> StreamRenderer:
@@ -142,6 +145,11 @@ def auralize(field, dry: np.ndarray, at: tuple[float, float], heading_deg: float
     ``heading_deg``: float32[samples + tail, channel] and a dict of what was done.
     ``renderer``: a fresh renderer to use (default: one made from the settings)."""
     s = (settings or AuralizeSettings()).validate()
+    heading_deg = check_number("heading_deg", heading_deg, -36000.0, 36000.0, unit="degrees")
+    dry = np.asarray(dry)
+    if dry.ndim != 1 or dry.dtype.kind not in "iuf" or not np.all(np.isfinite(dry)):
+        raise SonoluxError(f"the dry signal must be float[samples] of finite numbers (got "
+                           f"{dry.dtype}{list(dry.shape)})")
     t0 = time.perf_counter()
     renderer = renderer or s.renderer(field)
     receiver = renderer.move_to(*at)

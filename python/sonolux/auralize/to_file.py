@@ -1,10 +1,10 @@
 """A dry signal heard at a point or along a walk, written as a WAV file, in one call
 (``sonolux auralize`` and the report both use it).
 
-The output is in the field's pressure units (docs/auralize.md). By default it is never written
-above full scale: when the peak exceeds 0 dBFS the whole signal is scaled down to
-:data:`NORMALIZE_PEAK_DBFS` and the result says so; ``normalize=True`` always scales the peak
-there, ``allow_over_full_scale=True`` keeps the float samples as they are.
+The level follows :func:`sonolux.audio.set_level`: by default the peak is normalised to
+:data:`NORMALIZE_PEAK_DBFS` (−1 dBFS) and the gain applied is reported; ``calibrated=True`` (or
+a ``gain_db``) keeps the field's pressure units (docs/auralize.md) times the gain, with a
+warning where that goes above full scale.
 """
 
 from __future__ import annotations
@@ -15,12 +15,15 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.audio import write_wav
+from sonolux.audio import NORMALIZE_PEAK_DBFS, set_level, write_wav
 from sonolux.auralize.offline import AuralizeSettings, auralize, load_dry
-from sonolux.errors import SonoluxError
+from sonolux.errors import SonoluxError, check_number
+from sonolux.limits import MAX_GAIN_DB
 from sonolux.sound.field import SoundField
+from sonolux.sound.info import listener_warnings
 
-NORMALIZE_PEAK_DBFS = -1.0
+__all__ = ["NORMALIZE_PEAK_DBFS", "SUBTYPES", "Listening", "Output", "auralize_to_file"]
+
 SUBTYPES = ("FLOAT", "PCM_24", "PCM_16")
 
 
@@ -49,21 +52,27 @@ class Listening:
 
 @dataclass(frozen=True)
 class Output:
-    """gain_db: a fixed gain; normalize: scale the peak to NORMALIZE_PEAK_DBFS;
-    allow_over_full_scale: keep float samples above ±1 instead of scaling them down;
+    """The level (:func:`sonolux.audio.set_level`): normalised to NORMALIZE_PEAK_DBFS by
+    default; ``calibrated`` or a ``gain_db`` keeps the field's units times the gain (a peak above
+    full scale is kept in float files with a warning, and refused for PCM, which would clip).
+    ``allow_over_full_scale`` is the old name of ``calibrated``; ``normalize`` the default.
     subtype: FLOAT (32-bit float), PCM_24 or PCM_16."""
 
-    gain_db: float = 0.0
+    gain_db: float | None = None
     normalize: bool = False
     allow_over_full_scale: bool = False
     subtype: str = "FLOAT"
+    calibrated: bool = False
+
+    @property
+    def is_calibrated(self) -> bool:
+        return not self.normalize and (self.calibrated or self.allow_over_full_scale
+                                       or self.gain_db is not None)
 
     def validate(self) -> Output:
         if self.subtype not in SUBTYPES:
             raise SonoluxError(f"subtype {self.subtype!r} is not allowed: {', '.join(SUBTYPES)}")
-        if not np.isfinite(self.gain_db) or abs(self.gain_db) > 200:
-            raise SonoluxError(f"gain_db = {self.gain_db!r} is not allowed: a gain from -200 to "
-                               "200 dB")
+        check_number("gain_db", self.gain_db, -MAX_GAIN_DB, MAX_GAIN_DB, none_ok=True, unit="dB")
         return self
 
 
@@ -83,6 +92,7 @@ def auralize_to_file(field: SoundField, dry: str, output: str | Path, listening:
         x, what = load_dry(dry, fs, channel=channel)
         y, info = auralize(field, x, listening.at_m, listening.heading_deg, settings)
         r = info["receivers"][0]
+        notes.extend(listener_warnings(field, r))
         where = (f"at ({listening.at_m[0]:g}, {listening.at_m[1]:g}) m (cell #{r}, receiver at "
                  f"{', '.join(f'{v:g}' for v in field.positions_m[r][:2])}), facing "
                  f"{listening.heading_deg:g}°")
@@ -98,27 +108,26 @@ def auralize_to_file(field: SoundField, dry: str, output: str | Path, listening:
         elif x.size < path.duration_s * fs:
             notes.append(f"the dry signal ({x.size / fs:.2f} s) is shorter than the walk "
                          f"({path.duration_s:.2f} s); --loop repeats it")
-        y, info = auralize_walk(field, x, path, settings, walk)
+        try:
+            y, info = auralize_walk(field, x, path, settings, walk)
+        except SonoluxError as exc:  # name the path file in what the walk found wrong
+            if str(listening.path_file) in str(exc):
+                raise
+            raise SonoluxError(f"{listening.path_file}: {exc}") from None
         png = Path(listening.png) if listening.png else Path(output).with_suffix(".png")
         plot_walk(field, path, info, png)
         where = (f"along {listening.path_file} ({path.duration_s:.2f} s, "
                  f"{len(info['events'])} cells: {' '.join(f'#{r}' for r in info['receivers'])}; "
                  f"plan view -> {png})")
-    y = y * np.float32(10 ** (out.gain_db / 20))
+    y, gain_db, level_notes = set_level(y, out.gain_db, out.is_calibrated)
     peak = float(np.max(np.abs(y))) if y.size else 0.0
-    scaled = ""
-    target = 10 ** (NORMALIZE_PEAK_DBFS / 20)
-    if peak > 0 and (out.normalize or (peak > 1.0 and not out.allow_over_full_scale)):
-        y = y * np.float32(target / peak)
-        scaled = ("normalized" if out.normalize else
-                  f"scaled down by {20 * np.log10(peak / target):.1f} dB to stay below full scale")
-        peak = target
+    scaled = (f"calibrated, gain {gain_db:+.1f} dB" if out.is_calibrated
+              else f"normalised to {NORMALIZE_PEAK_DBFS:g} dBFS: gain {gain_db:+.1f} dB")
     if out.subtype != "FLOAT" and peak > 1.0:
         raise SonoluxError(f"the peak is {20 * np.log10(peak):+.1f} dBFS: {out.subtype} would "
-                           "clip; drop allow_over_full_scale or keep the float format")
-    write_wav(output, y, fs, subtype=out.subtype)
-    if peak > 1.0:
-        notes.append("samples exceed ±1 (kept in the float file, as asked); players may clip")
+                           "clip; lower --gain-db, leave out --calibrated, or keep FLOAT")
+    write_wav(output, y, fs, subtype=out.subtype, channel_names=info["channels"])
+    notes.extend(level_notes)
     return {"what": what, "where": where, "info": info, "channels": int(y.shape[1]),
             "seconds": y.shape[0] / fs, "sample_rate_hz": fs,
             "peak_dbfs": 20 * np.log10(max(peak, 1e-30)), "scaled": scaled, "notes": notes,

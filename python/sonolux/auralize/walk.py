@@ -32,6 +32,7 @@ import numpy as np
 
 from sonolux.auralize.offline import AuralizeSettings, response_samples, run_blocks
 from sonolux.errors import SonoluxError
+from sonolux.outputs import write_atomically
 
 CONTROL_HZ = 1000.0  # rate at which the cell is looked up along the path
 
@@ -75,7 +76,11 @@ def load_path(file: str | Path, speed_m_s: float = 1.2) -> WalkPath:
     path = Path(file)
     if not path.exists():
         raise SonoluxError(f"{path}: no such path file")
-    text = path.read_text(encoding="utf-8-sig")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SonoluxError(f"{path}: not a UTF-8 text file (byte {exc.start}); a path is CSV "
+                           "(time,x,y,heading) or JSON") from None
     if path.suffix.lower() == ".json" or text.lstrip().startswith(("[", "{")):
         return _from_json(text, str(path), speed_m_s)
     return _from_csv(text, str(path), speed_m_s)
@@ -104,6 +109,10 @@ def _from_csv(text: str, src: str, speed: float) -> WalkPath:
     keys = []
     for line, row in enumerate(rows[1:], start=2):
         rec = dict(zip(header, row))
+        missing = [k for k in ("x", "y") if rec.get(k, "").strip() == ""]
+        if missing:
+            raise SonoluxError(f"{src}:{line}: the row has no {missing[0]!r} "
+                               f"({len(row)} values for the {len(header)} columns)")
         keys.append({k: _number(rec.get(k), f"{src}:{line}", k) for k in header
                      if k in ("time", "x", "y", "heading") and rec.get(k, "").strip() != ""})
     return _keys(keys, src, speed)
@@ -266,8 +275,6 @@ def auralize_walk(field, dry: np.ndarray, path: WalkPath,
 def plot_walk(field, path: WalkPath, info: dict, png: str | Path) -> Path:
     """A plan view of the path over the receiver grid: cells visited shaded, headings as
     arrows every second, sources as stars. Written to a temporary file, then renamed."""
-    import os
-    import tempfile
 
     import matplotlib
 
@@ -305,13 +312,9 @@ def plot_walk(field, path: WalkPath, info: dict, png: str | Path) -> Path:
                  f"{path.duration_s:.1f} s (arrows: heading, every second)")
     ax.legend(loc="upper right", fontsize=8)
     png = Path(png)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{png.name}.", suffix=".png", dir=png.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
-        os.replace(tmp, png)
+        write_atomically(png, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight",
+                                                      format="png"))
     finally:
         plt.close(fig)
-        Path(tmp).unlink(missing_ok=True)
     return png

@@ -2,6 +2,6 @@
 
 import sys
 
-from sonolux.cli.main import main
+from sonolux.cli import main
 
 sys.exit(main())

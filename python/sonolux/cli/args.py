@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
+
+from sonolux.errors import number_allowed, range_text
+from sonolux.limits import MAX_EXPOSURE_EV, MAX_GAIN_DB, MAX_RAYS, MAX_SEED
 
 
 def _floats(text: str, n: int, what: str, example: str) -> tuple[float, ...]:
@@ -17,6 +21,20 @@ def _floats(text: str, n: int, what: str, example: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"{text!r} is not {what} in metres (finite numbers, "
                                          f"e.g. {example})")
     return values
+
+
+def add_level_options(p: argparse.ArgumentParser) -> None:
+    """The level of a written response or auralization (:func:`sonolux.audio.set_level`)."""
+    g = p.add_argument_group("level (default: the peak normalised to -1 dBFS, gain printed)")
+    g.add_argument("--normalize", action="store_true",
+                   help="normalise the peak to -1 dBFS (the default; overrides the others)")
+    g.add_argument("--calibrated", action="store_true",
+                   help="keep the field's pressure units (comparable between files); a peak "
+                        "above full scale is kept in float files with a warning")
+    g.add_argument("--gain-db", type=gain_db, default=None, metavar="DB",
+                   help="calibrated, times this gain in dB")
+    g.add_argument("--allow-over-full-scale", action="store_true",
+                   help="the old name of --calibrated")
 
 
 def xy(text: str) -> tuple[float, float]:
@@ -36,27 +54,72 @@ def size_px(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT in pixels "
-                                         "(e.g. 960x540)") from None
+        w = h = 0
+    if not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT in pixels, each from 1 "
+                                         "to 16384 (e.g. 960x540)")
     return w, h
 
 
-#: The largest ray or particle count a command accepts (a bake of this many rays takes days).
-MAX_RAYS = 10**12
+def _to_number(text: str, integer: bool) -> float | int | None:
+    """The number in ``text``; for an integer, a whole float such as ``1e6`` is taken too."""
+    text = text.strip()
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        v = float(text)
+    except ValueError:
+        return None
+    if integer:
+        return int(v) if math.isfinite(v) and v == int(v) else None
+    return v
+
+
+def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+           hi_open: bool = False, integer: bool = False,
+           unit: str = "") -> Callable[[str], float | int]:
+    """An argparse ``type``: a finite number (a whole one if ``integer``) within the bounds.
+
+    The test is :func:`sonolux.errors.number_allowed`, the same as for scene keys and API
+    settings; argparse prints the message after the option's name and exits 2::
+
+        sonolux: error: argument --heading: 'nan' is not allowed: a number in [-36000, 36000] degrees
+    """
+    allowed = range_text(lo, hi, lo_open, hi_open, "an integer" if integer else "a number")
+    allowed += f" {unit}" if unit else ""
+
+    def parse(text: str) -> float | int:
+        v = _to_number(text, integer)
+        if v is None or not number_allowed(v, lo, hi, lo_open, hi_open, integer):
+            raise argparse.ArgumentTypeError(f"{text!r} is not allowed: {allowed}")
+        return v
+
+    parse.__name__ = "integer" if integer else "number"
+    parse.bounds = (lo, hi, lo_open, hi_open, integer)  # type: ignore[attr-defined]  (for tests)
+    return parse
+
+
+#: A seed of the random numbers: the core's u64.
+seed = number(0, MAX_SEED, integer=True)
+#: An angle in degrees around the vertical (any finite turn, within a hundred turns).
+heading_deg = number(-36000.0, 36000.0, unit="degrees")
+#: Stops added to an automatic exposure.
+exposure_ev = number(-MAX_EXPOSURE_EV, MAX_EXPOSURE_EV, unit="EV")
+#: A gain in dB.
+gain_db = number(-MAX_GAIN_DB, MAX_GAIN_DB, unit="dB")
 
 
 def rays(text: str) -> int | str:
     """A ray or particle count from 1 to MAX_RAYS (1e6 and 2e5 are fine), or 'auto'."""
     if text == "auto":
         return text
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value == int(value) and 1 <= value <= MAX_RAYS):
+    value = _to_number(text, integer=True)
+    if value is None or not 1 <= value <= MAX_RAYS:
         raise argparse.ArgumentTypeError(f"{text!r} is not a ray count: a whole number from 1 "
                                          f"to {MAX_RAYS:.0e} or 'auto'")
-    return int(value)
+    return value
 
 
 def ray_range(text: str) -> tuple[int, int]:
@@ -65,7 +128,7 @@ def ray_range(text: str) -> tuple[int, int]:
         a, b = (int(v) for v in text.split(":"))
     except ValueError:
         a = b = -1
-    if not 0 <= a < b:
+    if not 0 <= a < b <= MAX_RAYS:
         raise argparse.ArgumentTypeError(f"{text!r} is not FIRST:END with 0 <= FIRST < END "
                                          "(e.g. 0:500000)")
     return a, b
@@ -77,8 +140,8 @@ def seconds(text: str) -> float:
         v = float(text)
     except ValueError:
         v = -1.0
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a time in seconds > 0")
+    if not (math.isfinite(v) and 0 < v <= 3600):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a time in seconds in (0, 3600]")
     return v
 
 

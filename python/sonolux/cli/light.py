@@ -81,7 +81,7 @@ def add_bundle_options(p: argparse.ArgumentParser) -> None:
                    help="cut the responses after S seconds (default: the full decay)")
     g.add_argument("--sample-format", choices=("int16", "float32"), default="int16",
                    help="samples of the responses (default int16, half the size)")
-    g.add_argument("--seed", type=int, default=0, help="seed of the responses' fine structure")
+    g.add_argument("--seed", type=parse.seed, default=0, help="seed of the responses' fine structure")
 
 
 def add_commands(sub) -> None:
@@ -99,20 +99,22 @@ def add_commands(sub) -> None:
     aim = r.add_mutually_exclusive_group()
     aim.add_argument("--look-at", type=parse.xyz, metavar="X,Y,Z",
                      help="the point the camera looks at")
-    aim.add_argument("--yaw", type=float, default=0.0,
+    aim.add_argument("--yaw", type=parse.heading_deg, default=0.0,
                      help="heading in degrees: 0 = +x, counter-clockwise seen from above (default 0)")
-    r.add_argument("--pitch", type=float, default=0.0,
+    r.add_argument("--pitch", type=parse.number(-90, 90, lo_open=True, hi_open=True, unit="degrees"),
+                   default=0.0,
                    help="degrees above the horizon, in (-90, 90) (default 0)")
-    r.add_argument("--fov", type=float, default=60.0, help="vertical field of view, degrees (default 60)")
+    r.add_argument("--fov", type=parse.number(0, 180, lo_open=True, hi_open=True, unit="degrees"),
+                   default=60.0, help="vertical field of view, degrees (default 60)")
     r.add_argument("--size", type=parse.size_px, metavar="WxH", help="pixels (default 960x540)")
-    r.add_argument("--exposure", type=float, default=0.0,
+    r.add_argument("--exposure", type=parse.exposure_ev, default=0.0,
                    help="stops added to the automatic exposure, default 0")
     r.add_argument("--meter", choices=("incident", "reflected"), default="incident",
                    help="automatic exposure: incident (the light falling on the surfaces in "
                         "view, so white looks white; default) or reflected (the picture's "
                         "log-average luminance at key 0.18)")
     r.add_argument("--tone-map", choices=TONE_MAPS, default="aces", help="default aces")
-    r.add_argument("--samples", type=int, default=2,
+    r.add_argument("--samples", type=parse.number(1, 16, integer=True), default=2,
                    help="N: N×N rays per pixel on a fixed grid (default 2)")
     r.set_defaults(func=cmd_render)
 
@@ -128,7 +130,7 @@ def add_commands(sub) -> None:
     e.add_argument("--web", metavar="DIR",
                    help="write the walk-through viewer's bundle (scene.glb, field.json, "
                         "responses.bin) into DIR")
-    e.add_argument("--exposure", type=float, default=0.0,
+    e.add_argument("--exposure", type=parse.exposure_ev, default=0.0,
                    help="glTF: stops added to the automatic exposure")
     e.add_argument("--tone-map", choices=TONE_MAPS, default="aces", help="glTF: default aces")
     e.add_argument("--flat", action="store_true",

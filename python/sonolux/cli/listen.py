@@ -14,7 +14,7 @@ import argparse
 import sys
 
 from sonolux.auralize.render import LAYOUT_NAMES
-from sonolux.auralize.to_file import NORMALIZE_PEAK_DBFS, SUBTYPES
+from sonolux.auralize.to_file import SUBTYPES
 from sonolux.cli import args as parse
 from sonolux.cli.light import add_bundle_options, log, web_options
 
@@ -31,7 +31,7 @@ def cmd_auralize(args: argparse.Namespace) -> int:
     listening = Listening(at_m=args.at, heading_deg=args.heading, path_file=args.path,
                           speed_m_s=args.speed, outside=args.outside, loop=args.loop,
                           png=args.png)
-    out = Output(gain_db=args.gain_db, normalize=args.normalize,
+    out = Output(gain_db=args.gain_db, normalize=args.normalize, calibrated=args.calibrated,
                  allow_over_full_scale=args.allow_over_full_scale, subtype=args.subtype)
     done = auralize_to_file(field, args.dry, args.output, listening, settings, out,
                             channel=args.channel)
@@ -48,7 +48,7 @@ def cmd_auralize(args: argparse.Namespace) -> int:
           f"renderer with this block would add {info['latency_samples']} samples "
           f"({1000 * info['latency_samples'] / done['sample_rate_hz']:.1f} ms) of latency")
     for note in done["notes"]:
-        print(f"sonolux: note: {note}", file=sys.stderr)
+        print(f"sonolux: {'' if note.startswith('warning:') else 'note: '}{note}", file=sys.stderr)
     return 0
 
 
@@ -108,7 +108,8 @@ def add_commands(sub) -> None:
         description="Convolve a dry (anechoic) signal with the responses of the cell at X,Y (or "
                     "of the cells along a path), turn each direction into a virtual source "
                     "rotated by the heading, and write the layout's channels as a WAV file. "
-                    "The file never goes above full scale unless --allow-over-full-scale.")
+                    "By default the peak is normalised to -1 dBFS and the gain printed; "
+                    "--calibrated or --gain-db keep absolute levels.")
     p.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
     p.add_argument("dry", metavar="DRY",
                    help="a sound file (WAV, FLAC, ...; any rate, resampled) or a built-in "
@@ -118,35 +119,31 @@ def add_commands(sub) -> None:
     where.add_argument("--at", type=parse.xy, metavar="X,Y", help="the listener's position in metres")
     where.add_argument("--path", metavar="FILE",
                        help="a walk: CSV (time,x,y,heading) or JSON (points or waypoints)")
-    p.add_argument("--heading", type=float, default=0.0, metavar="DEG",
+    p.add_argument("--heading", type=parse.heading_deg, default=0.0, metavar="DEG",
                    help="where the listener faces with --at: 0 = +x, 90 = +y (default 0)")
     p.add_argument("--layout", choices=LAYOUT_NAMES, default="binaural",
                    help="binaural (headphones), cube8 (the paper's 8 loudspeakers), ambisonics "
                         "(AmbiX), stereo, 5.1, 7.1 (default binaural)")
-    p.add_argument("--order", type=int, default=1, help="ambisonic order, 1 to 7 (default 1)")
+    p.add_argument("--order", type=parse.number(1, 7, integer=True),
+                   default=1, help="ambisonic order, 1 to 7 (default 1)")
     p.add_argument("--hrtf", metavar="FILE.sofa",
                    help="binaural through this SOFA file (default: a spherical head model)")
     p.add_argument("-o", "--output", required=True, help="the WAV file to write")
-    p.add_argument("--normalize", action="store_true",
-                   help=f"scale the peak to {NORMALIZE_PEAK_DBFS:g} dBFS (default: only when it "
-                        "would be above full scale)")
-    p.add_argument("--allow-over-full-scale", action="store_true",
-                   help="keep float samples above ±1 (default: scale the whole signal down)")
-    p.add_argument("--gain-db", type=float, default=0.0, help="a fixed gain in dB (default 0)")
+    parse.add_level_options(p)
     p.add_argument("--subtype", choices=SUBTYPES, default="FLOAT",
                    help="sample format (default FLOAT, 32-bit float)")
-    p.add_argument("--fade-ms", type=float, default=30.0,
+    p.add_argument("--fade-ms", type=parse.number(5, 500, unit="ms"), default=30.0,
                    help="equal-power cross-fade between cells, ms (default 30)")
-    p.add_argument("--block", type=int, default=8192,
+    p.add_argument("--block", type=parse.number(16, 1 << 20, integer=True, unit="samples"), default=8192,
                    help="block size of the renderer in samples (default 8192)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the responses' fine structure")
-    p.add_argument("--tail-s", type=float, default=None,
+    p.add_argument("--seed", type=parse.seed, default=0, help="seed of the responses' fine structure")
+    p.add_argument("--tail-s", type=parse.number(0, 60, unit="s"), default=None,
                    help="seconds rendered after the signal ends (default: the whole response)")
-    p.add_argument("--channel", type=int, default=None,
+    p.add_argument("--channel", type=parse.number(0, 1023, integer=True), default=None,
                    help="use this channel of the dry file (from 0; default: mix to mono)")
     p.add_argument("--loop", action="store_true",
                    help="repeat the dry signal to the end of the walk")
-    p.add_argument("--speed", type=float, default=1.2,
+    p.add_argument("--speed", type=parse.number(0, 100, lo_open=True, unit="m/s"), default=1.2,
                    help="walking speed for paths without times, m/s (default 1.2)")
     p.add_argument("--outside", choices=("error", "clamp"), default="error",
                    help="a path leaving the field: stop with an error (default) or stay in the "
@@ -168,18 +165,21 @@ def add_commands(sub) -> None:
     f.add_argument("-o", "--output", required=True, help="the film to write (.mp4, .mkv, .mov)")
     f.add_argument("--dry", default="builtin:speech", metavar="DRY",
                    help="what is heard: a sound file or builtin:NAME (default builtin:speech)")
-    f.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    f.add_argument("--fps", type=parse.number(1, 120, unit="frames per second"),
+                   default=25.0, help="frames per second (default 25)")
     f.add_argument("--size", type=parse.size_px, default=(640, 360), metavar="WxH",
                    help="pixels, both even (default 640x360)")
-    f.add_argument("--fov", type=float, default=70.0, metavar="DEG",
+    f.add_argument("--fov", type=parse.number(0, 170, lo_open=True, hi_open=True, unit="degrees"),
+                   default=70.0, metavar="DEG",
                    help="vertical field of view (default 70)")
-    f.add_argument("--eye-height", type=float, default=None, metavar="M",
+    f.add_argument("--eye-height", type=parse.number(0, 100, lo_open=True, hi_open=True, unit="m"),
+                   default=None, metavar="M",
                    help="the camera's height (default: the receivers', where the ears are)")
-    f.add_argument("--samples", type=int, default=1,
+    f.add_argument("--samples", type=parse.number(1, 16, integer=True), default=1,
                    help="samples² rays per pixel (default 1)")
     f.add_argument("--layout", choices=("binaural", "stereo"), default="binaural",
                    help="the soundtrack (default binaural, for headphones)")
-    f.add_argument("--crf", type=int, default=20,
+    f.add_argument("--crf", type=parse.number(0, 51, integer=True), default=20,
                    help="H.264 quality, 0 (best) to 51 (default 20)")
     f.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     f.set_defaults(func=cmd_film)

@@ -13,6 +13,7 @@ import sys
 
 from sonolux.cli import args as parse
 from sonolux.cli import spread
+from sonolux.limits import MAX_THREADS
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -30,6 +31,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_bake(args: argparse.Namespace) -> int:
     import time
+    from dataclasses import replace
 
     from sonolux.fieldfile import save_fields
     from sonolux.light.info import format_info as format_light
@@ -41,6 +43,9 @@ def cmd_bake(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     scene = load_scene(args.scene)
+    overrides = {k: v for k, v in (("seed", args.seed), ("threads", args.threads)) if v is not None}
+    if overrides:  # the command line wins over the scene's [settings]
+        scene = replace(scene, settings=replace(scene.settings, **overrides))
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
@@ -49,7 +54,8 @@ def cmd_bake(args: argparse.Namespace) -> int:
             scene, sound=args.sound, light=args.light, load_s=load_s,
             sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
                                        azimuth_bands=args.azimuth_bands,
-                                       elevation_bands=args.elevation_bands, ray_range=args.range),
+                                       elevation_bands=args.elevation_bands, ray_range=args.range,
+                                       air_absorption=not args.no_air),
             light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
             progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
             sound_baker=sound_baker, light_baker=light_baker)
@@ -93,8 +99,9 @@ def cmd_info(args: argparse.Namespace) -> int:
 def cmd_ir(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from sonolux.audio import write_wav
+    from sonolux.audio import set_level, write_wav
     from sonolux.fieldfile import open_field
+    from sonolux.sound.info import listener_warnings
 
     field = open_field(args.field)
     r = field.cell_at(*args.at)
@@ -102,10 +109,19 @@ def cmd_ir(args: argparse.Namespace) -> int:
     if args.paper_filters:
         return _write_paper_filters(field, r, direction, args)
     ir = field.impulse_response(r, direction, seed=args.seed)
-    write_wav(args.output, ir[:, None] if ir.ndim == 1 else ir, field.sample_rate_hz)
+    peak = float(np.max(np.abs(ir))) if ir.size else 0.0
+    calibrated = not args.normalize and (args.calibrated or args.allow_over_full_scale
+                                         or args.gain_db is not None)
+    samples, gain_db, notes = set_level(ir[:, None] if ir.ndim == 1 else ir, args.gain_db,
+                                        calibrated)
+    write_wav(args.output, samples, field.sample_rate_hz)
+    level = (f"calibrated, gain {gain_db:+.1f} dB" if calibrated
+             else f"normalised to -1 dBFS: gain {gain_db:+.1f} dB")
     print(f"impulse response of receiver #{r} at ({', '.join(f'{v:g}' for v in field.positions_m[r])}) m, "
           f"direction {args.direction}: {ir.shape[0] / field.sample_rate_hz:.3f} s, peak "
-          f"{np.max(np.abs(ir)):.3g} -> {args.output}")
+          f"{peak:.3g} Pa-units ({level}) -> {args.output}")
+    for note in notes + listener_warnings(field, r):
+        print(f"sonolux: {note}", file=sys.stderr)
     return 0
 
 
@@ -168,8 +184,9 @@ def add_commands(sub) -> None:
                       help="paper: sphere receivers, as the paper (default, measured faster to "
                            "a given accuracy on grids); rain: exact direct sound and diffuse rain "
                            "to every receiver (better with few receivers and diffuse surfaces)")
-    bake.add_argument("--azimuth-bands", type=int, default=8, help="azimuth sectors (default 8)")
-    bake.add_argument("--elevation-bands", type=int, default=1,
+    bake.add_argument("--azimuth-bands", type=parse.number(1, 360, integer=True),
+                      default=8, help="azimuth sectors (default 8)")
+    bake.add_argument("--elevation-bands", type=parse.number(1, 90, integer=True), default=1,
                       help="elevation bands of equal solid angle (1, or 3 = below/level/above)")
     bake.add_argument("--range", type=parse.ray_range, default=None, metavar="FIRST:END",
                       help="trace only rays FIRST..END of the bake (ranges merge exactly)")
@@ -179,8 +196,16 @@ def add_commands(sub) -> None:
                       help="trace light (default: when the scene has a light)")
     bake.add_argument("--particles", type=parse.rays, default="auto",
                       help="light particles, or 'auto' (printed with the reason); default auto")
-    bake.add_argument("--patch-size", type=float, default=0.25, metavar="M",
+    bake.add_argument("--patch-size", type=parse.number(0.001, 100, unit="m"), default=0.25, metavar="M",
                       help="size of the light's surface patches in metres (default 0.25)")
+    bake.add_argument("--seed", type=parse.seed, default=None,
+                      help="seed of the random numbers (default: the scene's, else 1)")
+    bake.add_argument("--threads", type=parse.number(0, MAX_THREADS, integer=True), default=None,
+                      help="worker threads, 0 = every core (default: the scene's, else 0); "
+                           "the result does not depend on it")
+    bake.add_argument("--no-air", action="store_true",
+                      help="leave out the air's absorption (for comparisons with theory that "
+                           "leaves it out)")
     bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
     spread.add_bake_flags(bake)
     bake.set_defaults(func=cmd_bake)
@@ -200,12 +225,13 @@ def add_commands(sub) -> None:
     ir.add_argument("--at", type=parse.xy, required=True, metavar="X,Y", help="position in metres")
     ir.add_argument("--direction", default="all",
                     help="a direction name (front, left, right, back, ...) or 'all' (default)")
-    ir.add_argument("--seed", type=int, default=0, help="seed of the synthesized phases")
+    ir.add_argument("--seed", type=parse.seed, default=0, help="seed of the synthesized phases")
     ir.add_argument("--paper-filters", action="store_true",
                     help="write the paper's energy filters instead (Pope and Chalmers): one "
                          "channel per direction and band, --length taps each")
-    ir.add_argument("--length", type=int, default=3840,
+    ir.add_argument("--length", type=parse.number(1, 10_000_000, integer=True, unit="taps"), default=3840,
                     help="taps of --paper-filters (default 3840: the paper's 80 ms at 48 kHz)")
+    parse.add_level_options(ir)
     ir.add_argument("-o", "--output", required=True, help="the WAV file to write")
     ir.set_defaults(func=cmd_ir)
 

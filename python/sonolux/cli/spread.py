@@ -6,33 +6,22 @@ and :mod:`sonolux.parts`.
 from __future__ import annotations
 
 import argparse
-import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from typing import Any
 
+from sonolux.cli import args as parse
+from sonolux.limits import MAX_RAYS
+
 
 def _count(what: str) -> Callable[[str], int]:
-    def parse(text: str) -> int:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value == int(value) and 1 <= value <= 10**12):
-            raise argparse.ArgumentTypeError(f"{text!r} is not {what}: a whole number ≥ 1")
-        return int(value)
-    return parse
+    """A whole number from 1 (the shared parser of :mod:`sonolux.cli.args`)."""
+    del what  # the option's name says what is counted
+    return parse.number(1, MAX_RAYS, integer=True)
 
 
-def _interval(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a checkpoint interval: seconds ≥ 0 "
-                                         "(0: after every range)")
-    return value
+#: Seconds between checkpoints, 0 (after every range) to a day.
+_interval = parse.number(0, 86400, unit="s (0: after every range)")
 
 
 def add_bake_flags(bake: argparse.ArgumentParser) -> None:

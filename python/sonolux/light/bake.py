@@ -24,6 +24,7 @@ from sonolux.light.options import LightOptions
 from sonolux.light.photometry import MAX_LUMINOUS_EFFICACY_LM_PER_W
 from sonolux.light.sources import other_sources
 from sonolux.light.workplane import plane_request, workplane_result
+from sonolux.memory import check_patches
 from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 
@@ -149,6 +150,7 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
     options = replace(options or LightOptions(), **overrides).validate()
     if not scene.lights and scene.daylight is None:
         raise SonoluxError(f"{scene.origin}: the scene has no light to bake")
+    check_patches(scene.vertices_m, scene.triangles, options.patch_size_m)
     arrays = light_arrays(scene)
     if options.particles == "auto":
         particles, why = auto_particles(scene, options, arrays)

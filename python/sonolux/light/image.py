@@ -16,8 +16,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -25,6 +23,7 @@ import numpy as np
 
 from sonolux.errors import SonoluxError
 from sonolux.light.field import LUMINANCE_RGB
+from sonolux.outputs import write_atomically
 
 KEY_VALUE = 0.18
 #: The incident meter exposes a white Lambertian surface under the average light to this value:
@@ -83,23 +82,37 @@ def to_srgb8(linear: np.ndarray, scale: float, curve: str = "aces",
 
 
 def _atomic(path: str | Path, write: Callable[[str], None]) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomically(path, lambda tmp: write(str(tmp)))
+
+
+#: The picture formats by suffix: the file holds what its name says.
+PICTURE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG"}
+
+
+def picture_format(path: str | Path) -> str:
+    """The format of a picture file by its suffix, or an error naming the path."""
+    fmt = PICTURE_FORMATS.get(Path(path).suffix.lower())
+    if fmt is None:
+        raise SonoluxError(f"{path}: a picture is written as .png, .jpg or .jpeg (the format "
+                           "follows the name)")
+    return fmt
 
 
 def write_png(path: str | Path, srgb8: np.ndarray) -> Path:
+    """Writes sRGB uint8[h, w, 3] as PNG, or as JPEG (quality 92) when the name says .jpg."""
     from PIL import Image
 
-    return _atomic(path, lambda tmp: Image.fromarray(srgb8, "RGB").save(tmp, format="PNG"))
+    fmt = picture_format(path)
+    extra = {"quality": 92} if fmt == "JPEG" else {}
+    return _atomic(path, lambda tmp: Image.fromarray(srgb8, "RGB").save(tmp, format=fmt, **extra))
+
+
+def hdr_format(path: str | Path) -> str:
+    """The suffix of an HDR image (.pfm or .exr), or an error naming the path."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in HDR_SUFFIXES:
+        raise SonoluxError(f"{path}: an HDR image must end in " + " or ".join(HDR_SUFFIXES))
+    return suffix
 
 
 def write_hdr(path: str | Path, linear: np.ndarray) -> Path:

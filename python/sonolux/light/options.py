@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sonolux.errors import SonoluxError
+from sonolux.errors import check_number
+from sonolux.limits import MAX_RAYS
 
 
 @dataclass(frozen=True)
@@ -27,18 +28,10 @@ class LightOptions:
     max_bounces: int = 10_000
 
     def validate(self) -> LightOptions:
-        def bad(field: str, value: object, allowed: str) -> SonoluxError:
-            return SonoluxError(f"light option {field} = {value!r} is not allowed: {allowed}")
-
-        def whole(v: object) -> bool:
-            return isinstance(v, int) and not isinstance(v, bool)
-
-        if self.particles != "auto" and not (whole(self.particles) and self.particles >= 1):
-            raise bad("particles", self.particles, 'a whole number ≥ 1, or "auto"')
-        if not (isinstance(self.patch_size_m, (int, float)) and 1e-3 <= self.patch_size_m <= 100):
-            raise bad("patch_size_m", self.patch_size_m, "a size from 0.001 to 100 m")
-        if not (whole(self.hits_per_patch) and 1 <= self.hits_per_patch <= 1_000_000):
-            raise bad("hits_per_patch", self.hits_per_patch, "a whole number from 1 to 1,000,000")
-        if not (whole(self.max_bounces) and 1 <= self.max_bounces <= 1_000_000):
-            raise bad("max_bounces", self.max_bounces, "a whole number from 1 to 1,000,000")
+        if self.particles != "auto":
+            check_number("light option particles", self.particles, 1, MAX_RAYS, integer=True)
+        check_number("light option patch_size_m", self.patch_size_m, 1e-3, 100, unit="m")
+        check_number("light option hits_per_patch", self.hits_per_patch, 1, 1_000_000,
+                     integer=True)
+        check_number("light option max_bounces", self.max_bounces, 1, 1_000_000, integer=True)
         return self

@@ -12,11 +12,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from sonolux.errors import SonoluxError
+from sonolux.errors import SonoluxError, check_number
 from sonolux.light import image
 from sonolux.light.camera import Camera, default_camera
 from sonolux.light.field import LightField
 from sonolux.light.render import Renderable, incident_exposure, render
+from sonolux.limits import MAX_EXPOSURE_EV
+from sonolux.memory import check_render
 
 METERS = ("incident", "reflected")
 
@@ -47,6 +49,7 @@ class ViewSettings:
         if self.tone_map not in image.TONE_MAPS:
             raise SonoluxError(f"tone map {self.tone_map!r} is not allowed: "
                                f"{', '.join(image.TONE_MAPS)}")
+        check_number("exposure_ev", self.exposure_ev, -MAX_EXPOSURE_EV, MAX_EXPOSURE_EV, unit="EV")
         return self
 
     def camera(self, field: LightField) -> Camera:
@@ -68,7 +71,11 @@ def render_view(field: LightField, png: str | Path, settings: ViewSettings | Non
     """Renders the view and writes ``png`` (and ``hdr``): a dict of what was done (camera,
     exposure scale and meter reading, seconds, the files written)."""
     settings = (settings or ViewSettings()).validate()
-    camera = settings.camera(field)
+    image.picture_format(png)  # before the work: a name that says another format is an error
+    if hdr:
+        image.hdr_format(hdr)
+    camera = settings.camera(field).validate()
+    check_render(camera.width, camera.height, settings.samples)
     started = time.perf_counter()
     renderable = Renderable.of(field)
     rays = render(renderable, camera, samples=settings.samples, keep_samples=True)

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from sonolux.light.photometry import photometric
+from sonolux.outputs import write_atomically
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,10 +98,7 @@ class WorkplaneResult:
         """Writes CSV or JSON (by the suffix) beside the target, then renames it into place."""
         p = Path(path)
         text = self.to_json() if p.suffix.lower() == ".json" else self.to_csv()
-        tmp = p.with_name(p.name + ".part")
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(p)
-        return p
+        return write_atomically(p, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def plane_request(workplane: Any) -> dict[str, Any] | None:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.analysis.params import PARAMETERS, RoomParameters
+from sonolux.outputs import write_atomically
 from sonolux.plotting import pyplot
 from sonolux.sound.field import SoundField
 
@@ -165,6 +166,6 @@ def plot_parameter_maps(field: SoundField, params: RoomParameters, path: str | P
     if undefined_areas is not None:
         fig.canvas.draw()
         undefined_areas += _undefined_areas(fig, axes.flat, names, params, column, field)
-    fig.savefig(path, dpi=100)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
     plt.close(fig)
     return path

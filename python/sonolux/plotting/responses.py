@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.analysis.decay import decay_times
+from sonolux.outputs import write_atomically
 from sonolux.plotting import pyplot
 from sonolux.sound.field import SoundField
 
@@ -92,7 +93,7 @@ def plot_azimuth_echograms(field: SoundField, receiver: int, path: str | Path, *
                  "direct sound (which may rise above the top)")
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=100)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
     plt.close(fig)
     return path
 
@@ -131,6 +132,6 @@ def plot_decay_curves(field: SoundField, receiver: int, path: str | Path) -> Pat
     ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=100)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
     plt.close(fig)
     return path

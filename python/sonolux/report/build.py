@@ -11,10 +11,8 @@ echograms per direction and decay curves, parameter maps, the light view and aur
 from __future__ import annotations
 
 import math
-import os
 import re
 import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +29,7 @@ from sonolux.analysis.tables import (
 )
 from sonolux.errors import SonoluxError
 from sonolux.fieldfile import open_field
+from sonolux.outputs import atomic_folder
 from sonolux.report import extras
 from sonolux.report import html as h
 from sonolux.sound.field import SoundField
@@ -67,9 +66,7 @@ def build_report(field_paths: list[Path], out_dir: Path, options: ReportOptions 
     out_dir = Path(out_dir)
     _check_target(out_dir)
     fields = [open_field(p) for p in field_paths]  # every error before anything is written
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-    try:
+    with atomic_folder(out_dir) as tmp:
         (tmp / "img").mkdir()
         (tmp / "audio").mkdir()
         title = options.title or ("sonolux report: " + ", ".join(f.scene_name for f in fields))
@@ -96,10 +93,6 @@ def build_report(field_paths: list[Path], out_dir: Path, options: ReportOptions 
                     "just-noticeable differences: EDT 5 %, C80 1 dB, D50 0.05, Ts 10 ms, "
                     "G 1 dB.</p>")
         (tmp / "index.html").write_text(h.page(title, "\n".join(body)), encoding="utf-8")
-        _swap_into_place(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out_dir / "index.html"
 
 
@@ -107,16 +100,6 @@ def _check_target(out_dir: Path) -> None:
     if out_dir.exists() and (not out_dir.is_dir() or (any(out_dir.iterdir())
                                                        and not (out_dir / "index.html").exists())):
         raise SonoluxError(f"{out_dir}: exists and is not a report folder; choose another -o")
-
-
-def _swap_into_place(tmp: Path, out_dir: Path) -> None:
-    old = None
-    if out_dir.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old.", dir=out_dir.parent))
-        os.replace(out_dir, old / "report")
-    os.replace(tmp, out_dir)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
 
 
 def _slug(k: int, f: SoundField) -> str:

@@ -24,6 +24,7 @@ import numpy as np
 
 from sonolux.engine import Geometry
 from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_matches
+from sonolux.limits import MAX_SEED, MAX_THREADS, MAX_TIME_S
 from sonolux.scene import builtin
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.inside import RoomSpace
@@ -141,9 +142,9 @@ def read_settings(t: Table | None) -> Settings:
         bands_hz=tuple(int(b) for b in bands),
         energy_drop_db=t.number("energy_drop_db", d.energy_drop_db, lo=0.0, lo_open=True,
                                 hi=200.0),
-        max_time_s=t.number("max_time_s", d.max_time_s, lo=0.0),
-        seed=t.integer("seed", d.seed, lo=0),
-        threads=t.integer("threads", d.threads, lo=0),
+        max_time_s=t.number("max_time_s", d.max_time_s, lo=0.0, hi=MAX_TIME_S),
+        seed=t.integer("seed", d.seed, lo=0, hi=MAX_SEED),
+        threads=t.integer("threads", d.threads, lo=0, hi=MAX_THREADS),
         air=air,
     )
 

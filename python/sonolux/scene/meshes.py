@@ -105,7 +105,7 @@ def build_mesh(t: Table, names: MaterialNames) -> GeometryPart:
     if not path.is_file():
         raise ctx.error(t.path("file"), message=f'no such mesh file "{file}" (looked for '
                                                 f"{path.resolve()})")
-    scale = t.number("scale", 1.0, lo=0.0, lo_open=True)
+    scale = t.number("scale", 1.0, lo=0.0, lo_open=True, hi=1e6)
     translate_m = t.vector("translate_m", 3, (0.0, 0.0, 0.0))
     up = t.string("up", "y" if path.suffix.lower() in (".gltf", ".glb") else "z", ("z", "y"))
     fallback_name = t.string("material", None)

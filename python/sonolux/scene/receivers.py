@@ -26,6 +26,8 @@ POINTS_KEYS = ("type", "positions_m", "radius_m")
 DEFAULT_HEIGHT_M = 1.5
 DEFAULT_SPACING_M = 1.0
 DEFAULT_RADIUS_M = 0.25
+#: The smallest receiver sphere (the core divides by its volume; 0.1 mm, as the binding).
+MIN_RADIUS_M = 1e-4
 #: More candidates than this is almost surely a spacing given in the wrong unit.
 MAX_CANDIDATES = 200_000
 
@@ -74,11 +76,11 @@ def read_receivers(t: Table | None) -> ReceiverSpec:
         spacing_m = t.number("spacing_m", DEFAULT_SPACING_M, lo=0.0, lo_open=True)
         return ReceiverSpec(
             kind, height_m=t.number("height_m", DEFAULT_HEIGHT_M), spacing_m=spacing_m,
-            radius_m=t.number("radius_m", min(DEFAULT_RADIUS_M, spacing_m), lo=0.0,
-                              lo_open=True, hi=spacing_m),
+            radius_m=t.number("radius_m", min(DEFAULT_RADIUS_M, spacing_m), lo=MIN_RADIUS_M,
+                              hi=spacing_m),
             origin_m=t.vector("origin_m", 2, None), key=t.key)
     t.check_keys(POINTS_KEYS)
-    radius_m = t.number("radius_m", DEFAULT_RADIUS_M, lo=0.0, lo_open=True)
+    radius_m = t.number("radius_m", DEFAULT_RADIUS_M, lo=MIN_RADIUS_M, hi=1e4)
     raw = t.data.get("positions_m")
     key = t.path("positions_m")
     if not isinstance(raw, list) or not raw:

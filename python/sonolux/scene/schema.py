@@ -20,7 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.errors import _MISSING, SceneError, close_matches
+from sonolux.errors import (  # noqa: F401  (interval_text: re-exported)
+    _MISSING,
+    SceneError,
+    close_matches,
+    interval_text,
+    number_allowed,
+    range_text,
+)
 from sonolux.scene.toml_lines import find_line
 
 #: Octave-band centres of the material library, in Hz. Every material carries one value per band.
@@ -247,29 +254,6 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-def interval_text(lo: float | None, hi: float | None, lo_open: bool = False,
-                  hi_open: bool = False) -> str:
-    """``in [0, 1]``, ``> 0``, ``in (0, 180]``, ``<= 5``; empty without bounds."""
-    def g(x: float) -> str:
-        return f"{x:g}"
-    if lo is not None and hi is not None:
-        return f"in {'(' if lo_open else '['}{g(lo)}, {g(hi)}{')' if hi_open else ']'}"
-    if lo is not None:
-        return f"{'>' if lo_open else '>='} {g(lo)}"
-    if hi is not None:
-        return f"{'<' if hi_open else '<='} {g(hi)}"
-    return ""
-
-
-def range_text(lo: float | None, hi: float | None, lo_open: bool = False,
-               hi_open: bool = False, what: str = "a number") -> str:
-    """``a number in [0, 1]``, ``an integer >= 0``, ``a finite number``..."""
-    interval = interval_text(lo, hi, lo_open, hi_open)
-    if interval:
-        return f"{what} {interval}"
-    return "a finite " + what.split(" ", 1)[1]
-
-
 class Table:
     """One TOML table (or dict) being read, with its dotted key path for messages."""
 
@@ -364,15 +348,9 @@ class Table:
 
 def check_number(ctx: Context, key: str, v: Any, lo: float | None, hi: float | None,
                  lo_open: bool, hi_open: bool, integer: bool) -> None:
-    allowed = range_text(lo, hi, lo_open, hi_open, "an integer" if integer else "a number")
-    if integer and not (isinstance(v, int) and not isinstance(v, bool)):
-        raise ctx.error(key, v, allowed)
-    if not _is_number(v) or not math.isfinite(v):
-        raise ctx.error(key, v, allowed)
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise ctx.error(key, v, allowed)
-    if hi is not None and (v >= hi if hi_open else v > hi):
-        raise ctx.error(key, v, allowed)
+    if not number_allowed(v, lo, hi, lo_open, hi_open, integer):
+        raise ctx.error(key, v, range_text(lo, hi, lo_open, hi_open,
+                                           "an integer" if integer else "a number"))
 
 
 def check_vector(ctx: Context, key: str, v: Any, n: int, allowed: str, *,

@@ -23,6 +23,7 @@ import numpy as np
 from sonolux import engine
 from sonolux.acoustics.theory import air_energy_attenuation_per_m, sabine_t60
 from sonolux.errors import SonoluxError
+from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 from sonolux.scene.summary import theory
@@ -127,7 +128,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         max_time_s=max_time_s, sample_rate_hz=float(scene.settings.sample_rate_hz),
         early_s=options.early_s, late_bin_s=options.late_bin_s,
         azimuth_bands=options.azimuth_bands, elevation_bands=options.elevation_bands,
-        max_field_bytes=options.max_field_bytes or engine.physical_memory_bytes() // 2,
+        max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
     started = time.perf_counter()
     out = engine.trace_sound(

@@ -23,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.errors import SonoluxError
+from sonolux.errors import SonoluxError, check_number
+from sonolux.limits import MAX_SEED
 
 EIGHT_NAMES = ("front", "front-left", "left", "back-left", "back", "back-right", "right",
                "front-right")
@@ -96,7 +97,8 @@ class SoundField:
         """The receiver whose cell holds the position: the nearest receiver in plan (in 3D when
         z is given). A position farther than one cell (or 2 radii for listed points) from every
         receiver is outside the field: an error names the nearest one."""
-        p = np.array([x, y] if z is None else [x, y, z], float)
+        p = np.array([check_number("x", x), check_number("y", y)]
+                     + ([] if z is None else [check_number("z", z)]), float)
         d = np.linalg.norm(self.positions_m[:, : p.size] - p, axis=1)
         k = int(np.argmin(d))
         reach = (self.grid_spacing_m or 2 * self.radius_m) * (np.sqrt(2) / 2 + 1e-9)
@@ -115,6 +117,10 @@ class SoundField:
             return names.index(direction)
         raise SonoluxError(f"direction {direction!r} is not one of: {', '.join(names)}")
 
+    def receiver_index(self, receiver: int) -> int:
+        """``receiver`` checked: a whole number from 0 to n_receivers - 1."""
+        return check_number("receiver", receiver, 0, self.n_receivers - 1, integer=True)
+
     def receiver_energy(self, receiver: int) -> np.ndarray:
         """float32[direction, band, time] of one receiver, J/m² per bin."""
         return self.energy[receiver]
@@ -129,6 +135,8 @@ class SoundField:
         all directions). See :func:`sonolux.sound.synthesis.pressure_ir`."""
         from sonolux.sound.synthesis import pressure_ir
 
+        receiver = self.receiver_index(receiver)
+        seed = check_number("seed", seed, 0, MAX_SEED, integer=True)
         e = (self.omni_energy(receiver) if direction is None
              else self.energy[receiver, self.direction_index(direction)].astype(np.float64))
         return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.bands_hz,
@@ -137,8 +145,13 @@ class SoundField:
 
     def paper_filters(self, receiver: int, length: int = 3840) -> np.ndarray:
         """The paper's filters: float64[direction, band, length] energy taps at the sample rate."""
+        from sonolux.memory import check_memory
         from sonolux.sound.synthesis import paper_filters
 
+        receiver = self.receiver_index(receiver)
+        length = check_number("length", length, 0, 10_000_000, integer=True, unit="taps")
+        check_memory(2.0 * 8 * self.energy.shape[1] * self.energy.shape[2] * length,
+                     "the paper's filters", f"length = {length:,} taps")
         return np.stack([paper_filters(self.energy[receiver, d].astype(np.float64),
                                        self.bin_start_s, self.bin_width_s, self.sample_rate_hz,
                                        length) for d in range(self.energy.shape[1])])

@@ -61,3 +61,18 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
         lines.append(f"  WARNING     {d['escaped_share']:.2%} of rays escaped: the geometry leaks "
                      f"({where})")
     return "\n".join(lines)
+
+
+def listener_warnings(field: SoundField, receiver: int) -> list[str]:
+    """Warnings about listening at ``receiver``: a source inside its sphere makes its direct
+    sound and early decay meaningless (the response is not that of a listener in the room)."""
+    pos = np.asarray(field.positions_m[receiver], float)
+    out = []
+    for k, src in enumerate(np.asarray(field.source_positions_m, float).reshape(-1, 3)):
+        d = float(np.linalg.norm(src - pos))
+        if d <= field.radius_m:
+            out.append(f"warning: receiver #{receiver} at ({', '.join(f'{v:g}' for v in pos)}) m "
+                       f"holds source {k} ({d:.2f} m away, inside its {field.radius_m:g} m "
+                       "sphere): its direct sound is not that of a listener; listen further "
+                       "away")
+    return out

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sonolux.errors import SonoluxError
+from sonolux.errors import SettingError, SonoluxError, check_number, format_value, number_allowed
+from sonolux.limits import MAX_RAYS, MAX_TIME_S
 
 ESTIMATORS = ("paper", "rain")
 
@@ -49,28 +50,27 @@ class SoundOptions:
     max_field_bytes: int | None = None
 
     def validate(self) -> SoundOptions:
+        """Every option checked by :func:`sonolux.errors.check_number` (the test shared with
+        the scene file and the command line): a :class:`SettingError` names the option."""
         def bad(field: str, value: object, allowed: str) -> SonoluxError:
-            return SonoluxError(f"sound option {field} = {value!r} is not allowed: {allowed}")
+            return SettingError(f"sound option {field} = {format_value(value)} is not allowed: "
+                                f"{allowed}")
 
-        if self.rays != "auto" and not (isinstance(self.rays, int) and self.rays >= 1):
-            raise bad("rays", self.rays, 'a whole number ≥ 1, or "auto"')
+        if self.rays != "auto":
+            check_number("sound option rays", self.rays, 1, MAX_RAYS, integer=True)
         if self.estimator not in ESTIMATORS:
             raise bad("estimator", self.estimator, " or ".join(ESTIMATORS))
-        if not (isinstance(self.azimuth_bands, int) and 1 <= self.azimuth_bands <= 360):
-            raise bad("azimuth_bands", self.azimuth_bands, "a whole number from 1 to 360")
-        if not (isinstance(self.elevation_bands, int) and 1 <= self.elevation_bands <= 90):
-            raise bad("elevation_bands", self.elevation_bands, "a whole number from 1 to 90")
-        if not (0.0 <= self.early_s <= 1.0):
-            raise bad("early_s", self.early_s, "a time from 0 to 1 s")
-        if not (1e-5 <= self.late_bin_s <= 0.1):
-            raise bad("late_bin_s", self.late_bin_s, "a width from 10 µs to 0.1 s")
-        if self.max_time_s is not None and not (0.0 < self.max_time_s <= 120.0):
-            raise bad("max_time_s", self.max_time_s, "a time in (0, 120] s")
+        check_number("sound option azimuth_bands", self.azimuth_bands, 1, 360, integer=True)
+        check_number("sound option elevation_bands", self.elevation_bands, 1, 90, integer=True)
+        check_number("sound option early_s", self.early_s, 0.0, 1.0, unit="s")
+        check_number("sound option late_bin_s", self.late_bin_s, 1e-5, 0.1, unit="s")
+        check_number("sound option max_time_s", self.max_time_s, 0.0, MAX_TIME_S, lo_open=True,
+                     none_ok=True, unit="s")
         if self.ray_range is not None:
-            a, b = self.ray_range
-            if not (0 <= a < b):
-                raise bad("ray_range", self.ray_range, "first < end, both ≥ 0")
-        if self.max_field_bytes is not None and not (
-                isinstance(self.max_field_bytes, int) and self.max_field_bytes >= 1):
-            raise bad("max_field_bytes", self.max_field_bytes, "a whole number of bytes ≥ 1")
+            if not (isinstance(self.ray_range, (tuple, list)) and len(self.ray_range) == 2
+                    and all(number_allowed(v, 0, MAX_RAYS, integer=True) for v in self.ray_range)
+                    and self.ray_range[0] < self.ray_range[1]):
+                raise bad("ray_range", self.ray_range, "(first, end) with 0 ≤ first < end")
+        check_number("sound option max_field_bytes", self.max_field_bytes, 1, none_ok=True,
+                     integer=True)
         return self

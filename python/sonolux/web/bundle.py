@@ -23,8 +23,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
-import tempfile
 import time
 import zlib
 from collections.abc import Callable
@@ -36,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.errors import SonoluxError
+from sonolux.outputs import atomic_folder
 from sonolux.sound.field import SoundField
 from sonolux.web.geometry import glb_triangles, plan_segments, write_scene_glb
 from sonolux.web.options import WebExportOptions
@@ -90,9 +89,7 @@ def export_web(field_path: str | Path, out_dir: str | Path, options: WebExportOp
     sound = open_field(field_path)
     if sound.n_receivers == 0:
         raise SonoluxError(f"{field_path}: the field has no receivers, so nothing to walk through")
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=out_dir.parent))
-    try:
+    with atomic_folder(out_dir) as tmp:
         glb = write_scene_glb(sound, field_path, tmp / "scene.glb")
         for w in glb.warnings:
             say(f"warning: {w}")
@@ -102,10 +99,6 @@ def export_web(field_path: str | Path, out_dir: str | Path, options: WebExportOp
         index = _index(sound, options, cells, gain, n_bytes, longest, tris, head_z, glb)
         (tmp / "field.json").write_text(json.dumps(index, indent=1, ensure_ascii=False) + "\n",
                                         encoding="utf-8")
-        _install(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return BundleSummary(out_dir, sound.n_receivers, sound.energy.shape[1], n_bytes,
                          longest / sound.sample_rate_hz, glb.source, time.perf_counter() - t0,
                          glb.warnings)
@@ -201,28 +194,3 @@ def _check_target(out_dir: Path) -> None:
         if foreign:
             raise SonoluxError(f"{out_dir}: holds files that are not a web bundle's "
                                f"({', '.join(sorted(foreign)[:5])}); choose an empty or new folder")
-
-
-def _install(tmp: Path, out_dir: Path) -> None:
-    """Renames the finished bundle into place; an old bundle there is moved aside first and
-    removed after, so DIR is always either the old bundle or the new one. The temporary
-    folder and files were private (mkdtemp); the bundle gets the usual modes, so that a web
-    server running as another user can read it."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    for p in tmp.iterdir():
-        os.chmod(p, 0o666 & ~umask)
-    old = None
-    if out_dir.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".old", dir=out_dir.parent))
-        os.rmdir(old)
-        os.replace(out_dir, old)
-    try:
-        os.replace(tmp, out_dir)
-    except BaseException:
-        if old is not None:
-            os.replace(old, out_dir)
-        raise
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)

@@ -23,6 +23,9 @@ import os
 import re
 import shutil
 import socket
+import sys
+import threading
+import urllib.parse
 from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
@@ -73,11 +76,31 @@ def cached_bundle(field_path: str | Path, options: WebExportOptions | None = Non
         shutil.rmtree(out)
     if (out / "field.json").exists():
         (log or (lambda _m: None))(f"bundle in the cache: {out}")
+        os.utime(out)  # used now: the last to be cleaned
         return out
     summary = export_web(field_path, out, options, log=log)
     if log:
         log(summary.describe())
+    clean_cache(out.parent, keep=out)
     return out
+
+
+#: Bundles kept in the cache (the most recently used); older ones are removed.
+CACHE_BUNDLES = 8
+
+
+def clean_cache(folder: Path, keep: Path, most: int = CACHE_BUNDLES) -> list[Path]:
+    """Removes all but the ``most`` most recently used bundles in ``folder`` (never ``keep``;
+    a killed export's leftovers are removed by the next export of that bundle, see
+    :func:`sonolux.outputs.atomic_folder`); returns what was removed."""
+    entries = [p for p in folder.iterdir() if p.is_dir() and p != keep]
+    leftovers = [p for p in entries if "." in p.name]  # NAME.partial-PID, NAME.old-PID: never
+    bundles = sorted((p for p in entries if p not in leftovers),  # removed here (another run's)
+                     key=lambda p: p.stat().st_mtime, reverse=True)
+    removed = bundles[max(most - 1, 0):]
+    for p in removed:
+        shutil.rmtree(p, ignore_errors=True)
+    return removed
 
 
 def viewer_dir() -> Path:
@@ -91,12 +114,16 @@ class ViewerHandler(http.server.SimpleHTTPRequestHandler):
     """Serves the viewer at / and the bundle at /bundle/, with single byte ranges."""
 
     extensions_map = MIME_TYPES
+    #: Seconds a connection may stay silent (a client that connects and sends nothing).
+    timeout = 15
     viewer: Path = VIEWER_DIR
     bundle: Path = Path(".")
     quiet = True
 
     def translate_path(self, path: str) -> str:
         path = path.split("?", 1)[0].split("#", 1)[0]
+        if "\x00" in urllib.parse.unquote(path) or "%00" in path:
+            return str(self.viewer / "no-such-file")  # a NUL byte names no file: 404
         if path.startswith(BUNDLE_PREFIX):
             root, rest = self.bundle, path[len(BUNDLE_PREFIX) - 1:]
         else:
@@ -170,12 +197,44 @@ class _Slice:
         self.f.close()
 
 
+class BoundedServer(http.server.ThreadingHTTPServer):
+    """A thread per connection, at most ``max_workers`` at once (a further connection waits in
+    the listen queue until one ends; each ends after ``ViewerHandler.timeout`` s of silence),
+    and quiet about clients that leave (a closed tab, an idle connection timed out)."""
+
+    daemon_threads = True
+    max_workers = 32
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._slots = threading.BoundedSemaphore(self.max_workers)
+
+    def process_request(self, request, client_address) -> None:
+        self._slots.acquire()
+        try:
+            super().process_request(request, client_address)
+        except BaseException:
+            self._slots.release()
+            raise
+
+    def process_request_thread(self, request, client_address) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self._slots.release()
+
+    def handle_error(self, request, client_address) -> None:
+        if isinstance(sys.exc_info()[1], (ConnectionError, TimeoutError)):
+            return  # the client left or fell silent: nothing to report
+        super().handle_error(request, client_address)
+
+
 def make_server(bundle: Path, host: str = "127.0.0.1", port: int = 8765,
                 quiet: bool = True) -> http.server.ThreadingHTTPServer:
     """A server (not started) for the viewer and ``bundle``; port 0 takes any free port."""
     handler = type("Handler", (ViewerHandler,), {"viewer": viewer_dir(), "bundle": Path(bundle),
                                                  "quiet": quiet})
-    server_class = http.server.ThreadingHTTPServer
+    server_class: type[http.server.ThreadingHTTPServer] = BoundedServer
     if _is_ipv6(host):
         server_class = type("Server6", (server_class,), {"address_family": socket.AF_INET6})
     try:

@@ -33,6 +33,12 @@ pub struct Crossing {
 
 impl Receivers {
     pub fn new(centres: Vec<DVec3>, radius_m: f64) -> Receivers {
+        // Non-finite centres or radius are refused by `trace_sound` with an error naming them;
+        // until then they get an empty search grid instead of a panic here.
+        if !(radius_m > 0.0 && radius_m.is_finite()) || centres.iter().any(|c| !c.is_finite()) {
+            let (lo, hi, cell, dims) = (DVec3::ZERO, DVec3::ONE, DVec3::ONE, [1, 1, 1]);
+            return Receivers { centres, radius_m, lo, hi, cell, dims, cells: vec![0, 0], items: Vec::new() };
+        }
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for c in &centres {
