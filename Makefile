@@ -18,7 +18,8 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet "maturin>=1.9,<2" "numpy>=1.24" "scipy>=1.10" "h5py>=3.8" "trimesh>=4.0" \
-	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "pytest>=8" "ruff>=0.6"
+	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "pytest>=8" "ruff>=0.6" \
+	    "mypy>=1.10"
 	touch $(STAMP)
 
 venv: $(STAMP) ## create .venv and install the Python dependencies
@@ -55,8 +56,9 @@ test-all: build $(VENV)/.peers-stamp test-web ## every test, the slow statistica
 	cargo test --release -p sonolux-core --quiet -- --include-ignored
 	$(PY) -m pytest -q -m "slow or not slow"
 
-lint: $(STAMP) ## ruff and clippy
+lint: build ## ruff, the binding's stubs against the built module (stubtest), clippy
 	$(VENV)/bin/ruff check python tests benchmarks examples
+	cd python && ../$(PY) -m mypy.stubtest sonolux._core
 	cargo clippy --release --workspace --quiet -- -D warnings
 
 ci: test lint ## what .ci/run does

@@ -2,7 +2,7 @@
 
 Run with ``make bench`` or ``.venv/bin/python benchmarks/bvh.py``. See benchmarks/README.md.
 
-Every case is traced twice in the same run, by ``sonolux._core.Geometry.closest_hit`` and by
+Every case is traced twice in the same run, by ``sonolux.engine.Geometry.closest_hit`` and by
 a peer on the very same rays and mesh: Intel Embree through the PyPI package ``embreex``
 (a benchmark-only dependency, installed into the running interpreter's environment when it is
 missing), or, when that cannot be had, trimesh's pure-Python ray tracer on a subset of the rays.
@@ -42,7 +42,7 @@ import numpy as np
 import trimesh
 from common import load_peer, other_cpu_use, write_json
 
-import sonolux._core as core
+from sonolux import engine as core
 
 HERE = Path(__file__).resolve().parent
 ROOM_SIZE_M = np.array([24.0, 10.0, 8.0])  # paper-large

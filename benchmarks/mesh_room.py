@@ -39,7 +39,7 @@ import numpy as np
 from common import machine_and_load, other_cpu_use, write_json
 
 import sonolux
-import sonolux._core as core
+from sonolux import engine as core
 
 HERE = Path(__file__).resolve().parent
 EXAMPLE = HERE.parent / "examples" / "l-room"

@@ -6,12 +6,15 @@ the values of the shipped library; tests that need the compiled core ask for ``c
 
 from __future__ import annotations
 
+import os
 import textwrap
 from pathlib import Path
 
 import pytest
 
-from sonolux.materials import load_library
+from sonolux import engine
+from sonolux.errors import CoreMissingError
+from sonolux.scene.materials import load_library
 
 DATA = Path(__file__).resolve().parent / "data"
 REPO = Path(__file__).resolve().parent.parent
@@ -24,10 +27,24 @@ def library():
     return load_library(DATA / "materials_fixture.json")
 
 
+def pytest_configure(config):
+    """Without the compiled core almost nothing here can run: stop at once, saying how to build
+    it, rather than skip. SONOLUX_TESTS_WITHOUT_CORE=1 runs the pure-Python tests alone."""
+    if os.environ.get("SONOLUX_TESTS_WITHOUT_CORE") == "1":
+        return
+    try:
+        engine.core()
+    except CoreMissingError as exc:
+        pytest.exit(f"{exc} (or set SONOLUX_TESTS_WITHOUT_CORE=1 to run the pure-Python tests "
+                    "alone)", returncode=1)
+
+
 @pytest.fixture
 def core():
-    """The compiled core; skips the test when it is not built (PYTHONPATH=python runs)."""
-    return pytest.importorskip("sonolux._core")
+    """The engine gateway; skips the test only under SONOLUX_TESTS_WITHOUT_CORE=1."""
+    if not engine.core_available():
+        pytest.skip("the compiled core is not built (SONOLUX_TESTS_WITHOUT_CORE=1)")
+    return engine
 
 
 @pytest.fixture

@@ -12,6 +12,7 @@ import pytest
 
 from sonolux import cli
 from sonolux.acoustics.theory import air_energy_attenuation_per_m
+from sonolux.cli import scene as cli_scene
 
 
 def run(capsys, *argv):
@@ -81,7 +82,7 @@ def test_keyboard_interrupt_exits_130(capsys, monkeypatch):
     def interrupted(_args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "cmd_check", interrupted)
+    monkeypatch.setattr(cli_scene, "cmd_check", interrupted)
     code, _, _ = run(capsys, "check", "paper-small")
     assert code == 130
 
@@ -90,7 +91,7 @@ def test_bug_is_reported_without_traceback(capsys, monkeypatch):
     def broken(_args):
         raise ZeroDivisionError("oops")
 
-    monkeypatch.setattr(cli, "cmd_check", broken)
+    monkeypatch.setattr(cli_scene, "cmd_check", broken)
     monkeypatch.delenv("SONOLUX_DEBUG", raising=False)
     code, _, err = run(capsys, "check", "paper-small")
     assert code == 1 and "internal error: ZeroDivisionError: oops" in err

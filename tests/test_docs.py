@@ -8,8 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from sonolux import materials
-from sonolux.scene import load_scene
+from sonolux.scene import load_scene, materials
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from sonolux import materials
 from sonolux.errors import SceneError
+from sonolux.scene import materials
 from tests.conftest import DATA
 
 

@@ -13,6 +13,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from sonolux.errors import SceneError, SonoluxError
+from sonolux.fieldfile import open_field as open
 from sonolux.fieldfile import open_light_field
 from sonolux.light.bake import bake_light
 from sonolux.light.field import LightField
@@ -20,15 +21,8 @@ from sonolux.light.options import LightOptions
 from sonolux.scene import Scene, load_scene
 from sonolux.sound.bake import bake
 from sonolux.sound.field import SoundField
-from sonolux.sound.fieldfile import open_field as open
 from sonolux.sound.options import SoundOptions
-
-try:
-    from importlib.metadata import PackageNotFoundError, version
-
-    __version__ = version("sonolux")
-except PackageNotFoundError:  # running from the source tree (PYTHONPATH=python)
-    __version__ = "0.1.0"
+from sonolux.version import __version__
 
 __all__ = ["LightField", "LightOptions", "Scene", "SceneError", "SonoluxError", "SoundField",
            "SoundOptions", "__version__", "bake", "bake_light", "load_scene", "open",

@@ -1,9 +1,11 @@
 """The exceptions of the sonolux Python package.
 
-Every error that a user can cause by what they hand in (a scene file, a dict, a name) is a
-:class:`SonoluxError`. The command line turns each one into a single line,
-``sonolux: error: <message>``, so the message must stand on its own: it names the file, the
-line when known, the dotted key, the value and what would have been allowed.
+Every error that a user can cause by what they hand in (a scene file, a dict, a name, a field
+file, a setting) is a :class:`SonoluxError`, those raised by the compiled core included (it
+raises :class:`InvalidInputError` and :class:`GeometryError`, defined here). The command
+line turns each one into a single line, ``sonolux: error: <message>``, so the message must
+stand on its own: it names the file, the line when known, the dotted key, the value and what
+would have been allowed.
 
 :class:`SceneError` is the error of the scene layer. Its ``str()`` is one sentence::
 
@@ -20,6 +22,32 @@ from typing import Any
 
 class SonoluxError(Exception):
     """Base class of every error that sonolux reports to a user (never a bug of sonolux)."""
+
+
+class EngineError(SonoluxError):
+    """The engine (the compiled core, reached through :mod:`sonolux.engine`) refused what it was
+    handed; the message starts with the name of the input at fault."""
+
+
+class InvalidInputError(EngineError, ValueError):
+    """An array or setting handed to the engine is malformed or out of range (raised by the
+    compiled core itself, which takes this class from here when it is imported)."""
+
+
+class GeometryError(EngineError, ValueError):
+    """The engine cannot use the geometry as it is (raised by the compiled core)."""
+
+
+class CoreMissingError(SonoluxError):
+    """The compiled core (``sonolux._core``) is not built or cannot be imported."""
+
+
+class FieldFileError(SonoluxError):
+    """A field file that cannot be read or written as asked; the message names the file."""
+
+
+class AnalysisError(SonoluxError, ValueError):
+    """Data that the analysis cannot take (an empty selection, a malformed histogram)."""
 
 
 _MISSING = object()

@@ -19,10 +19,10 @@ import numpy as np
 
 from sonolux.analysis.decay import decay_times
 from sonolux.audio import write_wav
-from sonolux.check import summarize
 from sonolux.fieldfile import save_fields
 from sonolux.multisensory import bake_senses
 from sonolux.scene import load_scene
+from sonolux.scene.summary import summarize
 from sonolux.sound.options import SoundOptions
 
 ROOMS = ("paper-small", "paper-medium", "paper-large")

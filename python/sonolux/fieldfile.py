@@ -1,16 +1,40 @@
-"""The field file: one HDF5 file (h5py) for what a bake computed, sound and light side by side,
-written to a temporary file and renamed, so that an interrupted bake never leaves a broken
-file behind.
+"""The field file: one HDF5 file (h5py) for what a bake computed, sound and light side by side.
 
-Schema ``sonolux-field/1``:
+It is written to a temporary file beside its target and renamed into place, so that an
+interrupted bake never leaves a broken file behind. This module is the only one that reads or
+writes it; the layout, one axis order for every array, is documented in ``docs/fieldfile.md``.
 
-    /          attrs: schema, sonolux_version, created_utc, scene_name, scene_origin,
-               bake (JSON: what the bake shared between the senses and how long each part took)
-    /sound     the sound field, when the bake traced sound (:mod:`sonolux.sound.fieldfile`)
-    /light     the light field, when it traced light (:mod:`sonolux.light.fieldfile`)
+Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m²):
 
-Both groups are optional, at least one is there. Readers ignore groups they do not know;
-:func:`open_field` needs ``/sound`` and :func:`open_light_field` needs ``/light``.
+    /                      attrs: schema, sonolux_version, created_utc, scene_name, scene_origin,
+                                  bake (JSON: what the bake shared between the senses, timings)
+    /sound                 attrs: settings (JSON), stats (JSON), theory (JSON: volume_m3,
+                                  area_m2, mean_free_path_m, mean_absorption, Sabine and Eyring
+                                  T60 per band), radius_m, grid_spacing_m (NaN for listed
+                                  points), quantum
+    /sound/energy          float32[receiver, direction, band, time], gzip, a chunk a receiver
+    /sound/counts          uint64[receiver, direction, band, time] (ray-range bakes only:
+                           energy = counts × quantum, exactly)
+    /sound/bin_start_s, /sound/bin_width_s   float64[time]
+    /sound/bands_hz        float64[band];  /sound/directions  str[direction]
+    /sound/receivers_m     float64[receiver, 3];  /sound/grid_index  int64[receiver, 2]
+    /sound/sources_m       float64[source, 3];    /sound/source_powers_w  float64[source]
+    /light                 attrs: settings (JSON), stats (JSON), patch_size_m
+    /light/patch_resolution uint32[triangle];  /light/patch_offset  uint64[triangle + 1]
+    /light/patch_area_m2   float64[patch];  /light/flux_w  float64[patch, channel]
+    /light/hits            uint64[patch]
+    /light/scene/...       vertices_m float64[vertex, 3], triangles int64[triangle, 3],
+                           material_index int32[triangle], surface_tag str[triangle],
+                           material_names str[material], rho float64[material, channel],
+                           specular and roughness float64[material],
+                           emitted_radiance float64[triangle, channel]
+    /light/emitters/...    triangles_m float64[emitter, corner, 3], radiance
+                           float64[emitter, channel], light int32[emitter]
+    /light/lights/...      names and kinds str[light], power_w float64[light]
+
+Both groups are optional, at least one is there; readers ignore groups they do not know.
+Format 1 (``sonolux-field/1``) still opens: its ``/sound/counts`` was [time, receiver,
+direction, band] and it had no ``theory``.
 """
 
 from __future__ import annotations
@@ -22,17 +46,19 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from sonolux.errors import SonoluxError
+from sonolux.errors import FieldFileError, SonoluxError
+from sonolux.light.field import LightField
+from sonolux.sound.field import SoundField
 
-if TYPE_CHECKING:
-    from sonolux.light.field import LightField
-    from sonolux.sound.field import SoundField
-
-SCHEMA = "sonolux-field/1"
+SCHEMA = "sonolux-field/2"
+#: Schemas this version reads: the current one and the one before it.
+READABLE = (SCHEMA, "sonolux-field/1")
+LIGHT_SCENE_ARRAYS = ("vertices_m", "triangles", "material_index", "rho", "specular",
+                      "roughness", "emitted_radiance")
 
 
 def json_default(o: Any) -> Any:
@@ -43,19 +69,21 @@ def json_default(o: Any) -> Any:
     return str(o)
 
 
+def _json(value: Any) -> str:
+    return json.dumps(value, default=json_default)
+
+
+# --- writing ---------------------------------------------------------------------------------
 def save_fields(path: str | Path, *, sound: SoundField | None = None,
                 light: LightField | None = None, bake: dict[str, Any] | None = None) -> Path:
     """Writes the fields given to ``path`` (a temporary file beside it, then renamed)."""
     import h5py
 
-    from sonolux import __version__
-    from sonolux.light.fieldfile import write_group as write_light
-    from sonolux.sound.fieldfile import write_group as write_sound
+    from sonolux.version import __version__
 
     if sound is None and light is None:
         raise SonoluxError(f"{path}: nothing to write (neither a sound nor a light field)")
-    first = sound if sound is not None else light
-    assert first is not None
+    first: SoundField | LightField = sound if sound is not None else light  # type: ignore[assignment]
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -66,11 +94,12 @@ def save_fields(path: str | Path, *, sound: SoundField | None = None,
                            created_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
                            scene_name=first.scene_name, scene_origin=first.scene_origin)
             if bake is not None:
-                f.attrs["bake"] = json.dumps(bake, default=json_default)
+                f.attrs["bake"] = _json(bake)
             if sound is not None:
-                write_sound(f, sound, json_default)
+                _write_sound(f, sound)
             if light is not None:
-                write_light(f, light, json_default)
+                _write_light(f, light)
+        _follow_umask(Path(tmp))
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -81,46 +110,172 @@ def save_fields(path: str | Path, *, sound: SoundField | None = None,
     return path
 
 
+def _follow_umask(path: Path) -> None:
+    """mkstemp makes files 0600; a field file gets the permissions of any file made here."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(path, 0o666 & ~umask)
+
+
+def _write_sound(f: Any, field: SoundField) -> None:
+    import h5py
+
+    g = f.create_group("sound")
+    g.attrs["settings"] = _json(field.settings)
+    g.attrs["stats"] = _json(field.stats)
+    if field.theory is not None:
+        g.attrs["theory"] = _json(field.theory)
+    g.attrs["radius_m"] = field.radius_m
+    g.attrs["grid_spacing_m"] = field.grid_spacing_m if field.grid_spacing_m else np.nan
+    g.attrs["quantum"] = field.quantum
+    e = field.energy
+    per_receiver = (1, *e.shape[1:]) if e.shape[0] and e.size else None
+    g.create_dataset("energy", data=e, compression="gzip", compression_opts=4, shuffle=True,
+                     chunks=per_receiver)
+    g["bin_start_s"] = field.bin_start_s
+    g["bin_width_s"] = field.bin_width_s
+    g["bands_hz"] = field.bands_hz
+    g["directions"] = np.array(field.direction_names, dtype=h5py.string_dtype())
+    g["receivers_m"] = field.positions_m
+    if field.grid_index is not None:
+        g["grid_index"] = np.asarray(field.grid_index, np.int64)
+    g["sources_m"] = field.source_positions_m
+    g["source_powers_w"] = field.source_powers_w
+    if field.counts is not None:
+        g.create_dataset("counts", data=field.counts, compression="gzip", shuffle=True,
+                         chunks=per_receiver)
+
+
+def _write_light(f: Any, field: LightField) -> None:
+    import h5py
+
+    text = h5py.string_dtype()
+    g = f.create_group("light")
+    g.attrs["settings"] = _json(field.settings)
+    g.attrs["stats"] = _json(field.stats)
+    g.attrs["patch_size_m"] = field.patch_size_m
+    g["patch_resolution"] = np.asarray(field.patch_resolution, np.uint32)
+    g["patch_offset"] = np.asarray(field.patch_offset, np.uint64)
+    g.create_dataset("patch_area_m2", data=field.patch_area_m2, compression="gzip", shuffle=True)
+    g.create_dataset("flux_w", data=field.flux_w, compression="gzip", shuffle=True)
+    g.create_dataset("hits", data=np.asarray(field.hits, np.uint64), compression="gzip",
+                     shuffle=True)
+    s = g.create_group("scene")
+    for name in LIGHT_SCENE_ARRAYS:
+        s[name] = getattr(field, name)
+    s["surface_tag"] = np.array([str(t) for t in field.surface_tag], dtype=text)
+    s["material_names"] = np.array(field.material_names, dtype=text)
+    e = g.create_group("emitters")
+    e["triangles_m"] = field.emitter_triangles_m
+    e["radiance"] = field.emitter_radiance
+    e["light"] = np.asarray(field.emitter_light, np.int32)
+    lights = g.create_group("lights")
+    lights["names"] = np.array(field.light_names, dtype=text)
+    lights["kinds"] = np.array(field.light_kinds, dtype=text)
+    lights["power_w"] = field.light_power_w
+
+
+# --- reading ---------------------------------------------------------------------------------
 @contextmanager
 def open_file(path: str | Path) -> Iterator[Any]:
-    """The open h5py file, after checking that it is a sonolux field file."""
+    """The open h5py file, after checking that it is a sonolux field file this version reads."""
     import h5py
 
     path = Path(path)
     if not path.exists():
-        raise SonoluxError(f"{path}: no such file")
+        raise FieldFileError(f"{path}: no such file")
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
-        raise SonoluxError(f"{path}: not an HDF5 file sonolux can read ({exc})") from None
+        raise FieldFileError(f"{path}: not an HDF5 file sonolux can read ({exc})") from None
     with f:
         schema = f.attrs.get("schema")
-        if schema != SCHEMA:
-            raise SonoluxError(f"{path}: not a sonolux field file (schema {schema!r}, expected "
-                               f"{SCHEMA!r})")
+        if isinstance(schema, bytes):
+            schema = schema.decode()
+        if schema not in READABLE:
+            raise FieldFileError(f"{path}: not a sonolux field file this version reads (schema "
+                                 f"{schema!r}; readable: {', '.join(READABLE)})")
         yield f
 
 
+def schema_of(path: str | Path) -> str:
+    with open_file(path) as f:
+        return str(f.attrs["schema"])
+
+
 def contents(path: str | Path) -> dict[str, Any]:
-    """What the file holds: {"sound": bool, "light": bool, "bake": dict or None}."""
+    """What the file holds: {"sound": bool, "light": bool, "bake": dict or None, "schema": str}."""
     with open_file(path) as f:
         bake = f.attrs.get("bake")
-        return {"sound": "sound" in f, "light": "light" in f,
+        return {"sound": "sound" in f, "light": "light" in f, "schema": str(f.attrs["schema"]),
                 "bake": json.loads(bake) if bake is not None else None}
 
 
 def open_field(path: str | Path) -> SoundField:
     """The sound field of a field file; a missing, unreadable or foreign file, or one baked
     without sound, is a clear error."""
-    from sonolux.sound.fieldfile import read_group
-
     with open_file(path) as f:
-        return read_group(f, str(path))
+        return _read_sound(f, str(path))
 
 
 def open_light_field(path: str | Path) -> LightField:
     """The light field of a field file; a clear error when the file has none."""
-    from sonolux.light.fieldfile import read_group
-
     with open_file(path) as f:
-        return read_group(f, str(path))
+        return _read_light(f, str(path))
+
+
+def _read_sound(f: Any, path: str) -> SoundField:
+    if "sound" not in f:
+        raise FieldFileError(f"{path}: the file holds no sound field (/sound is missing; it was "
+                             "baked without sound: run sonolux bake with --sound)")
+    g = f["sound"]
+    try:
+        spacing = float(g.attrs["grid_spacing_m"])
+        counts = g["counts"][...] if "counts" in g else None
+        if counts is not None and f.attrs["schema"] == "sonolux-field/1":
+            counts = np.ascontiguousarray(counts.transpose(1, 2, 3, 0))  # was [time, r, d, b]
+        theory = g.attrs.get("theory")
+        return SoundField(
+            energy=g["energy"][...], bin_start_s=g["bin_start_s"][...],
+            bin_width_s=g["bin_width_s"][...], bands_hz=g["bands_hz"][...],
+            positions_m=g["receivers_m"][...], radius_m=float(g.attrs["radius_m"]),
+            grid_index=g["grid_index"][...] if "grid_index" in g else None,
+            grid_spacing_m=None if np.isnan(spacing) else spacing,
+            source_positions_m=g["sources_m"][...], source_powers_w=g["source_powers_w"][...],
+            settings=json.loads(g.attrs["settings"]), stats=json.loads(g.attrs["stats"]),
+            scene_name=str(f.attrs.get("scene_name", "")),
+            scene_origin=str(f.attrs.get("scene_origin", "")), counts=counts,
+            quantum=float(g.attrs["quantum"]), path=path,
+            theory=json.loads(theory) if theory is not None else None)
+    except KeyError as exc:
+        raise FieldFileError(f"{path}: the sound field is incomplete ({exc.args[0]} is "
+                             "missing)") from None
+
+
+def _strings(d: Any) -> list[str]:
+    return [v.decode() if isinstance(v, bytes) else str(v) for v in d[...]]
+
+
+def _read_light(f: Any, path: str) -> LightField:
+    if "light" not in f:
+        raise FieldFileError(f"{path}: the file holds no light field (/light is missing; it was "
+                             "baked without light: run sonolux bake with --light)")
+    g = f["light"]
+    try:
+        s, e, lights = g["scene"], g["emitters"], g["lights"]
+        return LightField(
+            patch_size_m=float(g.attrs["patch_size_m"]),
+            patch_resolution=g["patch_resolution"][...], patch_offset=g["patch_offset"][...],
+            patch_area_m2=g["patch_area_m2"][...], flux_w=g["flux_w"][...], hits=g["hits"][...],
+            **{name: s[name][...] for name in LIGHT_SCENE_ARRAYS},
+            surface_tag=np.array(_strings(s["surface_tag"]), dtype=str),
+            material_names=_strings(s["material_names"]),
+            emitter_triangles_m=e["triangles_m"][...], emitter_radiance=e["radiance"][...],
+            emitter_light=e["light"][...], light_names=_strings(lights["names"]),
+            light_kinds=_strings(lights["kinds"]), light_power_w=lights["power_w"][...],
+            settings=json.loads(g.attrs["settings"]), stats=json.loads(g.attrs["stats"]),
+            scene_name=str(f.attrs.get("scene_name", "")),
+            scene_origin=str(f.attrs.get("scene_origin", "")), path=path)
+    except KeyError as exc:
+        raise FieldFileError(f"{path}: the light field is incomplete ({exc.args[0]} is "
+                             "missing)") from None

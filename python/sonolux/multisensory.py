@@ -89,7 +89,7 @@ def bake_senses(scene: Scene | str | Path | dict, *, sound: bool | None = None,
     threads = loaded.settings.threads or (os.cpu_count() or 1)
     saved = load_s if len(senses) == 2 else 0.0
     report = {"senses": senses, "scene_load_s": load_s,
-              "bvh_build_s": float(loaded.geometry._g.build_time_s), **seconds, "total_s": total,
+              "bvh_build_s": loaded.geometry.build_time_s, **seconds, "total_s": total,
               "saved_s": saved, "saved_share": saved / (total + saved) if total > 0 else 0.0,
               "threads": threads}
     return Baked(loaded, out["sound"], out["light"], report)

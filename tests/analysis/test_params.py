@@ -168,8 +168,8 @@ def test_summary_over_receivers_skips_undefined_values():
 
 
 def test_theory_comes_from_the_scene_when_it_can_be_loaded(core):
-    from sonolux.check import summarize
     from sonolux.scene import load_scene
+    from sonolux.scene.summary import summarize
 
     field, _, _ = decaying_grid((0.8,), duration_s=1.0, bands=6)
     field.scene_name, field.scene_origin = "paper-small", "built-in paper-small"

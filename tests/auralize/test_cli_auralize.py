@@ -7,7 +7,7 @@ import pytest
 import soundfile as sf
 
 from sonolux import cli
-from sonolux.sound.fieldfile import save
+from sonolux.fieldfile import save_fields
 
 from .conftest import FS, synthetic_field
 
@@ -16,7 +16,7 @@ from .conftest import FS, synthetic_field
 def field_file(tmp_path):
     f = synthetic_field([(0.5, 0.5), (1.5, 0.5)], {(0, "right"): [(0.003, 1e-4)],
                                                     (1, "left"): [(0.006, 1e-4)]})
-    return save(f, tmp_path / "field.h5")
+    return save_fields(tmp_path / "field.h5", sound=f)
 
 
 def run(capsys, *argv):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 import sonolux
+from sonolux import engine
 from sonolux.light.bake import bake_light
 
 
@@ -32,4 +33,6 @@ def small_light(small_scene):
 
 @pytest.fixture(scope="session")
 def core():  # the session-wide twin of tests/conftest.py's fixture
-    return pytest.importorskip("sonolux._core")
+    if not engine.core_available():
+        pytest.skip("the compiled core is not built (SONOLUX_TESTS_WITHOUT_CORE=1)")
+    return engine

@@ -11,8 +11,8 @@ import pytest
 from sonolux.cli import main
 from sonolux.errors import SonoluxError
 from sonolux.fieldfile import contents, open_field, open_light_field, save_fields
+from sonolux.fieldfile import open_field as open_sound
 from sonolux.light.image import read_pfm
-from sonolux.sound.fieldfile import open_field as open_sound_the_old_way
 
 
 def test_light_field_round_trip_keeps_every_array(small_light, tmp_path):
@@ -28,7 +28,7 @@ def test_light_field_round_trip_keeps_every_array(small_light, tmp_path):
     with pytest.raises(SonoluxError, match="no sound field.*--sound"):
         open_field(path)
     with pytest.raises(SonoluxError, match="no sound field"):
-        open_sound_the_old_way(path)
+        open_sound(path)
 
 
 def test_bake_both_senses_into_one_file_then_info_render_export(tmp_path, capsys, core):

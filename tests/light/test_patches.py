@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from sonolux.light.patches import patch_mesh
-from sonolux.scene.geometry_core import core_module
 
 
 def test_patch_corners_match_the_core_numbering(small_scene, small_light):
@@ -19,7 +18,7 @@ def test_patch_corners_match_the_core_numbering(small_scene, small_light):
     s, t = np.where(flip, 1 - s, s), np.where(flip, 1 - t, t)
     v = f.vertices_m[f.triangles[tri]]
     p = v[:, 0] + s[:, None] * (v[:, 1] - v[:, 0]) + t[:, None] * (v[:, 2] - v[:, 0])
-    patch = core_module().patch_index(small_scene.geometry._g, f.patch_size_m, tri, p)
+    patch = small_scene.geometry.patch_index(f.patch_size_m, tri, p)
     assert np.array_equal(mesh.triangle[patch], tri)
     # The point lies in the patch the core names: its weights on that patch's corners are all
     # in [0, 1] and rebuild it (1e-9 m: double rounding only; the wrong patch misses by cm).

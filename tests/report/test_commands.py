@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sonolux import cli
-from sonolux.sound.fieldfile import save
+from sonolux.fieldfile import save_fields
 from tests.analysis.fields import decaying_grid
 
 
@@ -22,7 +22,7 @@ def run(capsys, *argv):
 @pytest.fixture
 def field_file(tmp_path):
     field, _, _ = decaying_grid((0.6, 1.3, 2.0), duration_s=2.5)
-    return save(field, tmp_path / "grid.h5")
+    return save_fields(tmp_path / "grid.h5", sound=field)
 
 
 def test_params_of_the_grid(capsys, field_file):

@@ -13,9 +13,9 @@ import soundfile as sf
 from sonolux import cli
 from sonolux.audio import write_wav
 from sonolux.errors import SonoluxError
+from sonolux.fieldfile import save_fields
 from sonolux.report import extras
 from sonolux.report.build import ReportOptions, build_report
-from sonolux.sound.fieldfile import save
 from tests.analysis.fields import decaying_grid
 from tests.plots.test_plots import PNG
 
@@ -23,7 +23,7 @@ from tests.plots.test_plots import PNG
 @pytest.fixture
 def field_file(tmp_path):
     field, _, _ = decaying_grid((0.6, 1.3, 2.0), duration_s=2.5)
-    return save(field, tmp_path / "grid.h5")
+    return save_fields(tmp_path / "grid.h5", sound=field)
 
 
 def references(index):
@@ -109,13 +109,14 @@ def test_light_image_audio_and_extras(tmp_path, field_file, monkeypatch):
     assert np.max(np.abs(data)) == pytest.approx(10 ** (-1 / 20), abs=1e-4)
 
 
-def test_light_and_auralization_missing_are_notes(tmp_path, field_file, monkeypatch):
+def test_light_and_auralization_that_fail_are_notes(tmp_path, field_file):
+    assert "holds no light field" in extras.render_light_view(field_file, tmp_path / "v.png")
     with h5py.File(field_file, "a") as f:
-        f.create_group("light")
-    monkeypatch.setattr(extras.importlib.util, "find_spec", lambda name: None)
-    assert "not part of this installation" in extras.render_light_view(field_file, tmp_path / "v.png")
+        f.create_group("light")  # a light group with nothing in it
+    why = extras.render_light_view(field_file, tmp_path / "v.png")
+    assert "could not be rendered" in why and "incomplete" in why
     made, why = extras.auralize(field_file, tmp_path / "dry.wav", (1, 1), tmp_path, "x")
-    assert made == [] and "not part of this installation" in why
+    assert made == [] and "auralization failed for binaural" in why and "dry.wav" in why
 
 
 def test_dry_signal_is_deterministic_and_bounded():

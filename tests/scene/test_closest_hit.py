@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sonolux.scene.geometry_core import Geometry
+from sonolux.engine import Geometry
+from sonolux.errors import InvalidInputError
 
 
 def box_arrays(size=(4.0, 3.0, 2.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -64,9 +65,9 @@ def test_memory_layout_and_threads_change_nothing(core):
 
 def test_malformed_arrays_are_named(core):
     g = core_box(core)
-    with pytest.raises(core.InvalidInputError, match="origins: expected shape"):
+    with pytest.raises(InvalidInputError, match="origins_m: expected shape"):
         g.closest_hit(np.zeros((4, 2)), np.zeros((4, 3)))
-    with pytest.raises(core.InvalidInputError, match="directions: expected shape"):
+    with pytest.raises(InvalidInputError, match="directions: expected shape"):
         g.closest_hit(np.zeros((4, 3)), np.zeros((4, 4)))
-    with pytest.raises(core.InvalidInputError, match="4 origins but 5 directions"):
+    with pytest.raises(InvalidInputError, match="4 origins but 5 directions"):
         g.closest_hit(np.zeros((4, 3)), np.zeros((5, 3)))

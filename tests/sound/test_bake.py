@@ -9,8 +9,8 @@ import pytest
 
 import sonolux
 from sonolux.errors import SonoluxError
+from sonolux.fieldfile import open_field, save_fields
 from sonolux.sound.bake import auto_rays, bake, band_arrays
-from sonolux.sound.fieldfile import open_field, save
 from sonolux.sound.options import SoundOptions
 
 pytestmark = pytest.mark.usefixtures("core")
@@ -27,7 +27,7 @@ def with_threads(scene, n):
 
 def test_file_round_trip_keeps_every_array(small, tmp_path):
     field = bake(small, rays=2000)
-    path = save(field, tmp_path / "f.h5")
+    path = save_fields(tmp_path / "f.h5", sound=field)
     back = open_field(path)
     assert np.array_equal(back.energy, field.energy)
     assert np.array_equal(back.bin_start_s, field.bin_start_s)

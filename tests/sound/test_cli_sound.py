@@ -11,7 +11,7 @@ import soundfile as sf
 
 import sonolux
 from sonolux import cli
-from sonolux.scene.geometry_core import Geometry
+from sonolux.engine import Geometry
 from sonolux.sound.bake import bake
 from sonolux.sound.info import format_info
 

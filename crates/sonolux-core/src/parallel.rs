@@ -16,6 +16,15 @@ pub struct Progress {
     pub elapsed: Duration,
 }
 
+/// The number of workers `threads` asks for: itself, or one per core for 0.
+pub fn workers(threads: usize) -> usize {
+    if threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        threads
+    }
+}
+
 /// Runs `work(acc, start..end)` over `total` items in chunks of `chunk` on `threads` workers
 /// (0 = all cores). `progress` is called on the calling thread about every 100 ms; when it
 /// returns false the run stops after the chunks under way (the result then says so).
@@ -28,8 +37,9 @@ pub fn run_chunks<A: Send>(
     work: impl Fn(&mut A, std::ops::Range<u64>) + Sync,
     mut progress: impl FnMut(&Progress) -> bool,
 ) -> (Vec<A>, bool) {
-    let threads = if threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { threads };
     let chunk = chunk.max(1);
+    // Never more workers than chunks: an idle worker would only hold memory.
+    let threads = workers(threads).min(total.div_ceil(chunk).max(1) as usize);
     let next = AtomicU64::new(0);
     let done = AtomicU64::new(0);
     let stop = AtomicBool::new(false);
@@ -67,4 +77,25 @@ pub fn run_chunks<A: Send>(
     });
     let cancelled = stop.load(Ordering::Relaxed) && done.load(Ordering::Relaxed) < total;
     (accs, cancelled)
+}
+
+/// Fills `out`, cut into blocks of `block` items (the last may be shorter), on `threads` workers
+/// (0 = all cores): `fill(k, block_k)` for every block k, each worker taking a contiguous run of
+/// blocks. Each item is written once, so the result does not depend on the thread count.
+pub fn fill_blocks<T: Send>(out: &mut [T], block: usize, threads: usize, fill: impl Fn(usize, &mut [T]) + Sync) {
+    if out.is_empty() || block == 0 {
+        return;
+    }
+    let n_blocks = out.len().div_ceil(block);
+    let per_worker = n_blocks.div_ceil(workers(threads).min(n_blocks));
+    let fill = &fill;
+    std::thread::scope(|scope| {
+        for (g, run) in out.chunks_mut(per_worker * block).enumerate() {
+            scope.spawn(move || {
+                for (k, b) in run.chunks_mut(block).enumerate() {
+                    fill(g * per_worker + k, b);
+                }
+            });
+        }
+    });
 }

@@ -20,7 +20,7 @@ fn patches(mesh: &Mesh, size: f64) -> Patches {
 
 fn run(mesh: &Mesh, optics: &Optics, emitters: &[Emitter], size: f64, particles: u64, threads: usize) -> LightResult {
     let bvh = Bvh::build(mesh).unwrap();
-    let settings = LightSettings { particles, first: 0, end: particles, seed: 5, threads, max_bounces: 100_000 };
+    let settings = LightSettings { particles, first_ray: 0, end_ray: particles, seed: 5, threads, max_bounces: 100_000 };
     trace_light(mesh, &bvh, optics, emitters, patches(mesh, size), &settings, |_| true).unwrap()
 }
 
@@ -88,7 +88,7 @@ fn doubling_the_particles_halves_a_patch_variance() {
         let bvh = Bvh::build(&mesh).unwrap();
         let values: Vec<f64> = (0..40)
             .map(|seed| {
-                let s = LightSettings { particles, first: 0, end: particles, seed, threads: 2, max_bounces: 10_000 };
+                let s = LightSettings { particles, first_ray: 0, end_ray: particles, seed, threads: 2, max_bounces: 10_000 };
                 trace_light(&mesh, &bvh, &optics, &light, patches(&mesh, 0.5), &s, |_| true).unwrap().flux[3][1]
             })
             .collect();

@@ -35,15 +35,16 @@ fn settings(rays: u64, estimator: Estimator, max_time_s: f64) -> SoundSettings {
         seed: 7,
         threads: 2,
         estimator,
-        speed_of_sound: 343.0,
-        air_attenuation: vec![0.0, 0.001],
+        speed_of_sound_m_s: 343.0,
+        air_attenuation_per_m: vec![0.0, 0.001],
         energy_drop_db: 60.0,
         max_time_s,
-        sample_rate: 48_000.0,
+        sample_rate_hz: 48_000.0,
         early_s: 0.08,
         late_bin_s: 0.001,
         n_azimuth: 8,
         n_elevation: 1,
+        max_field_bytes: 1 << 32,
     }
 }
 
@@ -109,7 +110,7 @@ fn direct(est: Estimator, radius: f64, d: f64, rays: u64) -> (f64, usize) {
     let src = DVec3::new(5.0, 20.0, 20.0);
     let rc = Receivers::new(vec![src + DVec3::new(d, 0.0, 0.0)], radius);
     let mut set = settings(rays, est, 0.5);
-    set.air_attenuation = vec![0.0, 0.0];
+    set.air_attenuation_per_m = vec![0.0, 0.0];
     let res = run(&mesh, &ac, &[omni(src)], &rc, &set);
     let total = energy(&res, 0, 0, 0..res.layout.n_time());
     let first = (0..res.layout.n_time()).find(|&t| energy(&res, 0, 0, t..t + 1) > 0.0).unwrap();
@@ -168,7 +169,7 @@ fn source_inside_the_receiver_gives_the_sphere_mean_whatever_the_ray_count() {
         for est in [Estimator::Paper, Estimator::Rain] {
             let rc = Receivers::new(vec![c], radius);
             let mut set = settings(rays, est, 0.5);
-            set.air_attenuation = vec![0.0, 0.0];
+            set.air_attenuation_per_m = vec![0.0, 0.0];
             let res = run(&mesh, &ac, &[omni(c)], &rc, &set);
             let got = energy(&res, 0, 0, 0..res.layout.n_time());
             assert!((got / expect - 1.0).abs() < 1e-6, "{est:?} {rays} rays: {got} vs {expect}");

@@ -96,7 +96,7 @@ fn the_direct_sound_lands_in_its_direction_bin_with_the_tracers_free_field_energ
         n_azimuth: 8,
         n_elevation: 2,
         n_bands: 2,
-        sample_rate: r.sample_rate_hz,
+        sample_rate_hz: r.sample_rate_hz,
         early_bins: r.n_samples,
         late_bin_s: 0.01,
         late_bins: 0,

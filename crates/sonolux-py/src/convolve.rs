@@ -8,10 +8,10 @@ use pyo3::prelude::*;
 
 use sonolux_core::convolver as core;
 
-use crate::{to_py, InvalidInputError};
+use crate::{invalid, to_py};
 
 fn contiguous<'a, T: Element, D: Dimension>(name: &str, a: &'a PyReadonlyArray<'_, T, D>) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| InvalidInputError::new_err(format!("{name}: must be one C-contiguous array")))
+    a.as_slice().map_err(|_| invalid(format!("{name}: must be one C-contiguous array")))
 }
 
 fn shaped<const N: usize>(py: Python<'_>, v: Vec<f32>, shape: [usize; N]) -> PyResult<Bound<'_, PyArray<f32, Dim<[usize; N]>>>>
@@ -30,7 +30,7 @@ pub(crate) struct Convolver {
 
 impl Convolver {
     fn bad_shape(name: &str, got: &[usize], want: &str) -> PyErr {
-        InvalidInputError::new_err(format!("{name}: shape {got:?} does not fit the convolver: expected {want}"))
+        invalid(format!("{name}: shape {got:?} does not fit the convolver: expected {want}"))
     }
 }
 
@@ -113,7 +113,7 @@ pub(crate) fn partition<'py>(py: Python<'py>, filters: PyReadonlyArray2<'py, f32
 pub(crate) fn fold<'py>(py: Python<'py>, filters: PyReadonlyArray4<'py, f32>, mix: PyReadonlyArray4<'py, f32>) -> PyResult<Bound<'py, PyArray4<f32>>> {
     let (hs, gs) = (filters.shape().to_vec(), mix.shape().to_vec());
     if hs[2] != 2 || gs[1] != hs[0] || gs[2..] != hs[2..] {
-        return Err(InvalidInputError::new_err(format!(
+        return Err(invalid(format!(
             "fold: mix of shape {gs:?} does not fit filters of shape {hs:?}: expected (channel, {}, 2, {})",
             hs[0], hs[3]
         )));

@@ -1,26 +1,45 @@
-//! The PyO3 layer: numpy arrays in, numpy arrays out, the GIL released while the core works,
-//! and one Python exception class per kind of core error. No physics lives here.
+//! The PyO3 layer: settings objects and numpy arrays in, numpy arrays out, the GIL released
+//! while the core works, and the core's errors raised as the Python package's own exception
+//! classes. No physics lives here.
+//!
+//! Errors: the exception classes are defined once, in `sonolux.errors` (so that every error a
+//! user can cause is a `SonoluxError`), and fetched from there when this module is first
+//! imported; the core itself knows nothing of Python.
 
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::create_exception;
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyType};
 
-use sonolux_core::glam_export::Vec3;
+use sonolux_core::glam_export::{DVec3, Vec3};
+use sonolux_core::light::patches::barycentric;
+use sonolux_core::sound::MAX_THREADS;
 use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
 mod convolve;
 mod light;
 mod sound;
 
-create_exception!(_core, InvalidInputError, PyValueError, "An array or value handed to the core is malformed.");
-create_exception!(_core, GeometryError, PyValueError, "The geometry cannot be used as it is.");
+/// `sonolux.errors.InvalidInputError` and `sonolux.errors.GeometryError`, fetched at import.
+static INVALID_INPUT: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static GEOMETRY: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+fn raise(cell: &'static PyOnceLock<Py<PyType>>, class: &str, message: String) -> PyErr {
+    Python::attach(|py| match cell.import(py, "sonolux.errors", class) {
+        Ok(t) => PyErr::from_type(t.clone(), message),
+        Err(e) => e,
+    })
+}
+
+/// An input handed to the core is malformed or out of range: `sonolux.errors.InvalidInputError`.
+pub(crate) fn invalid(message: impl Into<String>) -> PyErr {
+    raise(&INVALID_INPUT, "InvalidInputError", message.into())
+}
 
 pub(crate) fn to_py(e: CoreError) -> PyErr {
     match e {
-        CoreError::InvalidInput { .. } => InvalidInputError::new_err(e.to_string()),
-        CoreError::Geometry(_) => GeometryError::new_err(e.to_string()),
+        CoreError::InvalidInput { .. } => invalid(e.to_string()),
+        CoreError::Geometry(_) => raise(&GEOMETRY, "GeometryError", e.to_string()),
     }
 }
 
@@ -28,7 +47,7 @@ pub(crate) fn to_py(e: CoreError) -> PyErr {
 pub(crate) fn points(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vec3>> {
     let a = a.as_array();
     if a.ncols() != 3 {
-        return Err(InvalidInputError::new_err(format!("{name}: expected shape (n, 3), got {:?}", a.shape())));
+        return Err(invalid(format!("{name}: expected shape (n, 3), got {:?}", a.shape())));
     }
     Ok(a.rows().into_iter().map(|r| Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32)).collect())
 }
@@ -58,21 +77,29 @@ pub(crate) fn report_progress(
     })
 }
 
+/// Checks a thread count (0: all cores).
+pub(crate) fn check_threads(threads: usize) -> PyResult<usize> {
+    if threads > MAX_THREADS {
+        return Err(invalid(format!("threads: {threads} is more than {MAX_THREADS} (0 uses every core)")));
+    }
+    Ok(threads)
+}
+
 /// Runs `f` on a rayon pool of `threads` workers (0: all cores) with the GIL released.
 fn on_pool<T: Send>(py: Python<'_>, threads: usize, f: impl FnOnce() -> T + Send) -> PyResult<T> {
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
+        .num_threads(check_threads(threads)?)
         .build()
-        .map_err(|e| InvalidInputError::new_err(format!("threads: {e}")))?;
+        .map_err(|e| invalid(format!("threads: {e}")))?;
     Ok(py.detach(|| pool.install(f)))
 }
 
 /// (distance, triangle) per ray.
 type HitArrays<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
 
-/// A triangle mesh with its acceleration structure.
+/// A triangle mesh with its acceleration structure (BVH), shared by both tracers.
 ///
-/// Geometry(vertices: float64[n, 3] metres, triangles: uint32[m, 3], material_ids: uint32[m])
+/// Geometry(vertices_m: float64[n, 3], triangles: uint32[m, 3], material_ids: uint32[m])
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Geometry {
     pub(crate) mesh: Mesh,
@@ -85,14 +112,14 @@ impl Geometry {
     #[new]
     fn new(
         py: Python<'_>,
-        vertices: PyReadonlyArray2<'_, f64>,
+        vertices_m: PyReadonlyArray2<'_, f64>,
         triangles: PyReadonlyArray2<'_, u32>,
         material_ids: PyReadonlyArray1<'_, u32>,
     ) -> PyResult<Geometry> {
-        let v = points("vertices", &vertices)?;
+        let v = points("vertices_m", &vertices_m)?;
         let t = triangles.as_array();
         if t.ncols() != 3 {
-            return Err(InvalidInputError::new_err(format!("triangles: expected shape (m, 3), got {:?}", t.shape())));
+            return Err(invalid(format!("triangles: expected shape (m, 3), got {:?}", t.shape())));
         }
         let t: Vec<[u32; 3]> = t.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
         let m = material_ids.as_array().to_vec();
@@ -140,33 +167,33 @@ impl Geometry {
     }
 
     /// Generalised winding number of each point: float64[k].
-    #[pyo3(signature = (points, threads = 0))]
-    fn winding_numbers<'py>(&self, py: Python<'py>, points: PyReadonlyArray2<'py, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = self::points("points", &points)?;
+    #[pyo3(signature = (points_m, threads = 0))]
+    fn winding_numbers<'py>(&self, py: Python<'py>, points_m: PyReadonlyArray2<'py, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = points("points_m", &points_m)?;
         Ok(on_pool(py, threads, || self.mesh.winding_numbers(&p))?.into_pyarray(py))
     }
 
     /// Distance from each point to the nearest surface: float64[k].
-    #[pyo3(signature = (points, threads = 0))]
-    fn distance_to_surface<'py>(&self, py: Python<'py>, points: PyReadonlyArray2<'py, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = self::points("points", &points)?;
+    #[pyo3(signature = (points_m, threads = 0))]
+    fn distance_to_surface<'py>(&self, py: Python<'py>, points_m: PyReadonlyArray2<'py, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let p = points("points_m", &points_m)?;
         Ok(on_pool(py, threads, || self.mesh.distance_to_surface(&p))?.into_pyarray(py))
     }
 
     /// Closest hit of each ray: (t float64[k], inf on a miss; triangle int64[k], −1 on a miss).
     /// Directions need not be unit length; t is in units of the direction.
-    #[pyo3(signature = (origins, directions, t_max = f64::INFINITY, threads = 0))]
+    #[pyo3(signature = (origins_m, directions, t_max = f64::INFINITY, threads = 0))]
     fn closest_hit<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f64>,
+        origins_m: PyReadonlyArray2<'py, f64>,
         directions: PyReadonlyArray2<'py, f64>,
         t_max: f64,
         threads: usize,
     ) -> PyResult<HitArrays<'py>> {
-        let (o, d) = (xyz_rows("origins", &origins)?, xyz_rows("directions", &directions)?);
+        let (o, d) = (xyz_rows("origins_m", &origins_m)?, xyz_rows("directions", &directions)?);
         if o.len() != d.len() {
-            return Err(InvalidInputError::new_err(format!("{} origins but {} directions", o.len() / 3, d.len() / 3)));
+            return Err(invalid(format!("{} origins but {} directions", o.len() / 3, d.len() / 3)));
         }
         // Rays are made, traced and written out in place by the pool's workers, in chunks:
         // no per-ray list is built or converted on one thread.
@@ -189,6 +216,36 @@ impl Geometry {
         })?;
         Ok((t.into_pyarray(py), tri.into_pyarray(py)))
     }
+
+    /// The light patch (index into the arrays of `trace_light`) of each point on its triangle,
+    /// for patches of `patch_size_m`: int64[k]; −1 where the triangle is −1 (a miss).
+    fn patch_index<'py>(
+        &self,
+        py: Python<'py>,
+        patch_size_m: f64,
+        triangles: PyReadonlyArray1<'py, i64>,
+        points_m: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let patches = light::patches_of(self, patch_size_m)?;
+        let t = triangles.as_array();
+        let p = points_m.as_array();
+        if p.ncols() != 3 || p.nrows() != t.len() {
+            return Err(invalid(format!("points_m: expected shape ({}, 3), one point a triangle, got {:?}", t.len(), p.shape())));
+        }
+        let n_tri = self.mesh.triangles.len() as i64;
+        let out: Vec<i64> = (0..t.len())
+            .map(|i| {
+                let tri = t[i];
+                if tri < 0 || tri >= n_tri {
+                    return -1;
+                }
+                let [a, b, c] = self.mesh.corners(tri as usize).map(|v| v.as_dvec3());
+                let (s, u) = barycentric(DVec3::new(p[[i, 0]], p[[i, 1]], p[[i, 2]]), a, b, c);
+                patches.index(tri as usize, s, u) as i64
+            })
+            .collect();
+        Ok(out.into_pyarray(py))
+    }
 }
 
 /// An (n, 3) float64 array as x, y, z in a row, borrowed when it is C-contiguous, copied
@@ -196,7 +253,7 @@ impl Geometry {
 fn xyz_rows<'a>(name: &str, a: &'a PyReadonlyArray2<'_, f64>) -> PyResult<std::borrow::Cow<'a, [f64]>> {
     let v = a.as_array();
     if v.ncols() != 3 {
-        return Err(InvalidInputError::new_err(format!("{name}: expected shape (n, 3), got {:?}", v.shape())));
+        return Err(invalid(format!("{name}: expected shape (n, 3), got {:?}", v.shape())));
     }
     // ndarray's as_slice, not numpy's: the latter also accepts Fortran order, whose memory
     // order is not x, y, z in a row.
@@ -213,15 +270,24 @@ fn vec3s_to_array<'py>(py: Python<'py>, v: &[Vec3]) -> Bound<'py, PyArray2<f64>>
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // The exception classes come from the Python package; fail at import if they are missing.
+    INVALID_INPUT.import(m.py(), "sonolux.errors", "InvalidInputError")?;
+    GEOMETRY.import(m.py(), "sonolux.errors", "GeometryError")?;
     m.add("__version__", sonolux_core::VERSION)?;
+    m.add("MAX_THREADS", MAX_THREADS)?;
     m.add_class::<Geometry>()?;
+    m.add_class::<sound::Acoustics>()?;
+    m.add_class::<sound::Directivity>()?;
+    m.add_class::<sound::SoundSource>()?;
+    m.add_class::<sound::Receivers>()?;
+    m.add_class::<sound::SoundSettings>()?;
+    m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
+    m.add_class::<light::Optics>()?;
+    m.add_class::<light::Emitters>()?;
+    m.add_class::<light::LightSettings>()?;
+    m.add_function(wrap_pyfunction!(light::trace_light, m)?)?;
     m.add_class::<convolve::Convolver>()?;
     m.add_function(wrap_pyfunction!(convolve::partition, m)?)?;
     m.add_function(wrap_pyfunction!(convolve::fold, m)?)?;
-    m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
-    m.add_function(wrap_pyfunction!(light::trace_light, m)?)?;
-    m.add_function(wrap_pyfunction!(light::patch_index, m)?)?;
-    m.add("InvalidInputError", m.py().get_type::<InvalidInputError>())?;
-    m.add("GeometryError", m.py().get_type::<GeometryError>())?;
     Ok(())
 }

@@ -1,77 +1,127 @@
-//! Binding of the light tracer and of the patch lookup that pictures need.
+//! Binding of the light tracer: settings objects in, the flux on every surface patch out.
 
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use sonolux_core::glam_export::DVec3;
-use sonolux_core::light::patches::barycentric;
-use sonolux_core::light::{trace_light as trace, Emitter, LightSettings, Optics, Patches};
+use sonolux_core::light::{self as core, Patches};
 
-use crate::{to_py, Geometry, InvalidInputError};
+use crate::{check_threads, invalid, to_py, Geometry};
 
-fn patches_of(geometry: &Geometry, size: f64) -> Patches {
+/// Patches of at most this many a triangle's edge (so at most its square a triangle).
+const MAX_PATCHES_PER_EDGE: u32 = 4096;
+
+/// The patch layout of `geometry` for patches of `size_m`.
+pub(crate) fn patches_of(geometry: &Geometry, size_m: f64) -> PyResult<Patches> {
+    if !(size_m > 0.0 && size_m.is_finite()) {
+        return Err(invalid(format!("patch_size_m: {size_m} is not a positive length")));
+    }
     let m = &geometry.mesh;
-    Patches::new((0..m.triangles.len()).map(|t| m.corners(t).map(|v| v.as_dvec3())), size, 4096)
+    Ok(Patches::new((0..m.triangles.len()).map(|t| m.corners(t).map(|v| v.as_dvec3())), size_m, MAX_PATCHES_PER_EDGE))
 }
 
-/// Traces light particles. rho float64[materials, 3] (total reflectance per channel), specular
-/// and roughness float64[materials]; emitters float64[E, 3, 3] (triangles, emitting on the side
-/// of (b − a) × (c − a)) with emitter_flux float64[E, 3] in W; patch_size_m sets the patches.
+/// How every material reflects light: Optics(rho: float64[material, 3] total reflectance per
+/// RGB channel, specular: float64[material] the share reflected as a mirror or glossy lobe,
+/// roughness: float64[material]), all in [0, 1].
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct Optics {
+    inner: core::Optics,
+}
+
+#[pymethods]
+impl Optics {
+    #[new]
+    fn new(rho: PyReadonlyArray2<'_, f64>, specular: PyReadonlyArray1<'_, f64>, roughness: PyReadonlyArray1<'_, f64>) -> PyResult<Self> {
+        let (rho, specular, roughness) = (rho.as_array(), specular.as_array(), roughness.as_array());
+        if rho.ncols() != 3 || specular.len() != rho.nrows() || roughness.len() != rho.nrows() {
+            return Err(invalid(format!("optics: rho {:?}, specular ({}) and roughness ({}) must be (material, 3), (material) and (material)", rho.shape(), specular.len(), roughness.len())));
+        }
+        let inner = core::Optics {
+            rho: rho.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect(),
+            specular: specular.to_vec(),
+            roughness: roughness.to_vec(),
+        };
+        Ok(Optics { inner })
+    }
+}
+
+/// The emitting triangles: Emitters(triangles_m: float64[emitter, 3, 3] (emitter, corner,
+/// xyz), each emitting on the side of (b − a) × (c − a); flux_w: float64[emitter, 3], W per RGB
+/// channel).
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct Emitters {
+    inner: Vec<core::Emitter>,
+}
+
+#[pymethods]
+impl Emitters {
+    #[new]
+    fn new(triangles_m: PyReadonlyArray3<'_, f64>, flux_w: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+        let e = triangles_m.as_array();
+        let f = flux_w.as_array();
+        if e.shape()[1..] != [3, 3] || f.shape() != [e.shape()[0], 3] {
+            return Err(invalid(format!("emitters: expected triangles_m (E, 3, 3) and flux_w (E, 3), got {:?} and {:?}", e.shape(), f.shape())));
+        }
+        if e.iter().chain(f.iter()).any(|v| !v.is_finite()) || f.iter().any(|v| *v < 0.0) {
+            return Err(invalid("emitters: corners must be finite and flux finite and ≥ 0"));
+        }
+        let inner = (0..e.shape()[0])
+            .map(|i| core::Emitter {
+                corners: std::array::from_fn(|k| DVec3::new(e[[i, k, 0]], e[[i, k, 1]], e[[i, k, 2]])),
+                flux: [f[[i, 0]], f[[i, 1]], f[[i, 2]]],
+            })
+            .collect();
+        Ok(Emitters { inner })
+    }
+
+    #[getter]
+    fn count(&self) -> usize {
+        self.inner.len()
+    }
+}
+
+/// How to trace a light bake (keyword arguments only): particles in the whole bake, the range
+/// first_ray..end_ray of them this run traces, seed, threads (0: all cores), patch_size_m and
+/// max_bounces (a guard; Russian roulette ends particles long before).
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct LightSettings {
+    inner: core::LightSettings,
+    patch_size_m: f64,
+}
+
+#[pymethods]
+impl LightSettings {
+    #[new]
+    #[pyo3(signature = (*, particles, first_ray, end_ray, seed, threads, patch_size_m, max_bounces = 10_000))]
+    fn new(particles: u64, first_ray: u64, end_ray: u64, seed: u64, threads: usize, patch_size_m: f64, max_bounces: u32) -> Self {
+        LightSettings { inner: core::LightSettings { particles, first_ray, end_ray, seed, threads, max_bounces }, patch_size_m }
+    }
+}
+
+/// Traces light particles. `progress(done, total, elapsed_s)` is called about every 100 ms and
+/// may return False to stop.
 ///
-/// Returns a dict: patch_resolution uint32[T] (k: triangle t has k² patches), patch_offset
-/// uint64[T + 1], patch_area_m2 float64[P], flux_w float64[P, 3] (incident flux per patch),
-/// hits uint64[P] (particles that landed there), stats, cancelled.
+/// Returns a dict: patch_resolution uint32[triangle] (k: triangle t has k² patches),
+/// patch_offset uint64[triangle + 1], patch_area_m2 float64[patch], flux_w float64[patch, 3]
+/// (incident flux per RGB channel), hits uint64[patch] (particles that landed there), stats
+/// (a dict) and cancelled.
 #[pyfunction]
-#[pyo3(signature = (geometry, rho, specular, roughness, emitters, emitter_flux, patch_size_m, *,
-                    particles, first, end, seed, threads, max_bounces = 10_000, progress = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (geometry, optics, emitters, settings, progress = None))]
 pub(crate) fn trace_light<'py>(
     py: Python<'py>,
     geometry: &Geometry,
-    rho: PyReadonlyArray2<'py, f64>,
-    specular: PyReadonlyArray1<'py, f64>,
-    roughness: PyReadonlyArray1<'py, f64>,
-    emitters: PyReadonlyArray3<'py, f64>,
-    emitter_flux: PyReadonlyArray2<'py, f64>,
-    patch_size_m: f64,
-    particles: u64,
-    first: u64,
-    end: u64,
-    seed: u64,
-    threads: usize,
-    max_bounces: u32,
+    optics: &Optics,
+    emitters: &Emitters,
+    settings: &LightSettings,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let rho = rho.as_array();
-    if rho.ncols() != 3 {
-        return Err(InvalidInputError::new_err("rho: expected shape (materials, 3)"));
-    }
-    let optics = Optics {
-        rho: rho.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect(),
-        specular: specular.as_array().to_vec(),
-        roughness: roughness.as_array().to_vec(),
-    };
-    let e = emitters.as_array();
-    let f = emitter_flux.as_array();
-    if e.shape()[1..] != [3, 3] || f.shape() != [e.shape()[0], 3] {
-        return Err(InvalidInputError::new_err("emitters: expected (E, 3, 3) corners and (E, 3) flux"));
-    }
-    let ems: Vec<Emitter> = (0..e.shape()[0])
-        .map(|i| Emitter {
-            corners: std::array::from_fn(|k| DVec3::new(e[[i, k, 0]], e[[i, k, 1]], e[[i, k, 2]])),
-            flux: [f[[i, 0]], f[[i, 1]], f[[i, 2]]],
-        })
-        .collect();
-    if patch_size_m.is_nan() || patch_size_m <= 0.0 {
-        return Err(InvalidInputError::new_err(format!("patch_size_m: {patch_size_m} is not a positive size")));
-    }
-    let patches = patches_of(geometry, patch_size_m);
-    let settings = LightSettings { particles, first, end, seed, threads, max_bounces };
+    check_threads(settings.inner.threads)?;
+    let patches = patches_of(geometry, settings.patch_size_m)?;
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        trace(&geometry.mesh, &geometry.bvh, &optics, &ems, patches, &settings, |p| {
+        core::trace_light(&geometry.mesh, &geometry.bvh, &optics.inner, &emitters.inner, patches, &settings.inner, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })
     });
@@ -98,35 +148,4 @@ pub(crate) fn trace_light<'py>(
     s.set_item("flux_roulette_w", st.roulette.to_vec())?;
     out.set_item("stats", s)?;
     Ok(out)
-}
-
-/// The patch (index into the arrays of `trace_light`) of each point on its triangle, for a
-/// layout of `patch_size_m`: int64[k]; −1 where the triangle is −1 (a miss).
-#[pyfunction]
-pub(crate) fn patch_index<'py>(
-    py: Python<'py>,
-    geometry: &Geometry,
-    patch_size_m: f64,
-    triangles: PyReadonlyArray1<'py, i64>,
-    points: PyReadonlyArray2<'py, f64>,
-) -> PyResult<Bound<'py, numpy::PyArray1<i64>>> {
-    let patches = patches_of(geometry, patch_size_m);
-    let t = triangles.as_array();
-    let p = points.as_array();
-    if p.ncols() != 3 || p.nrows() != t.len() {
-        return Err(InvalidInputError::new_err("points: expected (k, 3) with one triangle each"));
-    }
-    let n_tri = geometry.mesh.triangles.len() as i64;
-    let out: Vec<i64> = (0..t.len())
-        .map(|i| {
-            let tri = t[i];
-            if tri < 0 || tri >= n_tri {
-                return -1;
-            }
-            let [a, b, c] = geometry.mesh.corners(tri as usize).map(|v| v.as_dvec3());
-            let (s, u) = barycentric(DVec3::new(p[[i, 0]], p[[i, 1]], p[[i, 2]]), a, b, c);
-            patches.index(tri as usize, s, u) as i64
-        })
-        .collect();
-    Ok(out.into_pyarray(py))
 }

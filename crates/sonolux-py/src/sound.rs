@@ -1,159 +1,266 @@
-//! Binding of the sound tracer: arrays and settings in, the field and its statistics out.
+//! Binding of the sound tracer: settings objects in, the field (in the public order
+//! [receiver, direction, band, time]) and its statistics out.
+//!
+//! Each class checks its own arrays' shapes when it is made; `SoundSettings::validate` in the
+//! core checks everything else once, when `trace_sound` starts.
 
-use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
-use rayon::prelude::*;
 use pyo3::types::PyDict;
 
 use sonolux_core::glam_export::DVec3;
-use sonolux_core::sound::{trace_sound as trace, Acoustics, Directivity, Estimator, Receivers, SoundSettings, SoundSource};
+use sonolux_core::sound as core;
 
-use crate::{points, to_py, Geometry, InvalidInputError};
+use crate::{check_threads, invalid, to_py, Geometry};
 
-/// Reads a (materials, bands) array row-major.
-fn per_material(name: &str, a: &PyReadonlyArray2<'_, f64>, n_bands: usize) -> PyResult<Vec<f64>> {
+/// A (materials, bands) array, row-major, and its band count.
+fn per_material(a: &PyReadonlyArray2<'_, f64>) -> (usize, Vec<f64>) {
     let a = a.as_array();
-    if a.ncols() != n_bands {
-        return Err(InvalidInputError::new_err(format!("{name}: expected {n_bands} bands per material, got shape {:?}", a.shape())));
-    }
-    Ok(a.iter().copied().collect())
+    (a.ncols(), a.iter().copied().collect())
 }
 
-/// Traces a sound bake. Arrays: absorption and scattering float64[materials, bands];
-/// source_positions float64[S, 3], source_powers float64[S] (J), source_axes float64[S, 3] and
-/// source_cos_half_angle float64[S] (≤ −1 for an omnidirectional source); receivers float64[R, 3].
-/// `progress(done, total, elapsed_s)` is called about every 100 ms and may return False to stop.
+/// What every material does to sound, per band: Acoustics(absorption, scattering), both
+/// float64[material, band] in [0, 1]. Any number of bands, the same in both.
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct Acoustics {
+    inner: core::Acoustics,
+}
+
+#[pymethods]
+impl Acoustics {
+    #[new]
+    fn new(absorption: PyReadonlyArray2<'_, f64>, scattering: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+        let (a, s) = (absorption.as_array().dim(), scattering.as_array().dim());
+        if a != s {
+            return Err(invalid(format!("scattering: shape {s:?} differs from the absorption's {a:?} (material, band)")));
+        }
+        let (n_bands, absorption) = per_material(&absorption);
+        let (_, scattering) = per_material(&scattering);
+        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering } })
+    }
+
+    #[getter]
+    fn n_bands(&self) -> usize {
+        self.inner.n_bands
+    }
+}
+
+/// How a source sends its rays out: `Directivity.omni()`, or `Directivity.cone(axis,
+/// half_angle_deg)`: uniformly within half_angle_deg (0 to 180°] of the axis, as the paper's
+/// directional source.
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct Directivity {
+    inner: core::Directivity,
+    half_angle_deg: f64,
+}
+
+#[pymethods]
+impl Directivity {
+    #[staticmethod]
+    fn omni() -> Self {
+        Directivity { inner: core::Directivity::Omni, half_angle_deg: 180.0 }
+    }
+
+    #[staticmethod]
+    fn cone(axis: [f64; 3], half_angle_deg: f64) -> PyResult<Self> {
+        let a = DVec3::from_array(axis);
+        if !(a.is_finite() && a.length() > 0.0) {
+            return Err(invalid(format!("directivity axis: {axis:?} is not a direction")));
+        }
+        if !(half_angle_deg > 0.0 && half_angle_deg <= 180.0) {
+            return Err(invalid(format!("directivity half_angle_deg: {half_angle_deg} is not in (0, 180]")));
+        }
+        Ok(Directivity { inner: core::Directivity::Cone { axis: a.normalize(), cos_half_angle: half_angle_deg.to_radians().cos() }, half_angle_deg })
+    }
+
+    /// "omni" or "cone".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        match self.inner {
+            core::Directivity::Omni => "omni",
+            core::Directivity::Cone { .. } => "cone",
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        match self.inner {
+            core::Directivity::Omni => "Directivity.omni()".into(),
+            core::Directivity::Cone { axis, .. } => format!("Directivity.cone({:?}, {})", axis.to_array(), self.half_angle_deg),
+        }
+    }
+}
+
+/// A sound source: SoundSource(position_m, power_w, directivity=Directivity.omni()). Its
+/// impulse carries power_w joules (a source of that power for one second).
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct SoundSource {
+    inner: core::SoundSource,
+}
+
+#[pymethods]
+impl SoundSource {
+    #[new]
+    #[pyo3(signature = (position_m, power_w, directivity = None))]
+    fn new(position_m: [f64; 3], power_w: f64, directivity: Option<PyRef<'_, Directivity>>) -> PyResult<Self> {
+        let position = DVec3::from_array(position_m);
+        if !position.is_finite() {
+            return Err(invalid(format!("source position_m: {position_m:?} is not finite")));
+        }
+        if !(power_w > 0.0 && power_w.is_finite()) {
+            return Err(invalid(format!("source power_w: {power_w} is not a positive power")));
+        }
+        let directivity = directivity.map_or(core::Directivity::Omni, |d| d.inner);
+        Ok(SoundSource { inner: core::SoundSource { position, power_w, directivity } })
+    }
+}
+
+/// The receiver spheres: Receivers(positions_m: float64[receiver, 3], radius_m).
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct Receivers {
+    inner: core::Receivers,
+}
+
+#[pymethods]
+impl Receivers {
+    #[new]
+    fn new(positions_m: PyReadonlyArray2<'_, f64>, radius_m: f64) -> PyResult<Self> {
+        let p = positions_m.as_array();
+        if p.ncols() != 3 {
+            return Err(invalid(format!("receivers positions_m: expected shape (n, 3), got {:?}", p.shape())));
+        }
+        if p.iter().any(|v| !v.is_finite()) {
+            return Err(invalid("receivers positions_m: every coordinate must be finite"));
+        }
+        if !(radius_m > 0.0 && radius_m.is_finite()) {
+            return Err(invalid(format!("receivers radius_m: {radius_m} is not a positive length")));
+        }
+        let centres = p.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect();
+        Ok(Receivers { inner: core::Receivers::new(centres, radius_m) })
+    }
+
+    #[getter]
+    fn count(&self) -> usize {
+        self.inner.len()
+    }
+}
+
+/// How to trace and bin a sound bake (keyword arguments only; see `sonolux_core::sound::
+/// SoundSettings`). `keep_counts` also returns the exact fixed-point counts, for merging ray
+/// ranges; `max_field_bytes` is the largest field the caller accepts.
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct SoundSettings {
+    inner: core::SoundSettings,
+    keep_counts: bool,
+}
+
+#[pymethods]
+impl SoundSettings {
+    #[new]
+    #[pyo3(signature = (
+        *, rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound_m_s, air_attenuation_per_m,
+        energy_drop_db, max_time_s, sample_rate_hz, early_s, late_bin_s, azimuth_bands, elevation_bands,
+        max_field_bytes, keep_counts = false
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        rays: u64,
+        first_ray: u64,
+        end_ray: u64,
+        seed: u64,
+        threads: usize,
+        estimator: &str,
+        speed_of_sound_m_s: f64,
+        air_attenuation_per_m: Vec<f64>,
+        energy_drop_db: f64,
+        max_time_s: f64,
+        sample_rate_hz: f64,
+        early_s: f64,
+        late_bin_s: f64,
+        azimuth_bands: usize,
+        elevation_bands: usize,
+        max_field_bytes: u64,
+        keep_counts: bool,
+    ) -> PyResult<Self> {
+        let estimator = match estimator {
+            "paper" => core::Estimator::Paper,
+            "rain" => core::Estimator::Rain,
+            other => return Err(invalid(format!("estimator: '{other}' is not one of 'paper', 'rain'"))),
+        };
+        let inner = core::SoundSettings {
+            rays,
+            first_ray,
+            end_ray,
+            seed,
+            threads,
+            estimator,
+            speed_of_sound_m_s,
+            air_attenuation_per_m,
+            energy_drop_db,
+            max_time_s,
+            sample_rate_hz,
+            early_s,
+            late_bin_s,
+            n_azimuth: azimuth_bands,
+            n_elevation: elevation_bands,
+            max_field_bytes,
+        };
+        Ok(SoundSettings { inner, keep_counts })
+    }
+}
+
+/// Traces a sound bake (or the range of rays its settings name). `progress(done, total,
+/// elapsed_s)` is called about every 100 ms and may return False to stop.
 ///
-/// Returns a dict: energy float32[R, D, B, T] in J/m², bin_start_s and bin_width_s float64[T],
-/// counts uint64[T, R, D, B] and quantum (only with keep_counts, for exact merging), the layout
-/// numbers, stats (a dict) and cancelled.
+/// Returns a dict: energy float32[receiver, direction, band, time] in J/m², bin_start_s and
+/// bin_width_s float64[time], early_bins, late_bin_s, quantum, counts uint64[receiver,
+/// direction, band, time] (only with keep_counts: energy = counts × quantum, exactly), saturated,
+/// cancelled and stats (a dict).
 #[pyfunction]
-#[pyo3(signature = (
-    geometry, absorption, scattering, source_positions, source_powers, source_axes, source_cos_half_angle,
-    receivers, radius, *, rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound,
-    air_attenuation, energy_drop_db, max_time_s, sample_rate, early_s, late_bin_s, n_azimuth, n_elevation,
-    progress = None, keep_counts = false
-))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None))]
 pub(crate) fn trace_sound<'py>(
     py: Python<'py>,
     geometry: &Geometry,
-    absorption: PyReadonlyArray2<'py, f64>,
-    scattering: PyReadonlyArray2<'py, f64>,
-    source_positions: PyReadonlyArray2<'py, f64>,
-    source_powers: PyReadonlyArray1<'py, f64>,
-    source_axes: PyReadonlyArray2<'py, f64>,
-    source_cos_half_angle: PyReadonlyArray1<'py, f64>,
-    receivers: PyReadonlyArray2<'py, f64>,
-    radius: f64,
-    rays: u64,
-    first_ray: u64,
-    end_ray: u64,
-    seed: u64,
-    threads: usize,
-    estimator: &str,
-    speed_of_sound: f64,
-    air_attenuation: PyReadonlyArray1<'py, f64>,
-    energy_drop_db: f64,
-    max_time_s: f64,
-    sample_rate: f64,
-    early_s: f64,
-    late_bin_s: f64,
-    n_azimuth: usize,
-    n_elevation: usize,
+    acoustics: &Acoustics,
+    sources: Vec<PyRef<'py, SoundSource>>,
+    receivers: &Receivers,
+    settings: &SoundSettings,
     progress: Option<Bound<'py, PyAny>>,
-    keep_counts: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let air = air_attenuation.as_array().to_vec();
-    let nb = air.len();
-    let acoustics = Acoustics { n_bands: nb, absorption: per_material("absorption", &absorption, nb)?, scattering: per_material("scattering", &scattering, nb)? };
-    let pos = points("source_positions", &source_positions)?;
-    let axes = points("source_axes", &source_axes)?;
-    let powers = source_powers.as_array().to_vec();
-    let cos = source_cos_half_angle.as_array().to_vec();
-    if axes.len() != pos.len() || powers.len() != pos.len() || cos.len() != pos.len() {
-        return Err(InvalidInputError::new_err("sources: positions, powers, axes and cone angles differ in number"));
-    }
-    // Positions in double precision (points() rounds to the geometry's f32).
-    let positions = source_positions.as_array();
-    let sources: Vec<SoundSource> = (0..pos.len())
-        .map(|i| SoundSource {
-            position: DVec3::new(positions[[i, 0]], positions[[i, 1]], positions[[i, 2]]),
-            power_w: powers[i],
-            directivity: if cos[i] <= -1.0 { Directivity::Omni } else { Directivity::Cone { axis: axes[i].as_dvec3().normalize(), cos_half_angle: cos[i] } },
-        })
-        .collect();
-    let rc = receivers.as_array();
-    if rc.ncols() != 3 {
-        return Err(InvalidInputError::new_err(format!("receivers: expected shape (n, 3), got {:?}", rc.shape())));
-    }
-    let centres: Vec<DVec3> = rc.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect();
-    let estimator = match estimator {
-        "paper" => Estimator::Paper,
-        "rain" => Estimator::Rain,
-        other => return Err(InvalidInputError::new_err(format!("estimator: '{other}' is not one of 'rain', 'paper'"))),
-    };
-    let settings = SoundSettings {
-        rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound, air_attenuation: air, energy_drop_db,
-        max_time_s, sample_rate, early_s, late_bin_s, n_azimuth, n_elevation,
-    };
-    let receivers = Receivers::new(centres, radius);
-
+    let set = &settings.inner;
+    let threads = check_threads(set.threads)?;
+    let sources: Vec<core::SoundSource> = sources.iter().map(|s| s.inner.clone()).collect();
     // Trace with the GIL released; the progress closure takes it back briefly to report and to
-    // notice Ctrl-C.
+    // notice Ctrl-C. The field is copied out in the public order on the bake's own threads.
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        trace(&geometry.mesh, &geometry.bvh, &acoustics, &sources, &receivers, &settings, |p| {
+        let res = core::trace_sound(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
-        })
+        })?;
+        let energy = res.energy(threads);
+        let counts = settings.keep_counts.then(|| res.counts(threads));
+        Ok::<_, sonolux_core::CoreError>((res, energy, counts))
     });
     // Ctrl-C or an error in the progress callback: the workers have stopped; re-raise it.
     if let Some(e) = interrupted {
         return Err(e);
     }
-    let res = result.map_err(to_py)?;
-
-    // Energies in J/m², reordered to [receiver][direction][band][time] for analysis.
+    let (res, energy, counts) = result.map_err(to_py)?;
     let l = &res.layout;
-    let (nr, nt, nd) = (l.n_receivers, l.n_time(), l.n_directions());
-    let q = res.field.quantum;
-    let mut energy = vec![0f32; res.field.len()];
-    if !energy.is_empty() {
-        // One receiver's block [direction][band][time] per task, on the bake's thread count.
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| InvalidInputError::new_err(format!("threads: {e}")))?;
-        let field = &res.field;
-        py.detach(|| {
-            pool.install(|| {
-                energy.par_chunks_mut(nd * nb * nt).enumerate().for_each(|(r, block)| {
-                    for t in 0..nt {
-                        for d in 0..nd {
-                            let base = l.index(r, t, d);
-                            for b in 0..nb {
-                                block[(d * nb + b) * nt + t] = (field.get(base + b) as f64 * q) as f32;
-                            }
-                        }
-                    }
-                })
-            })
-        });
-    }
+    let shape = [l.n_receivers, l.n_directions(), l.n_bands, l.n_time()];
     let out = PyDict::new(py);
-    out.set_item("energy", energy.into_pyarray(py).reshape([nr, nd, nb, nt])?)?;
+    out.set_item("energy", energy.into_pyarray(py).reshape(shape)?)?;
+    if let Some(counts) = counts {
+        out.set_item("counts", counts.into_pyarray(py).reshape(shape)?)?;
+    }
     let (starts, widths) = l.bin_starts_and_widths();
     out.set_item("bin_start_s", starts.into_pyarray(py))?;
     out.set_item("bin_width_s", widths.into_pyarray(py))?;
     out.set_item("early_bins", l.early_bins)?;
     out.set_item("late_bin_s", l.late_bin_s)?;
-    out.set_item("quantum", q)?;
+    out.set_item("quantum", res.field.quantum)?;
     out.set_item("saturated", res.field.saturated())?;
     out.set_item("cancelled", res.cancelled)?;
-    if keep_counts {
-        out.set_item("counts", res.field.to_vec().into_pyarray(py).reshape([nt, nr, nd, nb])?)?;
-    }
     let st = &res.stats;
     let s = PyDict::new(py);
     s.set_item("rays", st.rays)?;

@@ -35,6 +35,8 @@ import math
 
 import numpy as np
 
+from sonolux.errors import AnalysisError
+
 DB_PER_NEPER = 10.0 / math.log(10.0)  # 10 log10(e): dB per unit of ln(energy)
 
 # ISO 3382-1 evaluation ranges (upper dB, lower dB); each time is the 60 dB extrapolation.
@@ -162,7 +164,7 @@ def strength_g_db(energy_total, power_w):
     e = np.asarray(energy_total, dtype=np.float64)
     w = np.asarray(power_w, dtype=np.float64)
     if np.any(w <= 0):
-        raise ValueError("power_w must be positive")
+        raise AnalysisError("power_w must be positive")
     with np.errstate(divide="ignore"):
         g = 10.0 * np.log10(e * (4.0 * math.pi * 100.0) / w)
     return _scalar(g)
@@ -175,11 +177,11 @@ def _prepare(energy, bin_start_s, bin_width_s):
     """energy as (n_traces, T) float64, bin edges (T + 1,), and the leading shape."""
     e = np.asarray(energy, dtype=np.float64)
     if e.ndim == 0 or e.shape[-1] == 0:
-        raise ValueError(f"energy must have a time axis of at least one bin, got shape {e.shape}")
+        raise AnalysisError(f"energy must have a time axis of at least one bin, got shape {e.shape}")
     if not np.all(np.isfinite(e)):
-        raise ValueError("energy contains NaN or infinite values")
+        raise AnalysisError("energy contains NaN or infinite values")
     if np.any(e < 0):
-        raise ValueError("energy contains negative bin totals")
+        raise AnalysisError("energy contains negative bin totals")
     lead = e.shape[:-1]
     return e.reshape(-1, e.shape[-1]), _edges(e.shape[-1], bin_start_s, bin_width_s), lead
 
@@ -188,22 +190,22 @@ def _edges(n_bins, bin_start_s, bin_width_s):
     """Bin edges (T + 1,) from starts and widths; unit bins from 0 when neither is given."""
     if bin_width_s is None:
         if bin_start_s is not None:
-            raise ValueError("bin_start_s needs bin_width_s")
+            raise AnalysisError("bin_start_s needs bin_width_s")
         return np.arange(n_bins + 1, dtype=np.float64)
     width = np.asarray(bin_width_s, dtype=np.float64)
     if width.shape != (n_bins,):
-        raise ValueError(f"bin_width_s has shape {width.shape}, expected ({n_bins},)")
+        raise AnalysisError(f"bin_width_s has shape {width.shape}, expected ({n_bins},)")
     if not np.all(np.isfinite(width)) or np.any(width <= 0):
-        raise ValueError("bin_width_s must be finite and positive")
+        raise AnalysisError("bin_width_s must be finite and positive")
     if bin_start_s is None:
         start = np.concatenate([[0.0], np.cumsum(width)[:-1]])
     else:
         start = np.asarray(bin_start_s, dtype=np.float64)
         if start.shape != (n_bins,):
-            raise ValueError(f"bin_start_s has shape {start.shape}, expected ({n_bins},)")
+            raise AnalysisError(f"bin_start_s has shape {start.shape}, expected ({n_bins},)")
         gap = np.abs(start[1:] - (start[:-1] + width[:-1]))
         if np.any(gap > 1e-6 * width[:-1] + 1e-12):
-            raise ValueError("bins must be contiguous: bin_start_s[i+1] = start[i] + width[i]")
+            raise AnalysisError("bins must be contiguous: bin_start_s[i+1] = start[i] + width[i]")
     return np.append(start, start[-1] + width[-1])
 
 
@@ -214,7 +216,7 @@ def _per_trace(value, lead, name):
         return [None] * n
     v = np.broadcast_to(np.asarray(value, dtype=np.float64), lead).reshape(n)
     if np.any(~np.isfinite(v)) or np.any(v < 0):
-        raise ValueError(f"{name} must be finite and non-negative")
+        raise AnalysisError(f"{name} must be finite and non-negative")
     return [float(x) for x in v]
 
 

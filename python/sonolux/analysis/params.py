@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from sonolux.analysis.decay import c50, c80, centre_time_s, d50, decay_times, strength_g_db
+from sonolux.errors import AnalysisError
 from sonolux.sound.field import SoundField
 
 #: name: (label, unit, scale to the unit, ISO 3382-1 just-noticeable difference in that unit)
@@ -213,7 +214,7 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
     idx = np.arange(field_.n_receivers) if receivers is None else np.atleast_1d(
         np.asarray(receivers, dtype=np.int64))
     if idx.size == 0:
-        raise ValueError("no receivers to analyse")
+        raise AnalysisError("no receivers to analyse")
     start, width, edges = field_.bin_start_s, field_.bin_width_s, _edges(field_)
     power_w = float(np.sum(field_.source_powers_w))
     positions = field_.positions_m[idx]
@@ -274,14 +275,19 @@ def scene_of(field_: SoundField):
 
 
 def theory_of(field_: SoundField) -> tuple[dict[str, Any], str]:
-    """Sabine and Eyring T60 per band from the field's scene: ({...}, '') or ({}, why not)."""
-    from sonolux.check import summarize
+    """Sabine and Eyring T60 per band as the bake stored them in the field file: ({...}, '')
+    or ({}, why not). Files of format 1 carry none: then the scene file named in the field
+    is loaded again, if it is still there and unchanged."""
+    keys = ("sabine_t60_s", "eyring_t60_s", "mean_absorption", "volume_m3", "area_m2",
+            "mean_free_path_m")
+    if field_.theory is not None:
+        return {k: field_.theory[k] for k in keys}, ""
+    from sonolux.scene.summary import theory
 
     scene, why = scene_of(field_)
     if scene is None:
         return {}, f"Sabine/Eyring left out: {why}"
-    s = summarize(scene)
+    s = theory(scene)
     if [float(b) for b in s["bands_hz"]] != [float(b) for b in field_.bands_hz]:
         return {}, "Sabine/Eyring left out: the scene has other bands than the bake"
-    return {k: s[k] for k in ("sabine_t60_s", "eyring_t60_s", "mean_absorption", "volume_m3",
-                              "area_m2", "mean_free_path_m")}, ""
+    return {k: s[k] for k in keys}, ""

@@ -37,9 +37,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft as sfft
 
-from sonolux import _core
+from sonolux import engine
 from sonolux.errors import SonoluxError
-from sonolux.sound.synthesis import _PAD_PERIODS, band_split_weights, pressure_ir
+from sonolux.sound.synthesis import PAD_PERIODS, band_split_weights, pressure_ir
 
 
 # --- multi-band ------------------------------------------------------------------------------
@@ -49,7 +49,7 @@ def band_kernels(fs: float, bands_hz) -> np.ndarray:
     bands = np.asarray(bands_hz, float)
     if bands.size == 1:
         return np.ones((1, 1))
-    pad = int(np.ceil(_PAD_PERIODS * fs / np.min(np.diff(bands))))
+    pad = int(np.ceil(PAD_PERIODS * fs / np.min(np.diff(bands))))
     taps = 2 * pad + 1
     w = band_split_weights(taps, fs, bands)
     return np.roll(sfft.irfft(w, taps, axis=1), pad, axis=1)
@@ -130,7 +130,7 @@ def partition(filters: np.ndarray, block: int, fft_size: int, precision: str = "
     if p * block < n:
         raise SonoluxError(f"filters of {n} taps do not fit in {p} partitions of {block}")
     if precision == "float32":
-        return _core.partition(np.ascontiguousarray(h, np.float32), block, fft_size, p)
+        return engine.partition(np.ascontiguousarray(h, np.float32), block, fft_size, p)
     padded = np.zeros((c, p * block))
     padded[:, :n] = h
     return planar(sfft.rfft(padded.reshape(c, p, block), fft_size, axis=2, workers=1))
@@ -141,7 +141,7 @@ def fold(filters: np.ndarray, mix: np.ndarray) -> np.ndarray:
     bin by bin, for filters float[direction, P, 2, bins] and mix float[channel, direction, 2,
     bins] (e.g. HRIR spectra per ear and direction): exact while the FFT has room for them."""
     if filters.dtype == np.float32:
-        return _core.fold(filters, np.ascontiguousarray(mix, np.float32))
+        return engine.fold(filters, np.ascontiguousarray(mix, np.float32))
     out = np.einsum("edf,dpf->epf", _complex(mix), _complex(filters))
     return planar(out)
 
@@ -170,7 +170,7 @@ class PartitionedConvolver:
         self.real = np.float32 if precision == "float32" else np.float64
         self.bins = self.fft_size // 2 + 1
         if precision == "float32":
-            self._core = _core.Convolver(self.block, self.partitions, self.fft_size)
+            self._core = engine.Convolver(self.block, self.partitions, self.fft_size)
         else:  # the numpy reference: the last K samples and a ring of P spectra
             self._core = None
             self._input = np.zeros(self.fft_size)

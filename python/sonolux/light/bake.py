@@ -17,12 +17,12 @@ from typing import Any
 
 import numpy as np
 
+from sonolux import engine
 from sonolux.errors import SonoluxError
 from sonolux.light.field import LightField
 from sonolux.light.options import LightOptions
-from sonolux.scene.geometry_core import core_module
+from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
-from sonolux.sound.bake import ProgressLine
 
 #: Particles of the pilot run that measures how many surface hits a particle makes.
 PILOT_PARTICLES = 4096
@@ -87,11 +87,13 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
 
 def _trace(scene: Scene, arrays: dict[str, Any], options: LightOptions, particles: int,
            progress: Any = None) -> dict[str, Any]:
-    return core_module().trace_light(
-        scene.geometry._g, arrays["rho"], arrays["specular"], arrays["roughness"],
-        arrays["emitters"], arrays["emitter_flux"], float(options.patch_size_m),
-        particles=particles, first=0, end=particles, seed=scene.settings.seed,
-        threads=scene.settings.threads, max_bounces=options.max_bounces, progress=progress)
+    optics = engine.Optics(arrays["rho"], arrays["specular"], arrays["roughness"])
+    emitters = engine.Emitters(arrays["emitters"], arrays["emitter_flux"])
+    settings = engine.LightSettings(
+        particles=particles, first_ray=0, end_ray=particles, seed=scene.settings.seed,
+        threads=scene.settings.threads, patch_size_m=float(options.patch_size_m),
+        max_bounces=options.max_bounces)
+    return engine.trace_light(scene.geometry, optics, emitters, settings, progress)
 
 
 def auto_particles(scene: Scene, options: LightOptions, arrays: dict[str, Any]) -> tuple[int, str]:

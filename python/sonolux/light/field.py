@@ -1,7 +1,7 @@
 """The light field: the flux that arrived on every surface patch, with the scene it belongs to,
 so that a picture can be made from the file alone.
 
-Axes and units (the same in memory and in the file, see :mod:`sonolux.light.fieldfile`):
+Axes and units (the same in memory and in the file, see :mod:`sonolux.fieldfile`):
 
 - Patches: triangle t is cut into k² equal sub-triangles, k = ``patch_resolution[t]``; they are
   patches ``patch_offset[t]`` to ``patch_offset[t + 1]`` (numbering: see

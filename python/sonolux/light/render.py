@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.engine import Geometry
 from sonolux.errors import SonoluxError
 from sonolux.light.camera import Camera
 from sonolux.light.field import LightField
 from sonolux.light.image import INCIDENT_WHITE, LOG_DELTA, luminance
 from sonolux.light.patches import PatchMesh, patch_mesh
-from sonolux.scene.geometry_core import Geometry, core_module
 from sonolux.scene.inside import IN_AIR, OUTSIDE, RoomSpace
 
 #: Rays handled at once (bounds the memory of the numpy stages).
@@ -118,7 +118,7 @@ def _barycentric(p: np.ndarray, tri: np.ndarray, vertices: np.ndarray,
 def shade(r: Renderable, origins: np.ndarray, dirs: np.ndarray, *, max_bounces: int = 4,
           smooth: bool = True, threads: int = 0) -> np.ndarray:
     """float64[k, 3]: the radiance arriving along rays (origins float64[k, 3], unit dirs)."""
-    f, core = r.field, core_module()
+    f = r.field
     k = dirs.shape[0]
     out = np.zeros((k, 3))
     weight = np.ones((k, 3))
@@ -129,8 +129,7 @@ def shade(r: Renderable, origins: np.ndarray, dirs: np.ndarray, *, max_bounces: 
     diffuse_patch = f.diffuse_reflectance * f.irradiance_w_m2 / np.pi
     for bounce in range(max_bounces + 1):
         # Find the nearest surface and the nearest rectangle light.
-        t, tri = r.geometry._g.closest_hit(np.ascontiguousarray(o), np.ascontiguousarray(d),
-                                           threads=threads)
+        t, tri = r.geometry.closest_hit(o, d, threads=threads)
         t, tri = np.asarray(t, float), np.asarray(tri, np.int64)
         if rect_tris.shape[0]:
             t_light, light = _hit_emitters(rect_tris, o, d, t)
@@ -143,7 +142,7 @@ def shade(r: Renderable, origins: np.ndarray, dirs: np.ndarray, *, max_bounces: 
             break
         # Look up the diffuse radiance stored there, and the surface's own emission.
         p = o + d * t[:, None]
-        patch = np.asarray(core.patch_index(r.geometry._g, f.patch_size_m, tri, p), np.int64)
+        patch = r.geometry.patch_index(f.patch_size_m, tri, p)
         if smooth:
             s, u = _barycentric(p, tri, f.vertices_m, f.triangles)
             w = r.mesh.weights(patch, s, u)
@@ -178,7 +177,7 @@ def incident_exposure(field: LightField | Renderable, camera: Camera) -> float:
     origin, dirs = camera.rays(1)
     d = np.ascontiguousarray(dirs.reshape(-1, 3))
     o = np.ascontiguousarray(np.broadcast_to(origin, d.shape))
-    t, tri = r.geometry._g.closest_hit(o, d)
+    t, tri = r.geometry.closest_hit(o, d)
     t, tri = np.asarray(t, float), np.asarray(tri, np.int64)
     rect = f.rectangle_emitters
     _, light = _hit_emitters(f.emitter_triangles_m[rect], o, d, t)
@@ -186,7 +185,7 @@ def incident_exposure(field: LightField | Renderable, camera: Camera) -> float:
     if not np.any(keep):
         return 1.0
     p = o[keep] + d[keep] * t[keep, None]
-    patch = np.asarray(core_module().patch_index(r.geometry._g, f.patch_size_m, tri[keep], p), np.int64)
+    patch = r.geometry.patch_index(f.patch_size_m, tri[keep], p)
     white = luminance(f.irradiance_w_m2 / np.pi)[:, None]
     nodes = r.mesh.node_values(white, f.patch_area_m2)[:, 0]
     s, u = _barycentric(p, tri[keep], f.vertices_m, f.triangles)

@@ -23,10 +23,10 @@ import numpy as np
 from sonolux.analysis.params import PARAMETERS, RoomParameters, room_parameters, scene_of
 from sonolux.analysis.tables import DIRECTIONAL_SHOWN, format_value, label_of
 from sonolux.errors import SonoluxError
+from sonolux.fieldfile import open_field
 from sonolux.report import extras
 from sonolux.report import html as h
 from sonolux.sound.field import SoundField
-from sonolux.sound.fieldfile import open_field
 from sonolux.sound.info import info
 
 

@@ -1,15 +1,12 @@
-"""What the report borrows from the other halves of sonolux, found at run time: the light view
-(``sonolux render``, when the field file holds ``/light``) and auralizations (``sonolux
-auralize``). Both are called through the command line's documented arguments, so the report
-needs nothing of their Python API; when either is missing or fails, the report says so and
-goes on. Also a dry signal generated here, and browser-friendly copies of WAV files.
+"""What the report borrows from the other halves of sonolux: the light view (when the field
+file holds ``/light``: :func:`sonolux.light.view.render_view`) and auralizations
+(:func:`sonolux.auralize.to_file.auralize_to_file`), called as library functions; when either
+fails, the report says so and goes on. Also a dry signal generated here, and browser-friendly
+copies of WAV files.
 """
 
 from __future__ import annotations
 
-import contextlib
-import importlib.util
-import io
 from pathlib import Path
 
 import numpy as np
@@ -18,42 +15,29 @@ from sonolux.audio import read_audio, write_wav
 from sonolux.errors import SonoluxError
 
 #: Layouts the report auralizes to: headphones, and the paper's cube of 8 loudspeakers.
-LAYOUTS = ("binaural", "cube8")
-
-
-def _run_cli(argv: list[str]) -> tuple[int, str]:
-    """Runs ``sonolux ARGV`` in this process: (exit status, what it printed to stderr)."""
-    from sonolux.cli import main
-
-    err = io.StringIO()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
-        try:
-            code = main(argv)
-        except SystemExit as exc:  # argparse: an unknown command or option
-            code = exc.code if isinstance(exc.code, int) else 2
-    return code, err.getvalue().strip()
+REPORT_LAYOUTS = ("binaural", "cube8")
 
 
 def has_light(field_path: Path) -> bool:
-    import h5py
+    from sonolux.fieldfile import contents
 
     try:
-        with h5py.File(field_path, "r") as f:
-            return "light" in f
-    except OSError:
+        return bool(contents(field_path)["light"])
+    except SonoluxError:
         return False
 
 
 def render_light_view(field_path: Path, png: Path) -> str:
     """Renders the field's lit scene to ``png`` with the default camera: '' or why not."""
+    from sonolux.fieldfile import open_light_field
+    from sonolux.light.view import render_view
+
     if not has_light(field_path):
         return "this field file holds no light field (bake with light to see the lit room)"
-    if importlib.util.find_spec("sonolux.light") is None:
-        return "the light renderer (sonolux.light) is not part of this installation"
-    code, err = _run_cli(["render", str(field_path), "-o", str(png)])
-    if code != 0 or not png.exists():
-        last = err.splitlines()[-1] if err else f"exit status {code}"
-        return f"sonolux render did not produce a view: {last}"
+    try:
+        render_view(open_light_field(field_path), png)
+    except SonoluxError as exc:
+        return f"the light view could not be rendered: {exc}"
     return ""
 
 
@@ -79,20 +63,22 @@ def dry_signal(sample_rate_hz: int, seconds: float = 3.0) -> np.ndarray:
 
 def auralize(field_path: Path, dry_wav: Path, at_m: tuple[float, float], out_dir: Path,
              stem: str) -> tuple[list[tuple[Path, str]], str]:
-    """Auralizes ``dry_wav`` at the cell to each of LAYOUTS: ([(wav, caption)], note)."""
-    if importlib.util.find_spec("sonolux.auralize") is None:
-        return [], "auralization (sonolux.auralize) is not part of this installation"
+    """Auralizes ``dry_wav`` at the cell to each of REPORT_LAYOUTS: ([(wav, caption)], note)."""
+    from sonolux.auralize.offline import AuralizeSettings
+    from sonolux.auralize.to_file import Listening, auralize_to_file
+    from sonolux.fieldfile import open_field
+
+    field = open_field(field_path)
     made, failures = [], []
-    for layout in LAYOUTS:
+    for layout in REPORT_LAYOUTS:
         wav = out_dir / f"{stem}-{layout}.wav"
-        code, err = _run_cli(["auralize", str(field_path), str(dry_wav), "--at",
-                              f"{at_m[0]:g},{at_m[1]:g}", "--heading", "0", "--layout", layout,
-                              "-o", str(wav)])
-        if code == 0 and wav.exists():
+        try:
+            auralize_to_file(field, str(dry_wav), wav, Listening(at_m=at_m, heading_deg=0.0),
+                             AuralizeSettings(layout=layout))
             made.append((wav, f"{layout}, listener at ({at_m[0]:g}, {at_m[1]:g}) m facing +x"))
-        else:
-            failures.append(f"{layout}: {err.splitlines()[-1] if err else f'exit {code}'}")
-    return made, ("sonolux auralize failed for " + "; ".join(failures)) if failures else ""
+        except SonoluxError as exc:
+            failures.append(f"{layout}: {exc}")
+    return made, ("auralization failed for " + "; ".join(failures)) if failures else ""
 
 
 def browser_copy(src: Path, dst: Path) -> str:

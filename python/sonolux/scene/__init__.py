@@ -5,7 +5,7 @@
 ``docs/scene.md``. Modules: ``schema`` (dataclasses, validation helpers), ``load`` (the
 steps), ``shoebox`` and ``meshes`` (geometry), ``material_names`` (name resolution),
 ``emitters`` (sources, lights), ``receivers``, ``inside`` (in the air, outside, in an
-obstacle), ``geometry_core`` (the Rust core's queries), ``builtin`` (shipped scenes).
+obstacle), ``builtin`` (shipped scenes).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ component with the largest bounding box is the room's shell; every other *closed
   (whatever the way its triangles are wound);
 - ``IN_AIR`` otherwise.
 
-Winding numbers and distances come from the core (:mod:`sonolux.scene.geometry_core`).
+Winding numbers and distances come from the core (:mod:`sonolux.engine`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from sonolux.scene.geometry_core import Geometry
+from sonolux.engine import Geometry
 
 IN_AIR, OUTSIDE, IN_OBSTACLE = 0, 1, 2
 

@@ -22,13 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.errors import SceneError, SonoluxError, close_matches
-from sonolux.materials import Library
+from sonolux.engine import Geometry
+from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_matches
 from sonolux.scene import builtin
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
-from sonolux.scene.geometry_core import CoreMissingError, Geometry
 from sonolux.scene.inside import RoomSpace
 from sonolux.scene.material_names import MaterialNames
+from sonolux.scene.materials import Library
 from sonolux.scene.meshes import build_mesh
 from sonolux.scene.receivers import place_receivers, read_receivers
 from sonolux.scene.schema import (

@@ -2,7 +2,7 @@
 
 A name used by the geometry (a shoebox face, a mesh material, ``material = ...``) is looked up
 in the scene's own ``[materials]`` first, then in the material library
-(:mod:`sonolux.materials`). A ``[materials.NAME]`` entry is either
+(:mod:`sonolux.scene.materials`). A ``[materials.NAME]`` entry is either
 
 - an override: it starts from the library entry named by ``base`` (or, without ``base``, from
   the library entry of the same name) and replaces the fields it gives; or
@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from sonolux.errors import SceneError, close_matches
-from sonolux.materials import Library
-from sonolux.materials import library as shipped_library
+from sonolux.scene.materials import Library
+from sonolux.scene.materials import library as shipped_library
 from sonolux.scene.schema import REQUIRED, Context, Material, Table
 
 MATERIAL_KEYS = ("base", "description", "absorption", "scattering", "diffuse_rgb", "specular",

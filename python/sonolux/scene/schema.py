@@ -158,7 +158,7 @@ class Scene:
     into the room); material_index: int32[m] into ``materials``; surface_tag: str[m] ("floor",
     "north", ... for shoeboxes, the mesh group name for meshes). ``origin`` says where the scene
     came from (a path, "<dict>" or "built-in NAME"); ``mesh_report`` is the core's geometry
-    report (see :mod:`sonolux.scene.geometry_core`).
+    report (see :class:`sonolux.engine.Geometry`); ``geometry`` is that handle.
     """
 
     name: str

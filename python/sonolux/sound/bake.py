@@ -1,17 +1,18 @@
 """Baking a sound field: the scene's arrays go to the Rust tracer, a :class:`SoundField` comes
-back. Also the automatic ray count and the progress line.
+back. Also the automatic ray count.
 
 One ray, from the scene file to the field: ``load_scene`` resolves geometry, materials, sources
 and receivers into arrays; :func:`bake` picks the bands' absorption, scattering and the air's
-attenuation (ISO 9613-1) and hands them to ``sonolux._core.trace_sound``, which emits, traces
-and deposits (see ``crates/sonolux-core/src/sound``); the energies come back as
-float32[receiver, direction, band, time] in J/m².
+attenuation (ISO 9613-1), puts them in the engine's settings objects and hands them to
+:func:`sonolux.engine.trace_sound`, which emits, traces and deposits (see
+``crates/sonolux-core/src/sound``); the energies come back as
+float32[receiver, direction, band, time] in J/m². The field also keeps what theory expects of
+the room (:func:`sonolux.scene.summary.theory`), for the analysis.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -19,10 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from sonolux import engine
 from sonolux.acoustics.theory import air_energy_attenuation_per_m, sabine_t60
 from sonolux.errors import SonoluxError
-from sonolux.scene.geometry_core import core_module
+from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
+from sonolux.scene.summary import theory
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
@@ -87,28 +90,6 @@ def auto_rays(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray]
     return n, why
 
 
-class ProgressLine:
-    """Prints `rays done/total, rays/s, ETA` on one line of stderr, at most 5 times a second
-    (``unit`` names what is counted: rays, particles)."""
-
-    def __init__(self, label: str, stream: Any = sys.stderr, unit: str = "rays") -> None:
-        self.label, self.stream, self.last, self.unit = label, stream, 0.0, unit
-
-    def __call__(self, done: int, total: int, elapsed_s: float) -> bool:
-        now = time.monotonic()
-        if now - self.last < 0.2 and done < total:
-            return True
-        self.last = now
-        rate = done / elapsed_s if elapsed_s > 0 else 0.0
-        eta = (total - done) / rate if rate > 0 else float("nan")
-        self.stream.write(f"\r{self.label}: {done:,}/{total:,} {self.unit}, {rate:,.0f} {self.unit}/s, "
-                          f"ETA {eta:5.1f} s   ")
-        if done >= total:
-            self.stream.write("\n")
-        self.stream.flush()
-        return True
-
-
 def bake(scene: Scene, options: SoundOptions | None = None, *,
          progress: bool | Callable[[int, int, float], bool] = False,
          log: Callable[[str], None] | None = None, **overrides: Any) -> SoundField:
@@ -123,7 +104,6 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"{scene.origin}: the scene has no sound source to bake")
     if scene.receivers.count == 0:
         raise SonoluxError(f"{scene.origin}: the scene has no receiver left to bake into")
-    core = core_module()
     arrays = band_arrays(scene)
     if not options.air_absorption:
         arrays["air"] = np.zeros_like(arrays["air"])
@@ -138,24 +118,24 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
     src = scene.sources
-    axes = np.array([s.axis if s.axis is not None else (1.0, 0.0, 0.0) for s in src], float)
-    cos_half = np.array([math.cos(math.radians(s.cone_half_angle_deg)) if s.directivity == "cone"
-                         else -2.0 for s in src], float)
     callback = ProgressLine(f"sound {scene.name}") if progress is True else (progress or None)
-    started = time.perf_counter()
-    out = core.trace_sound(
-        scene.geometry._g, arrays["absorption"], arrays["scattering"],
-        np.array([s.position_m for s in src], float), np.array([s.power_w for s in src], float),
-        axes, cos_half, np.ascontiguousarray(scene.receivers.positions_m, float),
-        scene.receivers.radius_m,
+    settings = engine.SoundSettings(
         rays=rays, first_ray=first, end_ray=end, seed=scene.settings.seed,
         threads=scene.settings.threads, estimator=options.estimator,
-        speed_of_sound=scene.settings.speed_of_sound_m_s, air_attenuation=arrays["air"],
-        energy_drop_db=scene.settings.energy_drop_db, max_time_s=max_time_s,
-        sample_rate=float(scene.settings.sample_rate_hz), early_s=options.early_s,
-        late_bin_s=options.late_bin_s, n_azimuth=options.azimuth_bands,
-        n_elevation=options.elevation_bands, progress=callback,
+        speed_of_sound_m_s=scene.settings.speed_of_sound_m_s,
+        air_attenuation_per_m=arrays["air"].tolist(), energy_drop_db=scene.settings.energy_drop_db,
+        max_time_s=max_time_s, sample_rate_hz=float(scene.settings.sample_rate_hz),
+        early_s=options.early_s, late_bin_s=options.late_bin_s,
+        azimuth_bands=options.azimuth_bands, elevation_bands=options.elevation_bands,
+        max_field_bytes=options.max_field_bytes or engine.physical_memory_bytes() // 2,
         keep_counts=options.ray_range is not None)
+    started = time.perf_counter()
+    out = engine.trace_sound(
+        scene.geometry, engine.Acoustics(arrays["absorption"], arrays["scattering"]),
+        [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s)) for s in src],
+        engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
+                         scene.receivers.radius_m),
+        settings, callback)
     seconds = time.perf_counter() - started
     stats = dict(out["stats"])
     stats.update(seconds=seconds, rays_per_second=stats["rays"] / seconds if seconds > 0 else None,
@@ -165,7 +145,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if out["saturated"]:
         raise SonoluxError("the sound field overflowed its fixed-point range (a bug: please report "
                            "the scene)")
-    settings = {
+    record = {
         "rays": rays, "ray_range": [first, end], "estimator": options.estimator,
         "seed": scene.settings.seed, "speed_of_sound_m_s": scene.settings.speed_of_sound_m_s,
         "sample_rate_hz": scene.settings.sample_rate_hz, "energy_drop_db": scene.settings.energy_drop_db,
@@ -184,5 +164,13 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         grid_index=scene.receivers.grid_index, grid_spacing_m=scene.receivers.spacing_m,
         source_positions_m=np.array([s.position_m for s in src], float),
         source_powers_w=np.array([s.power_w for s in src], float),
-        settings=settings, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
-        counts=out.get("counts"), quantum=float(out["quantum"]))
+        settings=record, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
+        counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene))
+
+
+def _directivity(source: Any) -> Any:
+    """The engine's directivity of a scene's source."""
+    if source.directivity == "cone":
+        return engine.Directivity.cone(tuple(float(v) for v in source.axis),
+                                       float(source.cone_half_angle_deg))
+    return engine.Directivity.omni()

@@ -1,8 +1,13 @@
 """The sound field: per receiver, per direction, per band, the energy over time.
 
-Axes and units (the same in memory and in the file, see :mod:`sonolux.sound.fieldfile`):
+Axes and units (the same in memory, from the engine and in the file, see
+:mod:`sonolux.fieldfile` and ``docs/fieldfile.md``):
 
 - ``energy``: float32[receiver, direction, band, time], J/m² per time bin (a bin's total).
+- ``counts`` (ray-range bakes only): uint64[receiver, direction, band, time], the exact
+  fixed-point sums: energy = counts × quantum.
+- ``theory``: what theory expects of the baked room (volume, area, Sabine and Eyring T60 per
+  band: :func:`sonolux.scene.summary.theory`), written by the bake; None in files of format 1.
 - ``bin_start_s``, ``bin_width_s``: float64[time]; one-sample bins for the first ``early_bins``
   (exact arrival times of early reflections), then ``late_bin_s`` wide.
 - directions: ``azimuth_bands`` sectors, the first centred on 0° (+x, "front"), counter-clockwise
@@ -55,6 +60,7 @@ class SoundField:
     counts: np.ndarray | None = field(default=None, repr=False)
     quantum: float = 0.0
     path: str | None = None
+    theory: dict[str, Any] | None = None
 
     # --- shape -------------------------------------------------------------------------------
     @property
@@ -148,7 +154,7 @@ class SoundField:
                 or self.counts.shape != other.counts.shape:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
         counts = self.counts + other.counts
-        energy = (counts.astype(np.float64) * self.quantum).astype(np.float32).transpose(1, 2, 3, 0)
+        energy = (counts.astype(np.float64) * self.quantum).astype(np.float32)
         mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
         theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
         for a0, a1 in mine:

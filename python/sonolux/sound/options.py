@@ -33,6 +33,8 @@ class SoundOptions:
     ray_range: (first, end) to trace only part of the bake (it merges exactly with the rest).
     air_absorption: False turns the air's absorption off (for comparisons with theory that
         leaves it out); the scene's air still sets the speed of sound.
+    max_field_bytes: the most memory the field may take (the engine estimates it before it
+        allocates and refuses a larger one); None = half of this machine's memory.
     """
 
     rays: int | str = "auto"
@@ -44,6 +46,7 @@ class SoundOptions:
     max_time_s: float | None = None
     ray_range: tuple[int, int] | None = None
     air_absorption: bool = True
+    max_field_bytes: int | None = None
 
     def validate(self) -> SoundOptions:
         def bad(field: str, value: object, allowed: str) -> SonoluxError:
@@ -67,4 +70,7 @@ class SoundOptions:
             a, b = self.ray_range
             if not (0 <= a < b):
                 raise bad("ray_range", self.ray_range, "first < end, both ≥ 0")
+        if self.max_field_bytes is not None and not (
+                isinstance(self.max_field_bytes, int) and self.max_field_bytes >= 1):
+            raise bad("max_field_bytes", self.max_field_bytes, "a whole number of bytes ≥ 1")
         return self

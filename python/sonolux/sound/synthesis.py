@@ -44,7 +44,7 @@ _SNAP_SAMPLES = 1e-6
 # Zero padding of the band split, in periods of the narrowest crossover (f_{i+1} - f_i): the
 # bank's impulse responses keep about 2e-9 of their energy beyond 12.5 such periods (measured
 # for octaves), so the circular FFT convolution does not wrap the tail onto the start.
-_PAD_PERIODS = 12.5
+PAD_PERIODS = 12.5
 
 
 # --- the filter bank -------------------------------------------------------------------------
@@ -198,7 +198,7 @@ def pressure_ir(energy, bin_start_s, bin_width_s, bands_hz, fs: float, volume_m3
     n = s.shape[1]
     if bands.size == 1 or n == 0:
         return s.sum(axis=0)
-    pad = int(np.ceil(_PAD_PERIODS * fs / np.min(np.diff(bands))))
+    pad = int(np.ceil(PAD_PERIODS * fs / np.min(np.diff(bands))))
     # The FFT size follows the whole time axis, not this histogram's last energy, so that every
     # direction of every cell shares one set of band weights.
     n_axis = int(np.ceil((float(np.max(np.asarray(bin_start_s) + np.asarray(bin_width_s)))) * fs))

@@ -80,7 +80,7 @@ def export_web(field_path: str | Path, out_dir: str | Path, options: WebExportOp
                log: Callable[[str], None] | None = None) -> BundleSummary:
     """Writes the bundle of the field file ``field_path`` into ``out_dir`` (replaced whole if it
     is a bundle already; a folder holding anything else is refused)."""
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import open_field
 
     options = (options or WebExportOptions()).validate()
     say = log or (lambda _m: None)
@@ -150,7 +150,7 @@ def _write_responses(sound: SoundField, path: Path, options: WebExportOptions,
 
 def _index(sound: SoundField, options: WebExportOptions, cells: list[dict], gain: float,
            n_bytes: int, longest: int, tris: np.ndarray, head_z: float, glb) -> dict:
-    from sonolux import __version__
+    from sonolux.version import __version__
 
     pos = sound.positions_m
     if len(tris):

@@ -52,7 +52,7 @@ def cache_root() -> Path:
 
 
 def bundle_key(field_path: Path, options: WebExportOptions) -> str:
-    from sonolux import __version__
+    from sonolux.version import __version__
 
     p = field_path.resolve()
     st = p.stat()

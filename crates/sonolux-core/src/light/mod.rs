@@ -42,13 +42,29 @@ pub struct Emitter {
 
 #[derive(Clone, Debug)]
 pub struct LightSettings {
+    /// Particles in the whole bake, and the range of them this run traces (the sound tracer's
+    /// names: a particle is a light ray).
     pub particles: u64,
-    pub first: u64,
-    pub end: u64,
+    pub first_ray: u64,
+    pub end_ray: u64,
     pub seed: u64,
+    /// Worker threads, 0 = all cores, at most [`crate::sound::MAX_THREADS`].
     pub threads: usize,
     /// Particles bounce at most this often (a guard; Russian roulette ends them long before).
     pub max_bounces: u32,
+}
+
+impl LightSettings {
+    /// Checks the counts and the range; called once, by [`trace_light`].
+    pub fn validate(&self) -> Result<(), CoreError> {
+        if !(self.first_ray < self.end_ray && self.end_ray <= self.particles) {
+            return Err(CoreError::invalid("first_ray..end_ray", format!("{}..{} is not a non-empty part of 0..{}", self.first_ray, self.end_ray, self.particles)));
+        }
+        if self.threads > crate::sound::MAX_THREADS {
+            return Err(CoreError::invalid("threads", format!("{} is more than {} (0 uses every core)", self.threads, crate::sound::MAX_THREADS)));
+        }
+        Ok(())
+    }
 }
 
 /// Flux per patch and channel (W), how many particles landed on each, and the bake's tallies.
@@ -126,6 +142,7 @@ pub fn trace_light(
     settings: &LightSettings,
     progress: impl FnMut(&Progress) -> bool,
 ) -> Result<LightResult, CoreError> {
+    settings.validate()?;
     let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
     if optics.rho.len() < n_mat || optics.specular.len() < n_mat || optics.roughness.len() < n_mat {
         return Err(CoreError::invalid("optics", format!("need values for {n_mat} materials")));
@@ -135,9 +152,6 @@ pub fn trace_light(
     }
     if patches.resolution.len() != mesh.triangles.len() {
         return Err(CoreError::invalid("patches", "one patch resolution per triangle"));
-    }
-    if !(settings.first < settings.end && settings.end <= settings.particles) {
-        return Err(CoreError::invalid("particles", format!("range {}..{} is not within 0..{}", settings.first, settings.end, settings.particles)));
     }
     let power: Vec<f64> = emitters.iter().map(|e| e.flux.iter().sum::<f64>()).collect();
     let choose = Discrete::new(&power).ok_or_else(|| CoreError::invalid("lights", "no light emits any flux"))?;
@@ -160,13 +174,13 @@ pub fn trace_light(
     let surfaces = Surfaces::new(mesh, bvh, mesh.is_closed_convex(), |r| emitters.iter().all(|e| shines_in(r, e)));
     let scene = LightScene { mesh, surfaces, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
     let (tallies, cancelled) = run_chunks(
-        settings.end - settings.first,
+        settings.end_ray - settings.first_ray,
         4096,
         settings.threads,
         Tally::default,
         |tally, range| {
             for i in range {
-                trace_particle(&scene, settings.first + i, tally);
+                trace_particle(&scene, settings.first_ray + i, tally);
             }
         },
         progress,

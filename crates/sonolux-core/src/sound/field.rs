@@ -25,7 +25,7 @@ pub struct Layout {
     pub n_azimuth: usize,
     pub n_elevation: usize,
     pub n_bands: usize,
-    pub sample_rate: f64,
+    pub sample_rate_hz: f64,
     /// Number of one-sample bins at the start.
     pub early_bins: usize,
     /// Width of each later bin in seconds, and how many there are.
@@ -43,7 +43,7 @@ impl Layout {
     }
 
     pub fn early_s(&self) -> f64 {
-        self.early_bins as f64 / self.sample_rate
+        self.early_bins as f64 / self.sample_rate_hz
     }
 
     /// Total duration covered by the bins.
@@ -56,8 +56,8 @@ impl Layout {
         let mut starts = Vec::with_capacity(self.n_time());
         let mut widths = Vec::with_capacity(self.n_time());
         for k in 0..self.early_bins {
-            starts.push(k as f64 / self.sample_rate);
-            widths.push(1.0 / self.sample_rate);
+            starts.push(k as f64 / self.sample_rate_hz);
+            widths.push(1.0 / self.sample_rate_hz);
         }
         for j in 0..self.late_bins {
             starts.push(self.early_s() + j as f64 * self.late_bin_s);
@@ -69,7 +69,7 @@ impl Layout {
     /// The bin of an arrival at time t, if within the covered duration.
     #[inline]
     pub fn time_bin(&self, t: f64) -> Option<usize> {
-        let k = t * self.sample_rate;
+        let k = t * self.sample_rate_hz;
         if k < self.early_bins as f64 {
             return (k >= 0.0).then_some(k as usize);
         }
@@ -269,7 +269,7 @@ mod tests {
     use super::*;
 
     fn layout() -> Layout {
-        Layout { n_receivers: 1, n_azimuth: 8, n_elevation: 3, n_bands: 1, sample_rate: 1000.0, early_bins: 80, late_bin_s: 0.01, late_bins: 10 }
+        Layout { n_receivers: 1, n_azimuth: 8, n_elevation: 3, n_bands: 1, sample_rate_hz: 1000.0, early_bins: 80, late_bin_s: 0.01, late_bins: 10 }
     }
 
     #[test]

@@ -22,7 +22,7 @@ use crate::bvh::Bvh;
 use crate::convex::Surfaces;
 use crate::error::CoreError;
 use crate::mesh::Mesh;
-use crate::parallel::{run_chunks, Progress};
+use crate::parallel::{fill_blocks, run_chunks, Progress};
 pub use field::{Accumulator, Deposits, Layout};
 pub use receivers::Receivers;
 pub use stats::SoundStats;
@@ -82,6 +82,15 @@ impl SpecularCoverage {
     }
 }
 
+/// Most worker threads a run may ask for (0 asks for one per core). More would only cost memory:
+/// each worker keeps its own scratch and statistics.
+pub const MAX_THREADS: usize = 1024;
+
+/// Bytes a bake holds per cell of its field (one receiver, time bin, direction and band) at its
+/// peak: the u64 accumulator, plus the f32 energy and the u64 counts a caller may copy out in the
+/// public order ([`SoundResult::write_public`]).
+pub const FIELD_BYTES_PER_CELL: u64 = 8 + 4 + 8;
+
 /// Everything a sound bake needs besides the scene.
 #[derive(Clone, Debug)]
 pub struct SoundSettings {
@@ -90,58 +99,94 @@ pub struct SoundSettings {
     pub first_ray: u64,
     pub end_ray: u64,
     pub seed: u64,
-    /// Worker threads, 0 = all cores. Does not change the result.
+    /// Worker threads, 0 = all cores, at most [`MAX_THREADS`]. Does not change the result.
     pub threads: usize,
     pub estimator: Estimator,
-    pub speed_of_sound: f64,
+    pub speed_of_sound_m_s: f64,
     /// Energy attenuation of the air per metre, per band (1/m).
-    pub air_attenuation: Vec<f64>,
+    pub air_attenuation_per_m: Vec<f64>,
     pub energy_drop_db: f64,
     pub max_time_s: f64,
-    pub sample_rate: f64,
+    pub sample_rate_hz: f64,
+    /// Length of the part binned at one sample, and the width of the bins after it.
     pub early_s: f64,
     pub late_bin_s: f64,
     pub n_azimuth: usize,
     pub n_elevation: usize,
+    /// The largest field, in bytes ([`FIELD_BYTES_PER_CELL`] a cell), the caller accepts: a bake
+    /// that would need more is refused before anything is allocated.
+    pub max_field_bytes: u64,
 }
 
 impl SoundSettings {
-    pub fn validate(&self, n_bands: usize) -> Result<(), CoreError> {
+    /// Checks the settings against the materials' acoustics and the number of receivers: every
+    /// value in range, the same band count (at least one) in the absorption, the scattering and
+    /// the air, and a field no larger than `max_field_bytes`. Called once, by [`trace_sound`].
+    pub fn validate(&self, acoustics: &Acoustics, n_receivers: usize) -> Result<(), CoreError> {
         let bad = |what: &str, problem: String| Err(CoreError::invalid(what, problem));
+        let nb = acoustics.n_bands;
+        if nb == 0 {
+            return bad("bands", "at least one frequency band is needed".into());
+        }
+        if acoustics.absorption.len() % nb != 0 || acoustics.scattering.len() != acoustics.absorption.len() {
+            return bad("materials", format!("absorption ({} values) and scattering ({} values) must both hold {nb} bands per material", acoustics.absorption.len(), acoustics.scattering.len()));
+        }
+        if acoustics.absorption.iter().chain(&acoustics.scattering).any(|a| !(0.0..=1.0).contains(a)) {
+            return bad("materials", "absorption and scattering must lie in [0, 1]".into());
+        }
+        if self.air_attenuation_per_m.len() != nb || self.air_attenuation_per_m.iter().any(|m| !(*m >= 0.0 && m.is_finite())) {
+            return bad("air_attenuation_per_m", format!("needs {nb} finite values ≥ 0, one per band (got {})", self.air_attenuation_per_m.len()));
+        }
         if self.rays == 0 {
             return bad("rays", "must be at least 1".into());
         }
         if !(self.first_ray < self.end_ray && self.end_ray <= self.rays) {
-            return bad("ray range", format!("{}..{} is not a non-empty part of 0..{}", self.first_ray, self.end_ray, self.rays));
+            return bad("first_ray..end_ray", format!("{}..{} is not a non-empty part of 0..{}", self.first_ray, self.end_ray, self.rays));
         }
-        if !(self.speed_of_sound > 0.0) || !(self.sample_rate > 0.0) || !(self.late_bin_s > 0.0) || !(self.early_s >= 0.0) {
-            return bad("settings", "speed of sound, sample rate and bin widths must be positive".into());
+        if self.threads > MAX_THREADS {
+            return bad("threads", format!("{} is more than {MAX_THREADS} (0 uses every core)", self.threads));
         }
-        if !(self.max_time_s > 0.0 && self.max_time_s.is_finite()) {
-            return bad("max_time_s", format!("{} is not a positive time", self.max_time_s));
+        for (name, v) in [("speed_of_sound_m_s", self.speed_of_sound_m_s), ("sample_rate_hz", self.sample_rate_hz), ("late_bin_s", self.late_bin_s), ("max_time_s", self.max_time_s), ("energy_drop_db", self.energy_drop_db)] {
+            if !(v > 0.0 && v.is_finite()) {
+                return bad(name, format!("{v} is not a positive finite number"));
+            }
         }
-        if !(self.energy_drop_db > 0.0) {
-            return bad("energy_drop_db", format!("{} must be positive", self.energy_drop_db));
-        }
-        if self.air_attenuation.len() != n_bands || self.air_attenuation.iter().any(|m| !(*m >= 0.0)) {
-            return bad("air_attenuation", format!("needs {n_bands} values ≥ 0"));
+        if !(self.early_s >= 0.0 && self.early_s.is_finite()) {
+            return bad("early_s", format!("{} is not a finite time ≥ 0", self.early_s));
         }
         if self.n_azimuth == 0 || self.n_elevation == 0 {
-            return bad("directions", "at least one azimuth and one elevation band".into());
+            return bad("directions", format!("{} azimuth × {} elevation bands: at least one of each", self.n_azimuth, self.n_elevation));
+        }
+        // The field's size, estimated in floating point before any integer could overflow.
+        let early_bins = (self.early_s * self.sample_rate_hz).round();
+        let late_bins = ((self.max_time_s - early_bins / self.sample_rate_hz).max(0.0) / self.late_bin_s).ceil();
+        let cells = n_receivers as f64 * self.n_azimuth as f64 * self.n_elevation as f64 * nb as f64 * (early_bins + late_bins);
+        let bytes = cells * FIELD_BYTES_PER_CELL as f64;
+        if !(bytes <= self.max_field_bytes as f64) {
+            return bad(
+                "max_time_s",
+                format!(
+                    "the field would take {bytes:.3e} bytes ({n_receivers} receivers × {} directions × {nb} bands × {} time bins × {FIELD_BYTES_PER_CELL} bytes), more than the limit of {:.3e}: shorten max_time_s or early_s, widen late_bin_s, or use fewer receivers or directions",
+                    self.n_azimuth * self.n_elevation,
+                    early_bins + late_bins,
+                    self.max_field_bytes as f64
+                ),
+            );
         }
         Ok(())
     }
 
+    /// The field's layout; call [`SoundSettings::validate`] first.
     pub fn layout(&self, n_receivers: usize, n_bands: usize) -> Layout {
-        let early_bins = (self.early_s * self.sample_rate).round() as usize;
-        let early = early_bins as f64 / self.sample_rate;
+        let early_bins = (self.early_s * self.sample_rate_hz).round() as usize;
+        let early = early_bins as f64 / self.sample_rate_hz;
         let late_bins = ((self.max_time_s - early).max(0.0) / self.late_bin_s).ceil() as usize;
         Layout {
             n_receivers,
             n_azimuth: self.n_azimuth,
             n_elevation: self.n_elevation,
             n_bands,
-            sample_rate: self.sample_rate,
+            sample_rate_hz: self.sample_rate_hz,
             early_bins,
             late_bin_s: self.late_bin_s,
             late_bins,
@@ -170,6 +215,44 @@ impl SoundResult {
         self.stats.merge(&other.stats);
         self.cancelled |= other.cancelled;
         Ok(())
+    }
+
+    /// Writes the field in the public order, `[receiver][direction][band][time]` (the order of
+    /// the field file and of every array sonolux hands out), each count through `convert`, on
+    /// `threads` workers (0 = all cores): one receiver's block a task. The accumulator keeps its
+    /// own time-major order while tracing (see [`Layout::index`]).
+    pub fn write_public<T: Send>(&self, out: &mut [T], threads: usize, convert: impl Fn(u64) -> T + Sync) -> Result<(), CoreError> {
+        let l = &self.layout;
+        if out.len() != l.len() {
+            return Err(CoreError::invalid("out", format!("{} values for a field of {}", out.len(), l.len())));
+        }
+        let (nt, nd, nb) = (l.n_time(), l.n_directions(), l.n_bands);
+        fill_blocks(out, nd * nb * nt, threads, |r, block| {
+            for t in 0..nt {
+                for d in 0..nd {
+                    let base = l.index(r, t, d);
+                    for b in 0..nb {
+                        block[(d * nb + b) * nt + t] = convert(self.field.get(base + b));
+                    }
+                }
+            }
+        });
+        Ok(())
+    }
+
+    /// The energies in J/m², float32 in the public order (see [`SoundResult::write_public`]).
+    pub fn energy(&self, threads: usize) -> Vec<f32> {
+        let q = self.field.quantum;
+        let mut out = vec![0f32; self.layout.len()];
+        self.write_public(&mut out, threads, |c| (c as f64 * q) as f32).expect("sized to the layout");
+        out
+    }
+
+    /// The exact fixed-point counts (energy = count × quantum) in the public order.
+    pub fn counts(&self, threads: usize) -> Vec<u64> {
+        let mut out = vec![0u64; self.layout.len()];
+        self.write_public(&mut out, threads, |c| c).expect("sized to the layout");
+        out
     }
 }
 
@@ -240,24 +323,29 @@ pub fn trace_sound_hybrid(
         }
     }
     let nb = acoustics.n_bands;
-    settings.validate(nb)?;
+    settings.validate(acoustics, receivers.len())?;
     let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
-    if acoustics.absorption.len() != n_mat * nb || acoustics.scattering.len() != n_mat * nb {
-        return Err(CoreError::invalid("materials", format!("need {n_mat} materials × {nb} bands of absorption and scattering")));
-    }
-    if acoustics.absorption.iter().chain(&acoustics.scattering).any(|a| !(0.0..=1.0).contains(a)) {
-        return Err(CoreError::invalid("materials", "absorption and scattering must lie in [0, 1]"));
+    if acoustics.absorption.len() != n_mat * nb {
+        return Err(CoreError::invalid("materials", format!("the mesh uses {n_mat} materials: {} values of absorption and scattering are needed ({nb} bands each), got {}", n_mat * nb, acoustics.absorption.len())));
     }
     if sources.is_empty() {
         return Err(CoreError::invalid("sources", "a sound bake needs at least one source"));
     }
     for (i, s) in sources.iter().enumerate() {
-        if !s.position.is_finite() || !(s.power_w > 0.0) {
+        if !s.position.is_finite() || !(s.power_w > 0.0 && s.power_w.is_finite()) {
             return Err(CoreError::invalid("sources", format!("source {i}: position must be finite and power positive")));
         }
+        if let Directivity::Cone { axis, cos_half_angle } = s.directivity {
+            if !(axis.is_finite() && (axis.length() - 1.0).abs() < 1e-6) || !(-1.0..1.0).contains(&cos_half_angle) {
+                return Err(CoreError::invalid("sources", format!("source {i}: a cone needs a unit axis and a half-angle in (0°, 180°]")));
+            }
+        }
     }
-    if !(receivers.radius > 0.0) {
-        return Err(CoreError::invalid("receivers", "radius must be positive"));
+    if !(receivers.radius_m > 0.0 && receivers.radius_m.is_finite()) {
+        return Err(CoreError::invalid("receivers", format!("radius_m = {} is not a positive length", receivers.radius_m)));
+    }
+    if receivers.centres.iter().any(|c| !c.is_finite()) {
+        return Err(CoreError::invalid("receivers", "every position must be finite"));
     }
     let layout = settings.layout(receivers.len(), nb);
     let convex = mesh.is_closed_convex();
@@ -272,33 +360,33 @@ pub fn trace_sound_hybrid(
         layout: layout.clone(),
         convex,
         surfaces: Surfaces::new(mesh, bvh, convex, |r| sources.iter().all(|s| r.contains(s.position))),
-        air: settings.air_attenuation.iter().any(|&a| a > 0.0),
+        air: settings.air_attenuation_per_m.iter().any(|&a| a > 0.0),
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
         covered,
     };
-    let quantum = trace::quantum(sources, receivers.radius);
+    let quantum = trace::quantum(sources, receivers.radius_m);
     let n = settings.end_ray - settings.first_ray;
     let field = Accumulator::new(layout.len(), quantum);
     let (workers, cancelled) = run_chunks(
         n,
         chunk_size(settings.estimator, receivers.len()),
         settings.threads,
-        || (SoundStats::new(nb), vec![0u64; receivers.len()], Deposits::new()),
-        |(stats, stamp, deposits), range| {
+        || trace::Worker::new(nb, receivers.len()),
+        |worker, range| {
             for s in 0..sources.len() {
                 for i in range.clone() {
-                    trace::trace_ray(&scene, s, settings.first_ray + i, &field, deposits, stats, stamp);
+                    trace::trace_ray(&scene, s, settings.first_ray + i, &field, worker);
                 }
             }
-            field.flush(deposits);
+            field.flush(&mut worker.deposits);
         },
         progress,
     );
     let mut stats = SoundStats::new(nb);
-    for (s, _, _) in &workers {
-        stats.merge(s);
+    for w in &workers {
+        stats.merge(&w.stats);
     }
     if settings.estimator == Estimator::Rain && settings.first_ray == 0 {
         trace::direct_sound(&scene, &field);

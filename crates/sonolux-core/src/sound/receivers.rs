@@ -8,7 +8,7 @@ use glam::DVec3;
 #[derive(Clone, Debug)]
 pub struct Receivers {
     pub centres: Vec<DVec3>,
-    pub radius: f64,
+    pub radius_m: f64,
     /// The grid's box, and the size of its cells along each axis.
     lo: DVec3,
     hi: DVec3,
@@ -32,25 +32,25 @@ pub struct Crossing {
 }
 
 impl Receivers {
-    pub fn new(centres: Vec<DVec3>, radius: f64) -> Receivers {
+    pub fn new(centres: Vec<DVec3>, radius_m: f64) -> Receivers {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for c in &centres {
-            lo = lo.min(*c - radius);
-            hi = hi.max(*c + radius);
+            lo = lo.min(*c - radius_m);
+            hi = hi.max(*c + radius_m);
         }
         if centres.is_empty() {
             lo = DVec3::ZERO;
             hi = DVec3::ONE;
         }
-        let (lo, cell, dims) = match floor_plan_lattice(&centres, radius) {
+        let (lo, cell, dims) = match floor_plan_lattice(&centres, radius_m) {
             // The paper's grid: one cell per receiver, each sphere inside its own cell.
             Some(lattice) => lattice,
             None => {
                 let extent = (hi - lo).max(DVec3::splat(1e-9));
                 // About one receiver a cell, never cells smaller than a sphere.
                 let volume = extent.x * extent.y * extent.z;
-                let cell = (volume / centres.len().max(1) as f64).cbrt().max(2.0 * radius);
+                let cell = (volume / centres.len().max(1) as f64).cbrt().max(2.0 * radius_m);
                 let dims = [
                     ((extent.x / cell).ceil() as usize).clamp(1, 1024),
                     ((extent.y / cell).ceil() as usize).clamp(1, 1024),
@@ -63,8 +63,8 @@ impl Receivers {
         let n_cells = dims[0] * dims[1] * dims[2];
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_cells];
         for (k, c) in centres.iter().enumerate() {
-            let a = ((*c - radius - lo) / cell).floor().max(DVec3::ZERO);
-            let b = ((*c + radius - lo) / cell).floor();
+            let a = ((*c - radius_m - lo) / cell).floor().max(DVec3::ZERO);
+            let b = ((*c + radius_m - lo) / cell).floor();
             for z in a.z as usize..=(b.z as usize).min(dims[2] - 1) {
                 for y in a.y as usize..=(b.y as usize).min(dims[1] - 1) {
                     for x in a.x as usize..=(b.x as usize).min(dims[0] - 1) {
@@ -81,7 +81,7 @@ impl Receivers {
             cells.push(items.len() as u32);
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
-        Receivers { centres, radius, lo, hi, cell, dims, cells, items }
+        Receivers { centres, radius_m, lo, hi, cell, dims, cells, items }
     }
 
     /// Receivers per cell of the search grid, at most (1 on a floor-plan lattice).
@@ -140,7 +140,7 @@ impl Receivers {
                 t_delta[a] = -self.cell[a] / dir[a];
             }
         }
-        let r2 = self.radius * self.radius;
+        let r2 = self.radius_m * self.radius_m;
         loop {
             let c = ((idx[2] as usize * self.dims[1]) + idx[1] as usize) * self.dims[0] + idx[0] as usize;
             for &k in &self.items[self.cells[c] as usize..self.cells[c + 1] as usize] {

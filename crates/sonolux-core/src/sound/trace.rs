@@ -12,8 +12,6 @@ use crate::geometry::Ray;
 use crate::rng::Stream;
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
-/// Bands a ray can carry without allocating.
-const MAX_BANDS: usize = 16;
 /// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
 const MAX_REFLECTIONS: u64 = 1_000_000;
 
@@ -27,6 +25,33 @@ pub(crate) fn quantum(sources: &[SoundSource], radius: f64) -> f64 {
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
 
+/// What one worker thread owns while it traces: its statistics, its batch of deposits and the
+/// scratch of a ray, sized once for the bake's bands and receivers (no allocation per ray).
+pub(crate) struct Worker {
+    pub stats: SoundStats,
+    pub deposits: Deposits,
+    /// One entry a receiver, for [`super::Receivers::crossings`].
+    stamp: Vec<u64>,
+    /// Per band: the ray's energy relative to its share, and a deposit being built.
+    energy: Vec<f64>,
+    deposit: Vec<f64>,
+    /// Per kind of tally and band, `[kind * bands + band]`: the ray's energy balance.
+    tally: Vec<f64>,
+}
+
+impl Worker {
+    pub fn new(n_bands: usize, n_receivers: usize) -> Worker {
+        Worker {
+            stats: SoundStats::new(n_bands),
+            deposits: Deposits::new(),
+            stamp: vec![0; n_receivers],
+            energy: vec![0.0; n_bands],
+            deposit: vec![0.0; n_bands],
+            tally: vec![0.0; stats::KINDS * n_bands],
+        }
+    }
+}
+
 /// The first direction of ray `index`, and the ray's share of the source's energy.
 fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
     let dir = match source.directivity {
@@ -36,21 +61,23 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
     (dir, source.power_w / rays as f64)
 }
 
-/// Traces ray `index` of source `s` to its end, depositing into `acc` and tallying `st`.
-/// `stamp` is the worker's scratch for [`super::Receivers::crossings`], one entry a receiver;
-/// `buf` its batch of deposits (flushed by the caller).
-pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, stamp: &mut [u64]) {
+/// Traces ray `index` of source `s` to its end, depositing into `acc` (through the worker's
+/// batch, flushed by the caller) and tallying into the worker's statistics.
+pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, w: &mut Worker) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
-    let air = &set.air_attenuation[..nb];
+    let air = &set.air_attenuation_per_m[..nb];
+    let Worker { stats: st, deposits: buf, stamp, energy, deposit, tally } = w;
     let mut rng = Stream::new(set.seed, s as u64, index);
     let (mut dir, share) = emit(&scene.sources[s], set.rays, &mut rng);
     let mut pos = scene.sources[s].position;
     // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
-    let mut e = [1.0f64; MAX_BANDS];
+    let e = &mut energy[..nb];
+    e.fill(1.0);
+    let deposit = &mut deposit[..nb];
     let floor = 10f64.powf(-set.energy_drop_db / 10.0);
-    let max_path = set.max_time_s * set.speed_of_sound;
+    let max_path = set.max_time_s * set.speed_of_sound_m_s;
     let mut path = 0.0f64;
     // Distance travelled since the last diffuse reflection (or the source): the radius of the
     // wavefront the ray belongs to, whose centre is the (image) source it comes from.
@@ -63,16 +90,15 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     let mut spheres = set.estimator == Estimator::Paper;
     // Whether every reflection so far was specular: such segments may be the image sources'.
     let mut specular_only = true;
-    let radius = scene.receivers.radius;
+    let radius = scene.receivers.radius_m;
     let sphere_volume = 4.0 / 3.0 * PI * radius.powi(3);
-    let mut deposit = [0.0f64; MAX_BANDS];
     // This ray's energy tallies (in units of its share), summed here and added to the
     // fixed-point statistics once at the end: per segment that conversion would cost more than
     // the tracing.
-    let mut tally = [[0.0f64; MAX_BANDS]; stats::KINDS];
-    tally[stats::EMITTED][..nb].fill(1.0);
+    let tally = &mut tally[..stats::KINDS * nb];
+    tally.fill(0.0);
+    tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].fill(1.0);
     st.rays += 1;
-
     loop {
         // Find the nearest surface along the ray.
         let hit = scene.surfaces.nearest(pos, dir);
@@ -86,7 +112,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
                 // The wavefront reaches the sphere's centre at its distance from the image
                 // source, not where this ray passes nearest: exact times for specular paths.
                 let to_centre = ((wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - wave_radius;
-                let time_s = (path + to_centre) / set.speed_of_sound;
+                let time_s = (path + to_centre) / set.speed_of_sound_m_s;
                 if specular_only && scene.covered.is_some_and(|c| c.covers(reflections, time_s)) {
                     return;
                 }
@@ -110,7 +136,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         let Some((length, tri, mut normal)) = hit else {
             // The ray left the scene: a leak, unless the scene is open on purpose.
             for b in 0..nb {
-                tally[stats::ESCAPED][b] += e[b];
+                tally[stats::ESCAPED * nb + b] += e[b];
             }
             st.add_escape(Escape { source: s as u32, ray: index, from: pos.to_array(), dir: dir.to_array() });
             break;
@@ -120,7 +146,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         if scene.air {
             for b in 0..nb {
                 let kept = e[b] * (-air[b] * length).exp();
-                tally[stats::ABSORBED_AIR][b] += e[b] - kept;
+                tally[stats::ABSORBED_AIR * nb + b] += e[b] - kept;
                 e[b] = kept;
             }
         }
@@ -133,7 +159,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         wave_radius += length;
         if path > max_path || reflections >= MAX_REFLECTIONS {
             for b in 0..nb {
-                tally[stats::REMAINING][b] += e[b];
+                tally[stats::REMAINING * nb + b] += e[b];
             }
             break;
         }
@@ -149,13 +175,13 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         let alpha = &scene.acoustics.absorption[m..m + nb];
         let scat = &scene.acoustics.scattering[m..m + nb];
         for b in 0..nb {
-            tally[stats::ABSORBED_SURFACES][b] += e[b] * alpha[b];
+            tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
             e[b] *= 1.0 - alpha[b];
         }
 
         // Rain: send the diffusely reflected energy to every receiver that sees this point.
         if set.estimator == Estimator::Rain {
-            rain(scene, point, normal, path, &e[..nb], scat, share, acc, buf, st, &mut rng);
+            rain(scene, point, normal, path, e, scat, share, acc, buf, st, &mut rng, deposit);
         }
 
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
@@ -166,7 +192,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
                 let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
                 let before = e[b];
                 e[b] *= w;
-                tally[stats::REWEIGHTED][b] += e[b] - before;
+                tally[stats::REWEIGHTED * nb + b] += e[b] - before;
             }
         }
         if diffuse {
@@ -182,7 +208,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 
         if e[..nb].iter().all(|&x| x < floor) {
             for b in 0..nb {
-                tally[stats::REMAINING][b] += e[b];
+                tally[stats::REMAINING * nb + b] += e[b];
             }
             break;
         }
@@ -190,7 +216,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     st.surface_hits += reflections;
     st.max_reflections = st.max_reflections.max(reflections);
     st.add_free_paths(free_n, free_sum, free_sq);
-    for (kind, t) in tally.iter().enumerate() {
+    for (kind, t) in tally.chunks(nb).enumerate() {
         for b in 0..nb {
             st.add_energy(kind, b, t[b] * share);
         }
@@ -202,11 +228,11 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 /// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
 /// [`ball_mean_inverse_square`], and attenuated by the air on the way.
 #[allow(clippy::too_many_arguments)]
-fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, rng: &mut Stream) {
+/// `deposit` is the worker's scratch of one value a band.
+fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, rng: &mut Stream, deposit: &mut [f64]) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = e.len();
-    let mut deposit = [0.0f64; MAX_BANDS];
     let from = point + normal * scene.epsilon;
     for (r, c) in scene.receivers.centres.iter().enumerate() {
         let to = *c - point;
@@ -215,16 +241,16 @@ fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: 
         if !(cos > 0.0) {
             continue;
         }
-        let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound) else { continue };
+        let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { continue };
         if !scene.convex {
             let ray = Ray::new(from.as_vec3(), (*c - from).as_vec3());
             if scene.bvh.occluded(&ray, 0.0, 1.0) {
                 continue;
             }
         }
-        let weight = share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius);
+        let weight = share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius_m);
         for b in 0..nb {
-            deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation[b] * d).exp();
+            deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation_per_m[b] * d).exp();
         }
         acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], rng);
         st.deposits += 1;
@@ -238,8 +264,8 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
-    let radius = scene.receivers.radius;
-    let mut deposit = [0.0f64; MAX_BANDS];
+    let radius = scene.receivers.radius_m;
+    let mut deposit = vec![0.0f64; nb];
     let mut buf = Deposits::new();
     for (s, src) in scene.sources.iter().enumerate() {
         for (r, c) in scene.receivers.centres.iter().enumerate() {
@@ -261,15 +287,15 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
                     continue;
                 }
             }
-            if scene.covered.is_some_and(|c| c.covers(0, d / set.speed_of_sound)) {
+            if scene.covered.is_some_and(|c| c.covers(0, d / set.speed_of_sound_m_s)) {
                 continue;
             }
-            let Some(tb) = lay.time_bin(d / set.speed_of_sound) else { continue };
+            let Some(tb) = lay.time_bin(d / set.speed_of_sound_m_s) else { continue };
             let energy = src.power_w * gain * ball_mean_inverse_square(d, radius);
             let directions: Vec<usize> = if d > radius { vec![lay.direction_bin(-to / d)] } else { (0..lay.n_directions()).collect() };
             let split = directions.len() as f64;
             for b in 0..nb {
-                deposit[b] = energy * (-set.air_attenuation[b] * d).exp() / split;
+                deposit[b] = energy * (-set.air_attenuation_per_m[b] * d).exp() / split;
             }
             for dir in directions {
                 acc.deposit(&mut buf, lay.index(r, tb, dir), &deposit[..nb], &mut rng);

@@ -1,10 +1,11 @@
-"""``sonolux check``: what a scene contains and what theory expects of it, before any tracing.
+"""What a scene contains and what theory expects of it, before any tracing (``sonolux check``).
 
 :func:`summarize` turns a loaded :class:`~sonolux.scene.Scene` into a plain dict (the
-``--json`` output); :func:`format_summary` renders that dict for people. Reverberation times
-are Sabine's and Eyring's, per simulated band, including the absorption of the scene's air
-(ISO 9613-1 at the scene's temperature, humidity and pressure). A time that is infinite
-(nothing absorbs) is ``None`` in the dict (``null`` in JSON).
+``--json`` output); :func:`format_summary` renders that dict for people. :func:`theory` is the
+part a bake stores in its field file for the analysis: reverberation times of Sabine and
+Eyring per simulated band, including the absorption of the scene's air (ISO 9613-1 at the
+scene's temperature, humidity and pressure). A time that is infinite (nothing absorbs) is
+``None`` in the dict (``null`` in JSON).
 """
 
 from __future__ import annotations
@@ -28,8 +29,11 @@ def _round(v: np.ndarray | float, digits: int = 9) -> Any:
     return round(float(v), digits)
 
 
-def summarize(scene: Scene) -> dict[str, Any]:
-    """The check's content as a JSON-ready dict (see the module docstring)."""
+def theory(scene: Scene) -> dict[str, Any]:
+    """The room's measures and the reverberation that theory expects, per simulated band:
+    volume_m3, area_m2, mean_free_path_m (4V/S, None without surfaces), bands_hz,
+    mean_absorption, air_attenuation_per_m, speed_of_sound_m_s, sabine_t60_s and eyring_t60_s
+    (None where infinite). JSON-ready; the bake writes it into the field file."""
     settings, air = scene.settings, scene.settings.air
     volume_m3, area_m2 = scene.volume_m3, scene.area_m2
     by_material = scene.area_by_material_m2()
@@ -43,27 +47,43 @@ def summarize(scene: Scene) -> dict[str, Any]:
     m_air = np.asarray(air_energy_attenuation_per_m(freq_hz, air.temperature_c,
                                                     air.humidity_percent, air.pressure_kpa))
     c = settings.speed_of_sound_m_s
-    sabine = sabine_t60(volume_m3, absorption_area, m_air, c)
-    eyring = eyring_t60(volume_m3, area_m2, mean_absorption, m_air, c)
+    return {
+        "volume_m3": volume_m3,
+        "area_m2": area_m2,
+        "mean_free_path_m": 4.0 * volume_m3 / area_m2 if area_m2 > 0 else None,
+        "bands_hz": list(settings.bands_hz),
+        "mean_absorption": _round(mean_absorption),
+        "air_attenuation_per_m": _round(m_air, 12),
+        "speed_of_sound_m_s": c,
+        "sabine_t60_s": _finite_or_none(sabine_t60(volume_m3, absorption_area, m_air, c)),
+        "eyring_t60_s": _finite_or_none(eyring_t60(volume_m3, area_m2, mean_absorption, m_air, c)),
+    }
+
+
+def summarize(scene: Scene) -> dict[str, Any]:
+    """The check's content as a JSON-ready dict (see the module docstring)."""
+    air = scene.settings.air
+    expected = theory(scene)
     r = scene.receivers
     report = scene.mesh_report
     return {
         "name": scene.name,
         "origin": scene.origin,
         "triangles": int(scene.triangles.shape[0]),
-        "volume_m3": volume_m3,
-        "area_m2": area_m2,
-        "area_by_material_m2": by_material,
-        "mean_free_path_m": 4.0 * volume_m3 / area_m2 if area_m2 > 0 else None,
+        "volume_m3": expected["volume_m3"],
+        "area_m2": expected["area_m2"],
+        "area_by_material_m2": scene.area_by_material_m2(),
+        "mean_free_path_m": expected["mean_free_path_m"],
         "bbox_min_m": report["bbox_min"].tolist(),
         "bbox_max_m": report["bbox_max"].tolist(),
-        "bands_hz": list(settings.bands_hz),
-        "mean_absorption": _round(mean_absorption),
-        "sabine_t60_s": _finite_or_none(sabine),
-        "eyring_t60_s": _finite_or_none(eyring),
+        "bands_hz": expected["bands_hz"],
+        "mean_absorption": expected["mean_absorption"],
+        "sabine_t60_s": expected["sabine_t60_s"],
+        "eyring_t60_s": expected["eyring_t60_s"],
         "air": {"temperature_c": air.temperature_c, "humidity_percent": air.humidity_percent,
-                "pressure_kpa": air.pressure_kpa, "speed_of_sound_m_s": c,
-                "attenuation_per_m": _round(m_air, 12),
+                "pressure_kpa": air.pressure_kpa,
+                "speed_of_sound_m_s": expected["speed_of_sound_m_s"],
+                "attenuation_per_m": expected["air_attenuation_per_m"],
                 "included_in_t60": True},
         "receivers": {"kind": r.kind, "kept": r.count, "candidates": r.candidates,
                       "dropped_outside": r.dropped_outside,

@@ -27,7 +27,7 @@ from sonolux.scene.schema import LIBRARY_BANDS_HZ, Context, Material, Table
 SCHEMA = "sonolux-materials/1"
 
 #: Where the shipped library lives.
-DEFAULT_PATH = Path(__file__).resolve().parent / "data" / "materials.json"
+DEFAULT_PATH = Path(__file__).resolve().parent.parent / "data" / "materials.json"
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,8 +1,5 @@
-"""The measuring commands of the ``sonolux`` command line: ``params`` and ``report``.
-
-:func:`add_commands` adds them to the parser of :mod:`sonolux.cli`; errors are
-:class:`~sonolux.errors.SonoluxError` and reach the user as ``sonolux: error: ...``.
-"""
+"""The measuring commands: ``params`` (ISO 3382-1 parameters of a sound field) and ``report``
+(a static HTML report of one or more fields)."""
 
 from __future__ import annotations
 
@@ -11,11 +8,13 @@ import json
 import sys
 from pathlib import Path
 
+from sonolux.cli import args as parse
+
 
 def cmd_params(args: argparse.Namespace) -> int:
     from sonolux.analysis.params import room_parameters
     from sonolux.analysis.tables import format_cell, format_grid, to_json
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import open_field
 
     field = open_field(args.field)
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"
@@ -46,15 +45,15 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_commands(sub, xy) -> None:
-    """Adds ``params`` and ``report`` to the subparsers ``sub``; ``xy`` parses X,Y."""
+def add_commands(sub) -> None:
+    """Adds ``params`` and ``report`` to the subcommand table ``sub``."""
     params = sub.add_parser(
         "params", help="ISO 3382-1 room-acoustic parameters of a sound field",
         description="EDT, T20, T30, C50, C80, D50, Ts, G and the early lateral energy fraction "
                     "(JLF, JLFC) per band and broadband, beside Sabine and Eyring: over the "
                     "whole grid (mean, min, max), or for the cell at X,Y with its directions.")
     params.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
-    params.add_argument("--at", type=xy, default=None, metavar="X,Y",
+    params.add_argument("--at", type=parse.xy, default=None, metavar="X,Y",
                         help="one cell (position in metres) instead of the whole grid")
     params.add_argument("--json", action="store_true", help="print machine-readable JSON")
     params.set_defaults(func=cmd_params)
@@ -66,14 +65,13 @@ def add_commands(sub, xy) -> None:
                     "responses, decay curves, parameter maps, the light view and audio.")
     report.add_argument("fields", metavar="FIELD", nargs="+", help="field files (.h5)")
     report.add_argument("-o", "--output", required=True, help="the report folder to write")
-    report.add_argument("--at", type=xy, default=None, metavar="X,Y",
+    report.add_argument("--at", type=parse.xy, default=None, metavar="X,Y",
                         help="the cell whose responses are shown (default: the source's cell)")
     report.add_argument("--light-image", action="append", default=[], metavar="PNG",
                         help="a rendered view to show (one per field, in order)")
     report.add_argument("--audio", action="append", default=[], metavar="WAV",
                         help="an auralization to offer as an audio player (repeatable)")
     report.add_argument("--auralize", action="store_true",
-                        help="auralize a built-in dry signal at the cell (binaural, cube8) if "
-                             "sonolux.auralize is available")
+                        help="auralize a built-in dry signal at the cell (binaural, cube8)")
     report.add_argument("--title", default=None, help="the page's title")
     report.set_defaults(func=cmd_report)

@@ -1,36 +1,23 @@
-"""The ``sonolux`` command line.
+"""The scene and field commands: ``check``, ``bake``, ``info``, ``ir`` and ``experiment``.
 
-Subcommands (more join the same table; the light's ``render`` and ``export`` live in
-:mod:`sonolux.light.commands`):
-
-- ``sonolux check SCENE [--json]``: load a scene (a .toml file or a built-in name), check it
-  and print what it contains and the reverberation times theory predicts.
-
-No traceback reaches the user: a :class:`~sonolux.errors.SonoluxError` is printed as
-``sonolux: error: <message>`` with exit status 2; Ctrl-C exits with 130; anything else is a
-bug of sonolux and is reported as one (set ``SONOLUX_DEBUG=1`` to see the traceback).
+Each is a thin shell: it parses, calls the library (:mod:`sonolux.scene`,
+:mod:`sonolux.multisensory`, :mod:`sonolux.fieldfile`, :mod:`sonolux.experiment`) and prints.
+Library modules are imported inside the commands so that ``sonolux --help`` stays fast.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-from collections.abc import Callable, Sequence
 
-from sonolux import __version__
-from sonolux.errors import SonoluxError
-
-EXIT_USAGE = 2  # argparse's status for a bad command line, and ours for a bad scene
-EXIT_BUG = 1
-EXIT_INTERRUPTED = 130
+from sonolux.cli import args as parse
 
 
 def cmd_check(args: argparse.Namespace) -> int:
     # Imported here, not at the top, so that `sonolux --help` stays fast.
-    from sonolux.check import format_summary, summarize
     from sonolux.scene import load_scene
+    from sonolux.scene.summary import format_summary, summarize
 
     summary = summarize(load_scene(args.scene))
     if args.json:
@@ -38,34 +25,6 @@ def cmd_check(args: argparse.Namespace) -> int:
     else:
         print(format_summary(summary))
     return 0
-
-
-def _xy(text: str) -> tuple[float, float]:
-    try:
-        x, y = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y in metres (e.g. 3,1.25)") from None
-    return x, y
-
-
-def _rays(text: str) -> int | str:
-    if text == "auto":
-        return text
-    try:
-        n = int(float(text))
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a ray count ≥ 1 or 'auto'")
-    return n
-
-
-def _range(text: str) -> tuple[int, int]:
-    try:
-        a, b = (int(v) for v in text.split(":"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not FIRST:END (e.g. 0:500000)") from None
-    return a, b
 
 
 def cmd_bake(args: argparse.Namespace) -> int:
@@ -130,7 +89,7 @@ def cmd_ir(args: argparse.Namespace) -> int:
     import numpy as np
 
     from sonolux.audio import write_wav
-    from sonolux.sound.fieldfile import open_field
+    from sonolux.fieldfile import open_field
 
     field = open_field(args.field)
     r = field.cell_at(*args.at)
@@ -178,13 +137,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="sonolux",
-        description="One particle tracer for light and sound: see and hear a virtual space.")
-    parser.add_argument("--version", action="version", version=f"sonolux {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    sub.required = True
+def add_commands(sub) -> None:
+    """Adds check, bake, info, ir and experiment to the subcommand table ``sub``."""
     check = sub.add_parser(
         "check", help="load a scene and report its geometry, materials and expected T60",
         description="Load a scene, report what it contains (triangles, materials and their "
@@ -203,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "from every light into the flux on every surface patch. Saved as HDF5.")
     bake.add_argument("scene", metavar="SCENE", help="a scene file (.toml) or a built-in name")
     bake.add_argument("-o", "--output", required=True, help="the field file to write (.h5)")
-    bake.add_argument("--rays", type=_rays, default="auto",
+    bake.add_argument("--rays", type=parse.rays, default="auto",
                       help="rays per source, or 'auto' (printed with the reason); default auto")
     bake.add_argument("--estimator", choices=("paper", "rain"), default="paper",
                       help="paper: sphere receivers, as the paper (default, measured faster to "
@@ -212,13 +166,13 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--azimuth-bands", type=int, default=8, help="azimuth sectors (default 8)")
     bake.add_argument("--elevation-bands", type=int, default=1,
                       help="elevation bands of equal solid angle (1, or 3 = below/level/above)")
-    bake.add_argument("--range", type=_range, default=None, metavar="FIRST:END",
+    bake.add_argument("--range", type=parse.ray_range, default=None, metavar="FIRST:END",
                       help="trace only rays FIRST..END of the bake (ranges merge exactly)")
     bake.add_argument("--sound", action=argparse.BooleanOptionalAction, default=None,
                       help="trace sound (default: when the scene has a source and receivers)")
     bake.add_argument("--light", action=argparse.BooleanOptionalAction, default=None,
                       help="trace light (default: when the scene has a light)")
-    bake.add_argument("--particles", type=_rays, default="auto",
+    bake.add_argument("--particles", type=parse.rays, default="auto",
                       help="light particles, or 'auto' (printed with the reason); default auto")
     bake.add_argument("--patch-size", type=float, default=0.25, metavar="M",
                       help="size of the light's surface patches in metres (default 0.25)")
@@ -237,7 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "(one direction, or all directions summed) as a 32-bit "
                                     "float WAV file.")
     ir.add_argument("field", metavar="FIELD")
-    ir.add_argument("--at", type=_xy, required=True, metavar="X,Y", help="position in metres")
+    ir.add_argument("--at", type=parse.xy, required=True, metavar="X,Y", help="position in metres")
     ir.add_argument("--direction", default="all",
                     help="a direction name (front, left, right, back, ...) or 'all' (default)")
     ir.add_argument("--seed", type=int, default=0, help="seed of the synthesized phases")
@@ -254,56 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "cell beside Sabine and Eyring and the ratios between rooms, "
                                      "and write figure 7 and the impulse responses.")
     exp.add_argument("-o", "--output", default="out/experiment", help="output folder")
-    exp.add_argument("--rays", type=_rays, default="auto", help="rays per source (default auto)")
+    exp.add_argument("--rays", type=parse.rays, default="auto", help="rays per source (default auto)")
     exp.add_argument("--estimator", choices=("rain", "paper"), default="paper")
     exp.set_defaults(func=cmd_experiment)
 
-    from sonolux.light.commands import add_commands as add_light_commands
-    from sonolux.report.commands import add_commands as add_measuring_commands
-
-    add_light_commands(sub)  # render, export
-
-    from sonolux.web.commands import add_commands as add_web_commands
-
-    add_web_commands(sub)  # export --web, serve (after the light's export, which it extends)
-
-    add_measuring_commands(sub, _xy)  # params, report
-
-    from sonolux.auralize.cli import add_parser as add_auralize_command
-
-    add_auralize_command(sub)  # auralize
-    return parser
-
-
-def _run(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
-    try:
-        return func(args)
-    except SonoluxError as exc:
-        print(f"sonolux: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("sonolux: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except BrokenPipeError:  # `sonolux check x | head`: the reader left, nothing to report
-        sys.stderr.close()
-        return 0
-    except Exception as exc:  # a bug of sonolux, not of the user's input
-        if os.environ.get("SONOLUX_DEBUG"):
-            raise
-        print(f"sonolux: internal error: {type(exc).__name__}: {exc} (this is a bug of sonolux;"
-              " run with SONOLUX_DEBUG=1 to see where)", file=sys.stderr)
-        return EXIT_BUG
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``sonolux`` command; returns the exit status."""
-    try:
-        parser = build_parser()
-        args = parser.parse_args(argv)
-    except KeyboardInterrupt:
-        return EXIT_INTERRUPTED
-    return _run(args.func, args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,185 @@
+# The compiled core's Python face (crates/sonolux-py), checked against the built module by
+# `stubtest sonolux._core` in `make lint`. Only sonolux/engine.py imports it.
+#
+# Arrays: points float64[k, 3] in metres; the sound field float32[receiver, direction, band,
+# time] in J/m² (docs/fieldfile.md). Errors: sonolux.errors.InvalidInputError and
+# GeometryError (both SonoluxError), raised with the name of the input at fault.
+
+from collections.abc import Callable, Sequence
+from typing import Any, final
+
+import numpy as np
+from numpy.typing import NDArray
+
+__version__: str
+MAX_THREADS: int
+
+__all__ = [
+    "__version__",
+    "MAX_THREADS",
+    "Geometry",
+    "Acoustics",
+    "Directivity",
+    "SoundSource",
+    "Receivers",
+    "SoundSettings",
+    "trace_sound",
+    "Optics",
+    "Emitters",
+    "LightSettings",
+    "trace_light",
+    "Convolver",
+    "partition",
+    "fold",
+]
+
+_Progress = Callable[[int, int, float], bool]
+
+@final
+class Geometry:
+    def __new__(
+        cls,
+        vertices_m: NDArray[np.float64],
+        triangles: NDArray[np.uint32],
+        material_ids: NDArray[np.uint32],
+    ) -> Geometry: ...
+    @property
+    def n_triangles(self) -> int: ...
+    @property
+    def build_time_s(self) -> float: ...
+    @property
+    def bvh_nodes(self) -> int: ...
+    def report(self) -> dict[str, Any]: ...
+    def winding_numbers(
+        self, points_m: NDArray[np.float64], threads: int = 0
+    ) -> NDArray[np.float64]: ...
+    def distance_to_surface(
+        self, points_m: NDArray[np.float64], threads: int = 0
+    ) -> NDArray[np.float64]: ...
+    def closest_hit(
+        self,
+        origins_m: NDArray[np.float64],
+        directions: NDArray[np.float64],
+        t_max: float = ...,
+        threads: int = 0,
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]: ...
+    def patch_index(
+        self, patch_size_m: float, triangles: NDArray[np.int64], points_m: NDArray[np.float64]
+    ) -> NDArray[np.int64]: ...
+
+@final
+class Acoustics:
+    def __new__(
+        cls, absorption: NDArray[np.float64], scattering: NDArray[np.float64]
+    ) -> Acoustics: ...
+    @property
+    def n_bands(self) -> int: ...
+
+@final
+class Directivity:
+    @staticmethod
+    def omni() -> Directivity: ...
+    @staticmethod
+    def cone(axis: Sequence[float], half_angle_deg: float) -> Directivity: ...
+    @property
+    def kind(self) -> str: ...
+
+@final
+class SoundSource:
+    def __new__(
+        cls, position_m: Sequence[float], power_w: float, directivity: Directivity | None = None
+    ) -> SoundSource: ...
+
+@final
+class Receivers:
+    def __new__(cls, positions_m: NDArray[np.float64], radius_m: float) -> Receivers: ...
+    @property
+    def count(self) -> int: ...
+
+@final
+class SoundSettings:
+    def __new__(
+        cls,
+        *,
+        rays: int,
+        first_ray: int,
+        end_ray: int,
+        seed: int,
+        threads: int,
+        estimator: str,
+        speed_of_sound_m_s: float,
+        air_attenuation_per_m: Sequence[float],
+        energy_drop_db: float,
+        max_time_s: float,
+        sample_rate_hz: float,
+        early_s: float,
+        late_bin_s: float,
+        azimuth_bands: int,
+        elevation_bands: int,
+        max_field_bytes: int,
+        keep_counts: bool = False,
+    ) -> SoundSettings: ...
+
+def trace_sound(
+    geometry: Geometry,
+    acoustics: Acoustics,
+    sources: Sequence[SoundSource],
+    receivers: Receivers,
+    settings: SoundSettings,
+    progress: _Progress | None = None,
+) -> dict[str, Any]: ...
+
+@final
+class Optics:
+    def __new__(
+        cls, rho: NDArray[np.float64], specular: NDArray[np.float64], roughness: NDArray[np.float64]
+    ) -> Optics: ...
+
+@final
+class Emitters:
+    def __new__(cls, triangles_m: NDArray[np.float64], flux_w: NDArray[np.float64]) -> Emitters: ...
+    @property
+    def count(self) -> int: ...
+
+@final
+class LightSettings:
+    def __new__(
+        cls,
+        *,
+        particles: int,
+        first_ray: int,
+        end_ray: int,
+        seed: int,
+        threads: int,
+        patch_size_m: float,
+        max_bounces: int = 10000,
+    ) -> LightSettings: ...
+
+def trace_light(
+    geometry: Geometry,
+    optics: Optics,
+    emitters: Emitters,
+    settings: LightSettings,
+    progress: _Progress | None = None,
+) -> dict[str, Any]: ...
+
+@final
+class Convolver:
+    def __new__(cls, block: int, partitions: int, fft_size: int) -> Convolver: ...
+    @property
+    def block(self) -> int: ...
+    @property
+    def fft_size(self) -> int: ...
+    @property
+    def partitions(self) -> int: ...
+    @property
+    def bins(self) -> int: ...
+    def push(self, x: NDArray[np.float32]) -> None: ...
+    def apply(self, filters: NDArray[np.float32]) -> NDArray[np.float32]: ...
+    def inverse(self, spectra: NDArray[np.float32]) -> NDArray[np.float32]: ...
+    def output(self, filters: NDArray[np.float32]) -> NDArray[np.float32]: ...
+
+def partition(
+    filters: NDArray[np.float32], block: int, fft_size: int, partitions: int
+) -> NDArray[np.float32]: ...
+def fold(filters: NDArray[np.float32], mix: NDArray[np.float32]) -> NDArray[np.float32]: ...

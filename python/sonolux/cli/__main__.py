@@ -1,0 +1,7 @@
+"""``python -m sonolux.cli``: the same as the ``sonolux`` command."""
+
+import sys
+
+from sonolux.cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,183 @@
+"""The one gateway to the engine: the only module that imports the compiled core, ``sonolux._core``.
+
+Everything else in sonolux reaches the core through the names here:
+
+- :class:`Geometry`: the scene's triangles held by the core with their BVH, and the queries the
+  scene and the pictures need (mesh report, winding numbers, distances, closest hits, light
+  patches);
+- :func:`trace_sound` and :func:`trace_light`: the two tracers, each taking the settings
+  objects below and returning numpy arrays in a dict;
+- the settings classes of the binding, made on first use: ``Acoustics``, ``Directivity``,
+  ``SoundSource``, ``Receivers``, ``SoundSettings``, ``Optics``, ``Emitters``,
+  ``LightSettings`` (documented in ``_core.pyi``);
+- the partitioned convolver of auralization: ``Convolver``, ``partition``, ``fold``.
+
+Array conventions: points float64[k, 3] in metres; the sound field
+float32[receiver, direction, band, time] (docs/fieldfile.md). The core raises
+:class:`~sonolux.errors.InvalidInputError` and :class:`~sonolux.errors.GeometryError`, both
+:class:`~sonolux.errors.SonoluxError`; a missing extension is a
+:class:`~sonolux.errors.CoreMissingError` that says how to build it. The core is imported on
+first use, so that the pure-Python parts (schema, theory, analysis) work without it.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sonolux.errors import CoreMissingError, InvalidInputError
+
+if TYPE_CHECKING:
+    from sonolux._core import (
+        Acoustics,
+        Emitters,
+        LightSettings,
+        Optics,
+        Receivers,
+        SoundSettings,
+        SoundSource,
+    )
+
+#: The binding's names that this gateway hands out as they are.
+_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "Emitters", "LightSettings", "Optics",
+              "Receivers", "SoundSettings", "SoundSource", "fold", "partition", "MAX_THREADS")
+
+Progress = Callable[[int, int, float], bool]
+
+
+def core() -> Any:
+    """The compiled extension, or a CoreMissingError saying how to build it."""
+    try:
+        from sonolux import _core
+    except ImportError as exc:
+        raise CoreMissingError(
+            f"the compiled core sonolux._core is not available ({exc}); build it with `make build`"
+        ) from None
+    return _core
+
+
+def core_available() -> bool:
+    try:
+        core()
+    except CoreMissingError:
+        return False
+    return True
+
+
+def __getattr__(name: str) -> Any:
+    if name in _FROM_CORE:
+        return getattr(core(), name)
+    raise AttributeError(f"module 'sonolux.engine' has no attribute {name!r}")
+
+
+def physical_memory_bytes() -> int:
+    """This machine's memory, or 8 GiB where the system does not say."""
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
+def _points(points_m: Any, name: str = "points_m") -> np.ndarray:
+    """float64[k, 3], C-ordered; a single point [x, y, z] counts as k = 1. Any other shape is
+    an InvalidInputError naming the argument (never reshaped into other points)."""
+    p = np.asarray(points_m, dtype=np.float64)
+    if p.ndim == 1 and p.shape[0] == 3:
+        p = p[None]
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InvalidInputError(f"{name}: expected shape (k, 3), got {p.shape}")
+    return np.ascontiguousarray(p)
+
+
+class Geometry:
+    """A triangle mesh held by the core, with its BVH. vertices_m float64[n, 3]; triangles
+    int[m, 3]; material_ids int[m] (default 0).
+
+    The report: ``degenerate`` int64[d]; ``open_edge_midpoints`` float64[<=20, 3]; ``area_m2``
+    float64[max material id + 1]; ``bbox_min`` / ``bbox_max`` float64[3];
+    ``signed_volume_m3`` > 0 when the normals face outward, < 0 when they face inward (a room
+    seen from inside)."""
+
+    def __init__(self, vertices_m: np.ndarray, triangles: np.ndarray,
+                 material_ids: np.ndarray | None = None) -> None:
+        v = _points(vertices_m, "vertices_m")
+        t = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
+        if material_ids is None:
+            material_ids = np.zeros(t.shape[0], dtype=np.uint32)
+        m = np.ascontiguousarray(material_ids, dtype=np.uint32).reshape(-1)
+        self._native = core().Geometry(v, t, m)
+        self.n_triangles = int(t.shape[0])
+
+    @property
+    def build_time_s(self) -> float:
+        """Seconds the core spent building the BVH."""
+        return float(self._native.build_time_s)
+
+    @property
+    def bvh_nodes(self) -> int:
+        return int(self._native.bvh_nodes)
+
+    def report(self) -> dict[str, Any]:
+        r = dict(self._native.report())
+        r["degenerate"] = np.asarray(r.get("degenerate", []), dtype=np.int64).reshape(-1)
+        r["open_edge_midpoints"] = np.asarray(r.get("open_edge_midpoints", []),
+                                              dtype=np.float64).reshape(-1, 3)
+        r["area_m2"] = np.asarray(r["area_m2"], dtype=np.float64).reshape(-1)
+        r["bbox_min"] = np.asarray(r["bbox_min"], dtype=np.float64).reshape(3)
+        r["bbox_max"] = np.asarray(r["bbox_max"], dtype=np.float64).reshape(3)
+        for k in ("n_triangles", "n_degenerate", "n_open_edges", "n_nonmanifold_edges",
+                  "n_inconsistent_edges"):
+            r[k] = int(r.get(k, 0))
+        r["signed_volume_m3"] = float(r["signed_volume_m3"])
+        return r
+
+    def winding_numbers(self, points_m: Any) -> np.ndarray:
+        """float64[k]: about ±1 inside a closed surface, about 0 outside."""
+        p = _points(points_m)
+        if p.shape[0] == 0:
+            return np.zeros(0)
+        return np.asarray(self._native.winding_numbers(p), dtype=np.float64)
+
+    def distance_to_surface(self, points_m: Any) -> np.ndarray:
+        """float64[k]: distance from each point to the nearest triangle, in metres."""
+        p = _points(points_m)
+        if p.shape[0] == 0:
+            return np.zeros(0)
+        return np.asarray(self._native.distance_to_surface(p), dtype=np.float64)
+
+    def closest_hit(self, origins_m: Any, directions: Any, t_max: float = float("inf"),
+                    threads: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """(t float64[k], inf on a miss; triangle int64[k], -1 on a miss). Directions need not
+        be unit length: t is in units of the direction."""
+        o, d = _points(origins_m, "origins_m"), _points(directions, "directions")
+        t, tri = self._native.closest_hit(o, d, t_max, threads)
+        return np.asarray(t, dtype=np.float64), np.asarray(tri, dtype=np.int64)
+
+    def patch_index(self, patch_size_m: float, triangles: Any, points_m: Any) -> np.ndarray:
+        """int64[k]: the light patch (for patches of ``patch_size_m``) holding each point on its
+        triangle (int64[k]); -1 where the triangle is -1."""
+        return np.asarray(self._native.patch_index(
+            float(patch_size_m), np.ascontiguousarray(triangles, np.int64), _points(points_m)),
+            np.int64)
+
+
+def trace_sound(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],
+                receivers: Receivers, settings: SoundSettings,
+                progress: Progress | None = None) -> dict[str, Any]:
+    """Traces a sound bake; see ``_core.trace_sound`` for the dict it returns (the field is
+    float32[receiver, direction, band, time] in J/m²)."""
+    return core().trace_sound(geometry._native, acoustics, list(sources), receivers, settings,
+                              progress)
+
+
+def trace_light(geometry: Geometry, optics: Optics, emitters: Emitters, settings: LightSettings,
+                progress: Progress | None = None) -> dict[str, Any]:
+    """Traces a light bake; see ``_core.trace_light`` for the dict it returns."""
+    return core().trace_light(geometry._native, optics, emitters, settings, progress)
+
+
+__all__ = ["Geometry", "core", "core_available", "physical_memory_bytes", "trace_light",
+           "trace_sound", *_FROM_CORE]
