@@ -27,6 +27,7 @@ __all__ = [
     "Optics",
     "Emitters",
     "LightSettings",
+    "Lighting",
     "trace_light",
     "Convolver",
     "partition",
@@ -155,12 +156,23 @@ class LightSettings:
         max_bounces: int = 10000,
     ) -> LightSettings: ...
 
+@final
+class Lighting:
+    def __new__(
+        cls,
+        *,
+        sources: dict[str, Any] | None = None,
+        transmittance: NDArray[np.float64] | None = None,
+        work_plane: dict[str, Any] | None = None,
+    ) -> Lighting: ...
+
 def trace_light(
     geometry: Geometry,
     optics: Optics,
     emitters: Emitters,
     settings: LightSettings,
     progress: _Progress | None = None,
+    lighting: Lighting | None = None,
 ) -> dict[str, Any]: ...
 
 @final

@@ -9,7 +9,7 @@ Everything else in sonolux reaches the core through the names here:
   objects below and returning numpy arrays in a dict;
 - the settings classes of the binding, made on first use: ``Acoustics``, ``Directivity``,
   ``SoundSource``, ``Receivers``, ``SoundSettings``, ``Optics``, ``Emitters``,
-  ``LightSettings`` (documented in ``_core.pyi``);
+  ``LightSettings``, ``Lighting`` (documented in ``_core.pyi``);
 - the partitioned convolver of auralization: ``Convolver``, ``partition``, ``fold``.
 
 Array conventions: points float64[k, 3] in metres; the sound field
@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from sonolux._core import (
         Acoustics,
         Emitters,
+        Lighting,
         LightSettings,
         Optics,
         Receivers,
@@ -42,8 +43,9 @@ if TYPE_CHECKING:
     )
 
 #: The binding's names that this gateway hands out as they are.
-_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "Emitters", "LightSettings", "Optics",
-              "Receivers", "SoundSettings", "SoundSource", "fold", "partition", "MAX_THREADS")
+_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "Emitters", "Lighting", "LightSettings",
+              "Optics", "Receivers", "SoundSettings", "SoundSource", "fold", "partition",
+              "MAX_THREADS")
 
 Progress = Callable[[int, int, float], bool]
 
@@ -174,9 +176,11 @@ def trace_sound(geometry: Geometry, acoustics: Acoustics, sources: Sequence[Soun
 
 
 def trace_light(geometry: Geometry, optics: Optics, emitters: Emitters, settings: LightSettings,
-                progress: Progress | None = None) -> dict[str, Any]:
-    """Traces a light bake; see ``_core.trace_light`` for the dict it returns."""
-    return core().trace_light(geometry._native, optics, emitters, settings, progress)
+                progress: Progress | None = None,
+                lighting: Lighting | None = None) -> dict[str, Any]:
+    """Traces a light bake; see ``_core.trace_light`` for the dict it returns. ``lighting``
+    adds luminaires, sky, sun, glazing and a work plane (``_core.Lighting``)."""
+    return core().trace_light(geometry._native, optics, emitters, settings, progress, lighting)
 
 
 __all__ = ["Geometry", "core", "core_available", "physical_memory_bytes", "trace_light",

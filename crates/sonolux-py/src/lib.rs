@@ -18,6 +18,7 @@ use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
 mod convolve;
 mod light;
+mod light_sources;
 mod sound;
 
 /// `sonolux.errors.InvalidInputError` and `sonolux.errors.GeometryError`, fetched at import.
@@ -285,6 +286,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<light::Optics>()?;
     m.add_class::<light::Emitters>()?;
     m.add_class::<light::LightSettings>()?;
+    m.add_class::<light_sources::Lighting>()?;
     m.add_function(wrap_pyfunction!(light::trace_light, m)?)?;
     m.add_class::<convolve::Convolver>()?;
     m.add_function(wrap_pyfunction!(convolve::partition, m)?)?;

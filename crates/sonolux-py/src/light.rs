@@ -5,8 +5,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use sonolux_core::glam_export::DVec3;
-use sonolux_core::light::{self as core, Patches};
+use sonolux_core::light::{self as core, Lighting as CoreLighting, Patches};
 
+use crate::light_sources::Lighting;
 use crate::{check_threads, invalid, to_py, Geometry};
 
 /// Patches of at most this many a triangle's edge (so at most its square a triangle).
@@ -105,9 +106,10 @@ impl LightSettings {
 /// Returns a dict: patch_resolution uint32[triangle] (k: triangle t has k² patches),
 /// patch_offset uint64[triangle + 1], patch_area_m2 float64[patch], flux_w float64[patch, 3]
 /// (incident flux per RGB channel), hits uint64[patch] (particles that landed there), stats
-/// (a dict) and cancelled.
+/// (a dict) and cancelled. With `lighting` (luminaires, sky, sun, glazing, a work plane: see
+/// [`Lighting`]) and a work plane, also plane_flux_w float64[cell, 3] and plane_hits uint64[cell].
 #[pyfunction]
-#[pyo3(signature = (geometry, optics, emitters, settings, progress = None))]
+#[pyo3(signature = (geometry, optics, emitters, settings, progress = None, lighting = None))]
 pub(crate) fn trace_light<'py>(
     py: Python<'py>,
     geometry: &Geometry,
@@ -115,13 +117,23 @@ pub(crate) fn trace_light<'py>(
     emitters: &Emitters,
     settings: &LightSettings,
     progress: Option<Bound<'py, PyAny>>,
+    lighting: Option<&Lighting>,
 ) -> PyResult<Bound<'py, PyDict>> {
     check_threads(settings.inner.threads)?;
     let patches = patches_of(geometry, settings.patch_size_m)?;
+    let mut sources: Vec<core::LightSource> = emitters.inner.iter().map(|e| core::LightSource::Lambert { corners: e.corners, flux: e.flux }).collect();
+    let (transmittance, plane) = match lighting {
+        Some(l) => {
+            sources.extend(l.sources.iter().cloned());
+            (l.transmittance.clone(), l.work_plane.clone())
+        }
+        None => (Vec::new(), None),
+    };
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        core::trace_light(&geometry.mesh, &geometry.bvh, &optics.inner, &emitters.inner, patches, &settings.inner, |p| {
+        let lighting = CoreLighting { sources: &sources, transmittance: &transmittance, work_plane: plane.as_ref() };
+        core::trace_light_sources(&geometry.mesh, &geometry.bvh, &optics.inner, lighting, patches, &settings.inner, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })
     });
@@ -136,6 +148,11 @@ pub(crate) fn trace_light<'py>(
     out.set_item("patch_area_m2", res.patches.area.clone().into_pyarray(py))?;
     out.set_item("flux_w", res.flux.iter().flatten().copied().collect::<Vec<f64>>().into_pyarray(py).reshape([n, 3])?)?;
     out.set_item("hits", res.hits.into_pyarray(py))?;
+    if plane.is_some() {
+        let cells = res.plane_flux.len();
+        out.set_item("plane_flux_w", res.plane_flux.into_iter().flatten().collect::<Vec<f64>>().into_pyarray(py).reshape([cells, 3])?)?;
+        out.set_item("plane_hits", res.plane_hits.into_pyarray(py))?;
+    }
     out.set_item("cancelled", res.cancelled)?;
     let st = &res.stats;
     let s = PyDict::new(py);

@@ -21,6 +21,9 @@ from sonolux import engine
 from sonolux.errors import SonoluxError
 from sonolux.light.field import LightField
 from sonolux.light.options import LightOptions
+from sonolux.light.photometry import MAX_LUMINOUS_EFFICACY_LM_PER_W
+from sonolux.light.sources import other_sources
+from sonolux.light.workplane import plane_request, workplane_result
 from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 
@@ -46,13 +49,17 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
     rho float64[M, 3], specular and roughness float64[M]; emitters float64[E, 3, 3] with
     emitter_flux float64[E, 3] (W) and emitter_radiance float64[E, 3] (W/m²/sr),
     emitter_light int32[E]; emitted_radiance float64[T, 3] of the scene's own triangles
-    (surface lights); per light: names, kinds, power_w.
+    (surface lights); per light: names, kinds, power_w. Also ``sources`` (luminaires, sky and
+    sun: see :func:`sonolux.light.sources.other_sources`), ``sky``, ``transmittance``
+    float64[M, 3] and ``work_plane`` (the core's plane request, or None).
     """
     n_tri = scene.triangles.shape[0]
     names = [m.name for m in scene.materials]
     emitters, flux, radiance, owner = [], [], [], []
     emitted = np.zeros((n_tri, 3))
     for i, light in enumerate(scene.lights):
+        if light.kind == "ies":
+            continue
         tris = np.asarray(light.triangles_m, float).reshape(-1, 3, 3)
         area = _areas(tris)
         total = float(area.sum())
@@ -67,10 +74,19 @@ def light_arrays(scene: Scene) -> dict[str, Any]:
         if light.kind == "surface" and light.material in names:
             mine = scene.material_index == names.index(light.material)
             emitted[mine] += phi / (math.pi * total)
-    if not emitters:
+    sources, sky = other_sources(scene)
+    if not emitters and not sources:
         raise SonoluxError(f"{scene.origin}: the scene has no light that emits (add a [[lights]] "
-                           "entry with power_w > 0 and a colour that is not black)")
+                           "entry with power_w > 0 and a colour that is not black, or a "
+                           "[daylight] sky and glazing)")
+    if not emitters:
+        emitters, flux, radiance = [np.zeros((0, 3, 3))], [np.zeros((0, 3))], [np.zeros((0, 3))]
+        owner = [np.zeros(0, np.int32)]
     return {
+        "sources": sources, "sky": sky,
+        "work_plane": plane_request(scene.workplane) if scene.workplane is not None else None,
+        "transmittance": np.ascontiguousarray(
+            np.repeat([[m.transmittance] for m in scene.materials], 3, axis=1), float),
         "rho": np.ascontiguousarray([m.diffuse_rgb for m in scene.materials], float),
         "specular": np.array([m.specular for m in scene.materials], float),
         "roughness": np.array([m.roughness for m in scene.materials], float),
@@ -93,7 +109,9 @@ def _trace(scene: Scene, arrays: dict[str, Any], options: LightOptions, particle
         particles=particles, first_ray=0, end_ray=particles, seed=scene.settings.seed,
         threads=scene.settings.threads, patch_size_m=float(options.patch_size_m),
         max_bounces=options.max_bounces)
-    return engine.trace_light(scene.geometry, optics, emitters, settings, progress)
+    lighting = engine.Lighting(sources=arrays["sources"], transmittance=arrays["transmittance"],
+                               work_plane=arrays["work_plane"])
+    return engine.trace_light(scene.geometry, optics, emitters, settings, progress, lighting)
 
 
 def auto_particles(scene: Scene, options: LightOptions, arrays: dict[str, Any]) -> tuple[int, str]:
@@ -125,7 +143,7 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
     bool`` (False stops the bake). ``log`` receives one-line notes (particle count and why).
     """
     options = replace(options or LightOptions(), **overrides).validate()
-    if not scene.lights:
+    if not scene.lights and scene.daylight is None:
         raise SonoluxError(f"{scene.origin}: the scene has no light to bake")
     arrays = light_arrays(scene)
     if options.particles == "auto":
@@ -161,4 +179,16 @@ def bake_light(scene: Scene, options: LightOptions | None = None, *,
         emitter_radiance=arrays["emitter_radiance"], emitter_light=arrays["emitter_light"],
         light_names=arrays["light_names"], light_kinds=arrays["light_kinds"],
         light_power_w=arrays["light_power_w"], settings=settings, stats=stats,
-        scene_name=scene.name, scene_origin=scene.origin)
+        scene_name=scene.name, scene_origin=scene.origin,
+        workplane=_workplane(scene, arrays, out))
+
+
+def _workplane(scene: Scene, arrays: dict[str, Any], out: dict[str, Any]) -> Any:
+    """The work-plane result; daylight factors when an overcast sky is the only light."""
+    if arrays["work_plane"] is None:
+        return None
+    sky = arrays["sky"]
+    df_base = (sky.sky_horizontal_lx if sky is not None and sky.kind == "overcast"
+               and not scene.lights else None)
+    return workplane_result(scene.workplane, arrays["work_plane"], np.asarray(out["plane_flux_w"]),
+                            np.asarray(out["plane_hits"]), MAX_LUMINOUS_EFFICACY_LM_PER_W, df_base)

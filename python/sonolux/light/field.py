@@ -60,6 +60,9 @@ class LightField:
     stats: dict[str, Any]
     scene_name: str = ""
     scene_origin: str = ""
+    #: The work plane's illuminance (a :class:`sonolux.light.workplane.WorkplaneResult`) when
+    #: the bake had one; not stored in the field file yet.
+    workplane: Any = None
     path: str | None = None
 
     # --- shape -------------------------------------------------------------------------------

@@ -12,24 +12,38 @@ A light is resolved to emitting triangles:
 - ``type = "surface"``: every scene triangle whose material is ``material`` emits, on the side
   its normal faces (into the room).
 
-The light's ``power_w`` (radiant flux) is shared among its triangles by area.
+- ``type = "ies"``: a luminaire whose intensity distribution is read from an IES LM-63 file
+  (``file``, relative to the scene file), placed at ``position_m`` with its γ = 0° axis along
+  ``aim`` (default straight down) and its C = 0° plane towards ``c0_direction`` (default +x,
+  made perpendicular to ``aim``); C grows counter-clockwise seen against the aim (from above
+  for a downlight). It emits from that point (a far-field point source).
+
+The light's ``power_w`` (radiant flux) is shared among its triangles by area. ``flux_lm``
+gives it in lumens instead (see :mod:`sonolux.light.photometry`: 683 lm per radiant-equivalent
+watt, photopic weighting of the colour). An "ies" luminaire emits the candela of its file
+(absolute photometry) unless ``flux_lm`` is given, which scales the distribution to that flux.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from sonolux.errors import close_matches
+from sonolux.errors import SonoluxError, close_matches
+from sonolux.light.ies import read_ies
+from sonolux.light.photometry import LUMINANCE_RGB, channel_flux_from_lumens
 from sonolux.scene.inside import IN_AIR, IN_OBSTACLE, OUTSIDE, RoomSpace
 from sonolux.scene.schema import Light, Material, SoundSource, Table
 
 SOURCE_KEYS = ("name", "position_m", "power_w", "directivity", "cone_half_angle_deg", "axis")
-LIGHT_TYPES = ("rectangle", "surface")
+LIGHT_TYPES = ("rectangle", "surface", "ies")
 RECTANGLE_KEYS = ("name", "type", "center_m", "size_m", "normal", "tangent", "power_w",
-                  "color_rgb")
-SURFACE_KEYS = ("name", "type", "material", "power_w", "color_rgb")
+                  "flux_lm", "color_rgb")
+SURFACE_KEYS = ("name", "type", "material", "power_w", "flux_lm", "color_rgb")
+IES_KEYS = ("name", "type", "file", "position_m", "aim", "c0_direction", "flux_lm", "color_rgb")
 #: A source or light nearer than this to a surface is reported (it may leak through).
 NEAR_SURFACE_M = 1e-3
 
@@ -111,6 +125,9 @@ class LightSpec:
     color_rgb: np.ndarray
     triangles_m: np.ndarray | None = None  # rectangle: float64[2, 3, 3]
     material: str | None = None  # surface: the emitting material's name
+    position_m: np.ndarray | None = None  # ies
+    frame: np.ndarray | None = None  # ies: float64[3, 3]
+    photometry: Any = None  # ies
 
 
 def read_lights(tables: list[Table]) -> list[LightSpec]:
@@ -118,10 +135,22 @@ def read_lights(tables: list[Table]) -> list[LightSpec]:
     specs, seen = [], set()
     for i, t in enumerate(tables):
         kind = t.string("type", "rectangle", LIGHT_TYPES)
-        t.check_keys(RECTANGLE_KEYS if kind == "rectangle" else SURFACE_KEYS)
+        t.check_keys({"rectangle": RECTANGLE_KEYS, "surface": SURFACE_KEYS, "ies": IES_KEYS}[kind])
         name = _unique_name(t, f"L{i + 1}", seen)
-        power_w = t.number("power_w", 100.0, lo=0.0, lo_open=True)
         color_rgb = t.vector("color_rgb", 3, (1.0, 1.0, 1.0), lo=0.0)
+        if kind == "ies":
+            specs.append(_read_ies_light(t, name, color_rgb))
+            continue
+        if t.has("flux_lm") and t.has("power_w"):
+            raise t.ctx.error(t.path("flux_lm"), message="give power_w or flux_lm, not both")
+        if t.has("flux_lm"):
+            flux_lm = t.number("flux_lm", lo=0.0, lo_open=True)
+            if float(color_rgb @ LUMINANCE_RGB) <= 0:
+                raise t.ctx.error(t.path("color_rgb"), color_rgb.tolist(),
+                                  "a colour with some luminance when flux_lm is given")
+            power_w = float(channel_flux_from_lumens(flux_lm, color_rgb).mean())
+        else:
+            power_w = t.number("power_w", 100.0, lo=0.0, lo_open=True)
         if kind == "surface":
             specs.append(LightSpec(t, name, kind, power_w, color_rgb,
                                    material=t.string("material")))
@@ -139,6 +168,39 @@ def read_lights(tables: list[Table]) -> list[LightSpec]:
     return specs
 
 
+def _read_ies_light(t: Table, name: str, color_rgb: np.ndarray) -> LightSpec:
+    """An "ies" luminaire: its file read, its frame built, its candela scaled."""
+    file = t.string("file")
+    path = Path(file) if Path(file).is_absolute() else t.ctx.base_dir / file
+    try:
+        photometry = read_ies(path)
+    except SonoluxError as exc:
+        raise t.ctx.error(t.path("file"), file, f"a readable IES LM-63 file ({exc})") from None
+    position_m = t.vector("position_m", 3)
+    aim = _unit(t.vector("aim", 3, (0.0, 0.0, -1.0), nonzero=True))
+    c0_given = t.vector("c0_direction", 3, (1.0, 0.0, 0.0), nonzero=True)
+    c0 = c0_given - np.dot(c0_given, aim) * aim
+    if np.linalg.norm(c0) < 1e-6 * np.linalg.norm(c0_given):
+        raise t.ctx.error(t.path("c0_direction"), c0_given, "a direction not parallel to aim")
+    c0 = _unit(c0)
+    # C = 90° is counter-clockwise from C = 0° seen against the aim: c0 × aim, which for a
+    # downlight (aim −z, c0 +x) is +y, as LM-63 type C photometry seen from above.
+    c90 = np.cross(c0, aim)
+    frame = np.ascontiguousarray([c0, c90, aim])
+    file_flux = photometry.flux_lm()
+    if file_flux <= 0:
+        raise t.ctx.error(t.path("file"), file, "a luminaire that emits (all candela are zero)")
+    if t.has("flux_lm"):
+        target = t.number("flux_lm", lo=0.0, lo_open=True)
+        photometry = replace(photometry, candela=photometry.candela * (target / file_flux))
+        file_flux = target
+    if float(color_rgb @ LUMINANCE_RGB) <= 0:
+        raise t.ctx.error(t.path("color_rgb"), color_rgb.tolist(), "a colour with some luminance")
+    power_w = float(channel_flux_from_lumens(file_flux, color_rgb).mean())
+    return LightSpec(t, name, "ies", power_w, color_rgb, triangles_m=np.zeros((0, 3, 3)),
+                     position_m=position_m, frame=frame, photometry=photometry)
+
+
 def resolve_lights(specs: list[LightSpec], triangles_m: np.ndarray, materials: list[Material],
                    material_index: np.ndarray, space: RoomSpace,
                    warnings: list[str]) -> list[Light]:
@@ -147,6 +209,15 @@ def resolve_lights(specs: list[LightSpec], triangles_m: np.ndarray, materials: l
     used = [m.name for m in materials]
     for spec in specs:
         t = spec.table
+        if spec.kind == "ies":
+            assert spec.position_m is not None
+            if int(space.classify(spec.position_m)[0]) != IN_AIR:
+                warnings.append(f"{t.path('position_m')}: luminaire {spec.name!r} is not inside "
+                                "the room")
+            lights.append(Light(spec.name, spec.kind, np.zeros((0, 3, 3)), spec.power_w,
+                                spec.color_rgb, position_m=spec.position_m, frame=spec.frame,
+                                photometry=spec.photometry))
+            continue
         if spec.kind == "rectangle":
             tris = spec.triangles_m
             assert tris is not None

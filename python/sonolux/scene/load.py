@@ -27,6 +27,7 @@ from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_mat
 from sonolux.scene import builtin
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.inside import RoomSpace
+from sonolux.scene.lighting import place_workplane, read_daylight
 from sonolux.scene.material_names import MaterialNames
 from sonolux.scene.materials import Library
 from sonolux.scene.meshes import build_mesh
@@ -48,7 +49,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers")
+ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers",
+             "daylight", "workplane")
 SETTINGS_KEYS = ("sample_rate_hz", "bands_hz", "energy_drop_db", "max_time_s", "seed",
                  "threads", "air")
 AIR_KEYS = ("temperature_c", "humidity_percent", "pressure_kpa")
@@ -223,6 +225,7 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     sources = read_sources(source_tables)
     light_specs = read_lights(light_tables)
     receiver_spec = read_receivers(root.table("receivers"))
+    daylight = read_daylight(root.table("daylight"))
 
     entries = root.tables("geometry")
     if not entries:
@@ -257,9 +260,12 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
                             warnings)
     receivers = place_receivers(receiver_spec, ctx, space, report["bbox_min"], report["bbox_max"],
                                 warnings)
+    workplane = place_workplane(root.table("workplane"), ctx, space, report["bbox_min"],
+                                report["bbox_max"], warnings)
     if not sources:
         warnings.append("the scene has no sound source")
     return Scene(name=name, origin=ctx.file, vertices_m=vertices_m, triangles=triangles,
                  material_index=material_index, materials=materials, surface_tag=tags,
                  sources=sources, lights=lights, receivers=receivers, settings=settings,
-                 mesh_report=report, warnings=warnings, geometry=geometry)
+                 mesh_report=report, warnings=warnings, geometry=geometry, daylight=daylight,
+                 workplane=workplane)

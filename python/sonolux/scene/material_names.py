@@ -23,7 +23,7 @@ from sonolux.scene.materials import library as shipped_library
 from sonolux.scene.schema import REQUIRED, Context, Material, Table
 
 MATERIAL_KEYS = ("base", "description", "absorption", "scattering", "diffuse_rgb", "specular",
-                 "roughness")
+                 "roughness", "transmittance")
 
 #: Defaults of a new material's optional fields.
 NEW_MATERIAL_DEFAULTS = {"scattering": 0.1, "diffuse_rgb": (0.8, 0.8, 0.8), "specular": 0.0,
@@ -105,6 +105,7 @@ class MaterialNames:
                 specular=t.number("specular", d["specular"], lo=0.0, hi=1.0),
                 roughness=t.number("roughness", d["roughness"], lo=0.0, hi=1.0),
                 description=t.string("description", ""),
+                transmittance=_transmittance(t, d["diffuse_rgb"]),
             )
         return Material(
             name=name,
@@ -114,4 +115,16 @@ class MaterialNames:
             specular=t.number("specular", start.specular, lo=0.0, hi=1.0),
             roughness=t.number("roughness", start.roughness, lo=0.0, hi=1.0),
             description=t.string("description", start.description),
+            transmittance=_transmittance(t, start.diffuse_rgb, start.transmittance),
         )
+
+
+def _transmittance(t: Table, default_rgb: object, default: float = 0.0) -> float:
+    """The visible transmittance, checked against the reflectance: ρ + τ ≤ 1 per channel."""
+    tau = t.number("transmittance", default, lo=0.0, hi=1.0)
+    rho = np.asarray(t.data.get("diffuse_rgb", default_rgb), float)
+    if tau > 0 and np.any(rho + tau > 1.0 + 1e-12):
+        raise t.ctx.error(t.path("transmittance"), tau,
+                          f"at most 1 - diffuse_rgb = {1 - float(rho.max()):g} (reflected and "
+                          "transmitted light cannot exceed what arrives)")
+    return tau

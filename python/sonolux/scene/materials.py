@@ -101,6 +101,7 @@ def _entry(entries: Table, name: str) -> Material:
         specular=t.number("specular", 0.0, lo=0.0, hi=1.0),
         roughness=t.number("roughness", 0.5, lo=0.0, hi=1.0),
         description=str(t.data.get("description", "")),
+        transmittance=t.number("transmittance", 0.0, lo=0.0, hi=1.0),
     )
 
 

@@ -42,6 +42,9 @@ class Material:
         of which the share ``specular`` is reflected specularly and the rest diffusely.
     specular: share of reflected light that is specular, in [0, 1].
     roughness: roughness of the specular lobe, in [0, 1].
+    transmittance: visible transmittance (glazing), the share of light passing straight through,
+        the same in every channel; diffuse_rgb + transmittance ≤ 1. Daylight enters through
+        every triangle of a material with transmittance > 0.
     """
 
     name: str
@@ -51,6 +54,7 @@ class Material:
     specular: float = 0.0
     roughness: float = 0.5
     description: str = ""
+    transmittance: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -112,11 +116,17 @@ class Light:
     """
 
     name: str
-    kind: str  # "rectangle" or "surface"
+    kind: str  # "rectangle", "surface" or "ies"
     triangles_m: np.ndarray
     power_w: float
     color_rgb: np.ndarray
     material: str | None = None
+    #: An "ies" luminaire: its centre float64[3], its frame float64[3, 3] (rows: the C = 0°
+    #: direction, the C = 90° direction, the γ = 0° axis) and its photometry
+    #: (:class:`sonolux.light.ies.Photometry`, candela scaled to the luminaire as placed).
+    position_m: np.ndarray | None = None
+    frame: np.ndarray | None = None
+    photometry: Any = None
 
     @property
     def area_m2(self) -> float:
@@ -174,6 +184,10 @@ class Scene:
     settings: Settings
     mesh_report: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
+    #: ``[daylight]`` (a :class:`sonolux.scene.lighting.DaylightSpec`) or None, and
+    #: ``[workplane]`` (a :class:`sonolux.scene.lighting.WorkplaneSpec`).
+    daylight: Any = None
+    workplane: Any = None
     #: The core's mesh and BVH, built once when the scene was loaded and shared by the tracers.
     geometry: Any = field(default=None, repr=False)
 

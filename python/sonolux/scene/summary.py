@@ -98,8 +98,31 @@ def summarize(scene: Scene) -> dict[str, Any]:
         "lights": [{"name": li.name, "type": li.kind, "power_w": li.power_w,
                     "area_m2": li.area_m2, "triangles": int(li.triangles_m.shape[0]),
                     "color_rgb": li.color_rgb.tolist()} for li in scene.lights],
+        "daylight": daylight_summary(scene),
         "warnings": list(scene.warnings),
     }
+
+
+def daylight_summary(scene: Scene) -> dict[str, Any]:
+    """Glazing (triangles of a material with transmittance > 0), floor and the
+    window-to-floor ratio. The floor is every triangle facing up (normal within 8° of +z)
+    within 1 cm of the scene's lowest point; the work plane's cells, when the scene has one."""
+    tris = scene.vertices_m[scene.triangles]
+    cross = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    nz = np.divide(cross[:, 2], 2 * area, out=np.zeros_like(area), where=area > 0)
+    tau = np.array([m.transmittance for m in scene.materials])[scene.material_index]
+    floor = (nz > math.cos(math.radians(8))) & (tris[:, :, 2].max(axis=1)
+                                                 <= scene.vertices_m[:, 2].min() + 0.01)
+    glazing_m2, floor_m2 = float(area[tau > 0].sum()), float(area[floor & (tau == 0)].sum())
+    d = scene.daylight
+    w = scene.workplane
+    return {"glazing_area_m2": glazing_m2, "floor_area_m2": floor_m2,
+            "window_to_floor_ratio": glazing_m2 / floor_m2 if floor_m2 > 0 else None,
+            "sky": None if d is None else d.sky,
+            "workplane": None if w is None else {
+                "height_m": w.height_m, "spacing_m": w.spacing_m,
+                "cells": int(w.positions_m.shape[0])}}
 
 
 def _xyz(v: list[float]) -> str:
@@ -152,6 +175,15 @@ def format_summary(s: dict[str, Any]) -> str:
             ("Eyring T60 s", [_seconds(x) for x in s["eyring_t60_s"]])]
     for label, cells in rows:
         out.append(f"    {label:<16}" + "".join(f"{c:>8}" for c in cells))
+    dl = s["daylight"]
+    wfr = dl["window_to_floor_ratio"]
+    out.append(f"  daylight    glazing {dl['glazing_area_m2']:.4g} m², floor "
+               f"{dl['floor_area_m2']:.4g} m², window-to-floor ratio "
+               f"{'-' if wfr is None else f'{wfr:.1%}'}; sky: {dl['sky'] or 'none'}")
+    if dl["workplane"]:
+        wp = dl["workplane"]
+        out.append(f"  work plane  {wp['cells']} cells every {wp['spacing_m']:.3g} m at "
+                   f"{wp['height_m']:g} m")
     if s["warnings"]:
         out.append(f"  warnings    {len(s['warnings'])}:")
         out += [f"    - {w}" for w in s["warnings"]]

@@ -3,11 +3,19 @@
 //! by Russian roulette, and deposit the flux they carry on the patch where they land. Time is
 //! ignored: this is the equilibrium of light, as the paper says.
 //!
+//! Besides the scene's Lambertian lights, [`trace_light_sources`] takes luminaires with an
+//! intensity table, skies and the sun entering through windows ([`sources`]), glazing that
+//! transmits a share of what lands on it straight through, and a virtual work plane that counts
+//! the flux crossing it downwards ([`plane`]).
+//!
 //! It shares the BVH, the samplers, the random streams and the parallel driver with the sound
 //! tracer; only the bounce and what is stored differ. Flux is summed in fixed point with atomic
 //! adds, so a bake is the same bits on any number of threads.
 
 pub mod patches;
+pub mod plane;
+pub mod sources;
+pub mod table;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -19,8 +27,11 @@ use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::{run_chunks, Progress};
 use crate::rng::Stream;
-use crate::sampling::{cosine_hemisphere, triangle_point, Discrete, Frame};
+use crate::sampling::{cosine_hemisphere, Discrete, Frame};
 pub use patches::Patches;
+pub use plane::WorkPlane;
+pub use sources::LightSource;
+pub use table::DirectionTable;
 
 /// How each material reflects light: `rho` is the total reflectance per RGB channel, of which
 /// the share `specular` leaves as a mirror (roughness 0) or glossy lobe (roughness > 0) and the
@@ -73,6 +84,10 @@ pub struct LightResult {
     pub patches: Patches,
     pub flux: Vec<[f64; 3]>,
     pub hits: Vec<u64>,
+    /// Flux crossing each work-plane cell downwards (W per channel; empty without a plane),
+    /// and how many particle paths crossed it.
+    pub plane_flux: Vec<[f64; 3]>,
+    pub plane_hits: Vec<u64>,
     pub stats: LightStats,
     pub cancelled: bool,
 }
@@ -90,6 +105,16 @@ pub struct LightStats {
     pub roulette: [f64; 3],
 }
 
+/// What a scene's light comes from besides its materials: the sources, each material's
+/// transmittance per channel (empty: nothing transmits; glazing passes this share straight
+/// through, so reflectance + transmittance ≤ 1), and an optional work plane.
+#[derive(Clone, Copy)]
+pub struct Lighting<'a> {
+    pub sources: &'a [LightSource],
+    pub transmittance: &'a [[f64; 3]],
+    pub work_plane: Option<&'a WorkPlane>,
+}
+
 /// Fixed point for flux: 2⁻⁵⁰ of the total emitted flux a count.
 struct FluxSums {
     counts: Vec<AtomicU64>,
@@ -98,6 +123,14 @@ struct FluxSums {
 }
 
 impl FluxSums {
+    fn new(len: usize, quantum: f64) -> FluxSums {
+        FluxSums { counts: (0..len * 3).map(|_| AtomicU64::new(0)).collect(), hits: (0..len).map(|_| AtomicU64::new(0)).collect(), quantum }
+    }
+
+    fn flux(&self) -> Vec<[f64; 3]> {
+        (0..self.hits.len()).map(|p| std::array::from_fn(|c| self.counts[p * 3 + c].load(Ordering::Relaxed) as f64 * self.quantum)).collect()
+    }
+
     fn add(&self, patch: usize, flux: [f64; 3], rng: &mut Stream) {
         let u = rng.uniform();
         for c in 0..3 {
@@ -132,7 +165,8 @@ impl Tally {
     }
 }
 
-/// Traces the particles the settings name and returns the flux on every patch.
+/// Traces the particles the settings name from Lambertian emitters and returns the flux on
+/// every patch.
 pub fn trace_light(
     mesh: &Mesh,
     bvh: &Bvh,
@@ -142,7 +176,24 @@ pub fn trace_light(
     settings: &LightSettings,
     progress: impl FnMut(&Progress) -> bool,
 ) -> Result<LightResult, CoreError> {
+    let sources: Vec<LightSource> = emitters.iter().map(|e| LightSource::Lambert { corners: e.corners, flux: e.flux }).collect();
+    let lighting = Lighting { sources: &sources, transmittance: &[], work_plane: None };
+    trace_light_sources(mesh, bvh, optics, lighting, patches, settings, progress)
+}
+
+/// Traces the particles the settings name from any kind of source, through glazing, and
+/// returns the flux on every patch and work-plane cell.
+pub fn trace_light_sources(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    optics: &Optics,
+    lighting: Lighting,
+    patches: Patches,
+    settings: &LightSettings,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<LightResult, CoreError> {
     settings.validate()?;
+    let emitters = lighting.sources;
     let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
     if optics.rho.len() < n_mat || optics.specular.len() < n_mat || optics.roughness.len() < n_mat {
         return Err(CoreError::invalid("optics", format!("need values for {n_mat} materials")));
@@ -150,29 +201,43 @@ pub fn trace_light(
     if optics.rho.iter().flatten().chain(&optics.specular).chain(&optics.roughness).any(|v| !(0.0..=1.0).contains(v)) {
         return Err(CoreError::invalid("optics", "reflectance, specular share and roughness must lie in [0, 1]"));
     }
+    let tau = lighting.transmittance;
+    if !tau.is_empty() && (tau.len() < n_mat || tau.iter().flatten().any(|v| !(0.0..=1.0).contains(v))) {
+        return Err(CoreError::invalid("transmittance", format!("need values in [0, 1] for {n_mat} materials")));
+    }
+    if let Some(m) = (0..tau.len().min(optics.rho.len())).find(|&m| (0..3).any(|c| optics.rho[m][c] + tau[m][c] > 1.0 + 1e-12)) {
+        return Err(CoreError::invalid("transmittance", format!("material {m}: reflectance + transmittance exceeds 1")));
+    }
+    for (i, e) in emitters.iter().enumerate() {
+        e.validate(i)?;
+    }
+    if let Some(p) = lighting.work_plane {
+        p.validate()?;
+    }
     if patches.resolution.len() != mesh.triangles.len() {
         return Err(CoreError::invalid("patches", "one patch resolution per triangle"));
     }
-    let power: Vec<f64> = emitters.iter().map(|e| e.flux.iter().sum::<f64>()).collect();
+    let power: Vec<f64> = emitters.iter().map(|e| e.flux().iter().sum::<f64>()).collect();
     let choose = Discrete::new(&power).ok_or_else(|| CoreError::invalid("lights", "no light emits any flux"))?;
     let total: f64 = power.iter().sum();
-    let sums = FluxSums {
-        counts: (0..patches.len() * 3).map(|_| AtomicU64::new(0)).collect(),
-        hits: (0..patches.len()).map(|_| AtomicU64::new(0)).collect(),
-        // Independent of the particle count, so that ranges of one bake merge exactly; a patch
-        // can take 16 000 × the emitted flux before its sum would wrap.
-        quantum: total / (1u64 << 50) as f64,
-    };
+    // Independent of the particle count, so that ranges of one bake merge exactly; a patch
+    // can take 16 000 × the emitted flux before its sum would wrap.
+    let quantum = total / (1u64 << 50) as f64;
+    let sums = FluxSums::new(patches.len(), quantum);
+    let plane_sums = FluxSums::new(lighting.work_plane.map_or(0, |p| p.len()), quantum);
     let epsilon = 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0);
     // A closed convex room whose lights lie inside it (or on its walls) and shine into it is
     // traced through its planes, as the sound tracer does.
-    let shines_in = |r: &ConvexRoom, e: &Emitter| {
-        let [a, b, c] = e.corners;
-        let inward = (a + b + c) / 3.0 + (b - a).cross(c - a).normalize() * epsilon;
-        e.corners.iter().all(|&p| r.holds(p, epsilon)) && r.contains(inward)
+    // Glazing lets particles out of the room, where the planes cannot follow them.
+    let shines_in = |r: &ConvexRoom, e: &LightSource| {
+        e.corners().is_none_or(|cs| cs.iter().all(|&p| r.holds(p, epsilon))) && r.contains(e.inward_point(epsilon))
     };
-    let surfaces = Surfaces::new(mesh, bvh, mesh.is_closed_convex(), |r| emitters.iter().all(|e| shines_in(r, e)));
-    let scene = LightScene { mesh, surfaces, optics, emitters, choose: &choose, patches: &patches, sums: &sums, settings, epsilon };
+    let opaque = tau.iter().flatten().all(|&v| v == 0.0);
+    let surfaces = Surfaces::new(mesh, bvh, opaque && mesh.is_closed_convex(), |r| emitters.iter().all(|e| shines_in(r, e)));
+    let scene = LightScene {
+        mesh, surfaces, optics, transmittance: tau, emitters, choose: &choose, patches: &patches, sums: &sums,
+        plane: lighting.work_plane.map(|p| (p, &plane_sums)), settings, epsilon,
+    };
     let (tallies, cancelled) = run_chunks(
         settings.end_ray - settings.first_ray,
         4096,
@@ -199,19 +264,23 @@ pub fn trace_light(
     }
     let w = |k: usize| energy[k].map(|v| v as f64 * TALLY_QUANTUM);
     (stats.emitted, stats.absorbed, stats.escaped, stats.roulette) = (w(EMITTED), w(ABSORBED), w(ESCAPED), w(ROULETTE));
-    let flux = (0..patches.len()).map(|p| std::array::from_fn(|c| sums.counts[p * 3 + c].load(Ordering::Relaxed) as f64 * sums.quantum)).collect();
+    let flux = sums.flux();
     let hits = sums.hits.iter().map(|h| h.load(Ordering::Relaxed)).collect();
-    Ok(LightResult { patches, flux, hits, stats, cancelled })
+    let plane_flux = plane_sums.flux();
+    let plane_hits = plane_sums.hits.iter().map(|h| h.load(Ordering::Relaxed)).collect();
+    Ok(LightResult { patches, flux, hits, plane_flux, plane_hits, stats, cancelled })
 }
 
 struct LightScene<'a> {
     mesh: &'a Mesh,
     surfaces: Surfaces<'a>,
     optics: &'a Optics,
-    emitters: &'a [Emitter],
+    transmittance: &'a [[f64; 3]],
+    emitters: &'a [LightSource],
     choose: &'a Discrete,
     patches: &'a Patches,
     sums: &'a FluxSums,
+    plane: Option<(&'a WorkPlane, &'a FluxSums)>,
     settings: &'a LightSettings,
     epsilon: f64,
 }
@@ -219,25 +288,28 @@ struct LightScene<'a> {
 /// One particle from its light to its end.
 fn trace_particle(sc: &LightScene, index: u64, tally: &mut Tally) {
     let mut rng = Stream::new(sc.settings.seed, u64::MAX - 1, index);
-    // Emit: a light by its power, a point by area, a direction by cosine.
+    // Emit: a light by its power, then a point and a direction as the light's kind says.
     let k = sc.choose.sample(rng.uniform());
-    let em = &sc.emitters[k];
-    let [a, b, c] = em.corners;
-    let mut pos = triangle_point(a, b, c, rng.uniform(), rng.uniform());
-    let n = (b - a).cross(c - a).normalize();
-    let mut dir = cosine_hemisphere(&Frame::from_normal(n), rng.uniform(), rng.uniform());
-    pos += n * sc.epsilon;
-    // Each particle carries the light's colour at a share of the total flux, so that every
-    // particle starts with the same power.
+    let emission = sc.emitters[k].emit(&mut rng, sc.epsilon);
+    let (mut pos, mut dir) = (emission.origin, emission.direction);
+    // Each particle carries its value / density at a share of the particle count (for a
+    // Lambertian light the same power for every particle).
     let p_k = sc.choose.probability(k);
     let n_particles = sc.settings.particles as f64;
-    let mut w = em.flux.map(|f| f / (p_k * n_particles));
+    let mut w = emission.flux.map(|f| f / (p_k * n_particles));
     tally.particles += 1;
     tally.add(EMITTED, w);
 
     for _ in 0..sc.settings.max_bounces {
         // Find where the particle lands.
-        let Some((t, tri, _)) = sc.surfaces.nearest(pos, dir) else {
+        let nearest = sc.surfaces.nearest(pos, dir);
+        // Count it on the work plane if this path crosses it downwards.
+        if let Some((plane, sums)) = sc.plane {
+            if let Some(cell) = plane.crossing(pos, dir, nearest.map_or(f64::INFINITY, |h| h.0)) {
+                sums.add(cell, w, &mut rng);
+            }
+        }
+        let Some((t, tri, _)) = nearest else {
             tally.escaped_particles += 1;
             tally.add(ESCAPED, w);
             return;
@@ -249,19 +321,32 @@ fn trace_particle(sc: &LightScene, index: u64, tally: &mut Tally) {
         let (s, t) = patches::barycentric(point, v0, v1, v2);
         sc.sums.add(sc.patches.index(tri, s, t), w, &mut rng);
 
-        // Absorb; Russian roulette on the largest reflectance decides whether it goes on.
+        // Absorb; Russian roulette on the largest reflectance (and transmittance) decides
+        // whether it goes on, and whether it is reflected or passes through.
         let m = sc.mesh.material[tri] as usize;
         let rho = sc.optics.rho[m];
+        let tau = sc.transmittance.get(m).copied().unwrap_or([0.0; 3]);
         let reflected = [w[0] * rho[0], w[1] * rho[1], w[2] * rho[2]];
-        tally.add(ABSORBED, [w[0] - reflected[0], w[1] - reflected[1], w[2] - reflected[2]]);
-        let survive = rho[0].max(rho[1]).max(rho[2]);
-        if survive <= 0.0 || rng.uniform() >= survive {
-            tally.add(ROULETTE, reflected.map(|x| -x));
+        let passed = [w[0] * tau[0], w[1] * tau[1], w[2] * tau[2]];
+        let kept: [f64; 3] = std::array::from_fn(|c| reflected[c] + passed[c]);
+        tally.add(ABSORBED, [w[0] - kept[0], w[1] - kept[1], w[2] - kept[2]]);
+        let (p_reflect, p_pass) = (rho[0].max(rho[1]).max(rho[2]), tau[0].max(tau[1]).max(tau[2]));
+        let scale = (p_reflect + p_pass).max(1.0);
+        let (p_reflect, p_pass) = (p_reflect / scale, p_pass / scale);
+        let u = rng.uniform();
+        if u >= p_reflect + p_pass {
+            tally.add(ROULETTE, kept.map(|x| -x));
             return;
         }
-        let next = reflected.map(|x| x / survive);
-        tally.add(ROULETTE, [next[0] - reflected[0], next[1] - reflected[1], next[2] - reflected[2]]);
+        let through = u >= p_reflect;
+        let next = if through { passed.map(|x| x / p_pass) } else { reflected.map(|x| x / p_reflect) };
+        tally.add(ROULETTE, [next[0] - kept[0], next[1] - kept[1], next[2] - kept[2]]);
         w = next;
+        if through {
+            // Glazing: on along the same line, from just past the surface.
+            pos = point + dir * sc.epsilon;
+            continue;
+        }
 
         // Bounce from the side it came from.
         let mut normal = (v1 - v0).cross(v2 - v0).normalize();

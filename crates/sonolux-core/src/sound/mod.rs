@@ -332,11 +332,11 @@ pub fn trace_sound_hybrid(
         return Err(CoreError::invalid("sources", "a sound bake needs at least one source"));
     }
     for (i, s) in sources.iter().enumerate() {
-        if !s.position.is_finite() || !(s.power_w > 0.0 && s.power_w.is_finite()) {
+        if !(s.position.is_finite() && s.power_w > 0.0 && s.power_w.is_finite()) {
             return Err(CoreError::invalid("sources", format!("source {i}: position must be finite and power positive")));
         }
         if let Directivity::Cone { axis, cos_half_angle } = s.directivity {
-            if !(axis.is_finite() && (axis.length() - 1.0).abs() < 1e-6) || !(-1.0..1.0).contains(&cos_half_angle) {
+            if !(axis.is_finite() && (axis.length() - 1.0).abs() < 1e-6 && (-1.0..1.0).contains(&cos_half_angle)) {
                 return Err(CoreError::invalid("sources", format!("source {i}: a cone needs a unit axis and a half-angle in (0°, 180°]")));
             }
         }
