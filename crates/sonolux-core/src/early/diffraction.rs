@@ -136,7 +136,9 @@ pub fn integrate(f: &impl Fn(f64) -> f64, a: f64, b: f64, tol: f64, depth: u32) 
         }
     }
     let (k, g) = (k * h, g * h);
-    if depth == 0 || (k - g).abs() <= tol {
+    // A relative floor: below it the estimate is as good as double precision allows, and a
+    // non-finite estimate is not refined (neither would ever meet an absolute tolerance).
+    if depth == 0 || !(k - g).is_finite() || (k - g).abs() <= tol.max(1e-13 * k.abs()) {
         return k;
     }
     integrate(f, a, c, 0.5 * tol, depth - 1) + integrate(f, c, b, 0.5 * tol, depth - 1)
@@ -182,7 +184,7 @@ pub fn binned_response(g: &WedgeGeometry, z1: f64, z2: f64, speed_m_s: f64, samp
             let z_next = if target >= l_side { end } else { invert_path(g, z_prev, end, target) };
             let (a, b) = if sign > 0.0 { (z_prev, z_next) } else { (z_next, z_prev) };
             let tol = 1e-10 * scale * (b - a).max(1e-6);
-            *bin += integrate(&f, a, b, tol, 48);
+            *bin += integrate(&f, a, b, tol, 30);
             z_prev = z_next;
             if z_next == end {
                 break;
