@@ -137,8 +137,8 @@ def trace_sound(
 class EarlySettings:
     """Exact early sound: image sources, edge diffraction (BTM), level of detail."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         *,
         max_order: int,
         max_time_s: float,
@@ -151,7 +151,7 @@ class EarlySettings:
         threads: int,
         diffraction_piece_m: float = 0.25,
         plane_tolerance_m: float = 1e-3,
-    ) -> None: ...
+    ) -> EarlySettings: ...
     @property
     def max_order(self) -> int: ...
     @property

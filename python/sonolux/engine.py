@@ -45,8 +45,8 @@ if TYPE_CHECKING:
     )
 
 #: The binding's names that this gateway hands out as they are.
-_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "EarlySettings", "Emitters", "Lighting", "LightSettings",
-              "Optics", "Receivers", "SoundSettings", "SoundSource", "fold", "partition",
+_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "EarlySettings", "Emitters", "Lighting",
+              "LightSettings", "Optics", "Receivers", "SoundSettings", "SoundSource", "fold", "partition",
               "MAX_THREADS")
 
 Progress = Callable[[int, int, float], bool]

@@ -25,9 +25,9 @@ import numpy as np
 from sonolux.engine import Geometry
 from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_matches
 from sonolux.scene import builtin
+from sonolux.scene.early import read_early
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.inside import RoomSpace
-from sonolux.scene.early import read_early
 from sonolux.scene.lighting import place_workplane, read_daylight
 from sonolux.scene.material_names import MaterialNames
 from sonolux.scene.materials import Library

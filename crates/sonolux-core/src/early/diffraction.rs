@@ -33,6 +33,9 @@
 //! negative (the lit side of a boundary, where D subtracts), the deficit is taken from the
 //! largest geometric arrival of the group, so no arrival has a negative energy.
 
+// The quadrature tables are QUADPACK's, digit for digit.
+#![allow(clippy::excessive_precision)]
+
 use std::f64::consts::PI;
 
 use glam::DVec3;

@@ -91,11 +91,11 @@ pub fn wedges(mesh: &Mesh, planes: &Planes) -> Vec<Wedge> {
         };
         let normal = |t: u32| mesh.normal(t as usize).as_dvec3();
         let plane = |t: u32| planes.plane_of_triangle[t as usize];
-        let wedge = match tris.as_slice() {
-            &[t] => {
+        let wedge = match *tris.as_slice() {
+            [t] => {
                 Wedge { start: a, end: b, along, into_face: into(t), normal: normal(t), open_angle_rad: 2.0 * PI, planes: [plane(t), plane(t)] }
             }
-            &[t1, t2] => {
+            [t1, t2] => {
                 let (d1, d2, n1) = (into(t1), into(t2), normal(t1));
                 let between = d1.dot(d2).clamp(-1.0, 1.0).acos();
                 // Second face on the air side of the first: concave; behind it: convex.
