@@ -80,8 +80,8 @@ mod tests {
         let p = panel(4.0, 1.0);
         let k = |f: f64| specular_share(&p, DVec3::Z, -DVec3::Z, 4.0, 4.0, f, 343.0);
         let db = |f: f64| 10.0 * (k(2.0 * f) / k(f)).log10();
-        assert!((db(5.0) - 6.02).abs() < 1e-9); // below both cut-offs
-        assert!((db(60.0) - 3.01).abs() < 1e-9); // between them
+        assert!((db(5.0) - 20.0 * 2f64.log10()).abs() < 1e-9); // below both cut-offs: 6 dB
+        assert!((db(60.0) - 10.0 * 2f64.log10()).abs() < 1e-9); // between them: 3 dB
         assert!(db(1000.0).abs() < 1e-12); // above both
         assert!((k(343.0) - 1.0).abs() < 1e-12);
     }
