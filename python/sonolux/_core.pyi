@@ -23,6 +23,8 @@ __all__ = [
     "SoundSource",
     "Receivers",
     "SoundSettings",
+    "EarlySettings",
+    "early_arrivals",
     "trace_sound",
     "Optics",
     "Emitters",
@@ -128,6 +130,40 @@ def trace_sound(
     receivers: Receivers,
     settings: SoundSettings,
     progress: _Progress | None = None,
+    early: EarlySettings | None = None,
+) -> dict[str, Any]: ...
+
+@final
+class EarlySettings:
+    """Exact early sound: image sources, edge diffraction (BTM), level of detail."""
+
+    def __new__(
+        cls,
+        *,
+        max_order: int,
+        max_time_s: float,
+        speed_of_sound_m_s: float,
+        air_attenuation_per_m: Sequence[float],
+        band_centres_hz: Sequence[float],
+        bands_per_octave: float,
+        diffraction: bool,
+        level_of_detail: bool,
+        threads: int,
+        diffraction_piece_m: float = 0.25,
+        plane_tolerance_m: float = 1e-3,
+    ) -> EarlySettings: ...
+    @property
+    def max_order(self) -> int: ...
+    @property
+    def max_time_s(self) -> float: ...
+
+def early_arrivals(
+    geometry: Geometry,
+    acoustics: Acoustics,
+    sources: Sequence[SoundSource],
+    receivers: Receivers,
+    early: EarlySettings,
+    settings: SoundSettings,
 ) -> dict[str, Any]: ...
 
 @final

@@ -6,9 +6,10 @@ Everything else in sonolux reaches the core through the names here:
   scene and the pictures need (mesh report, winding numbers, distances, closest hits, light
   patches);
 - :func:`trace_sound` and :func:`trace_light`: the two tracers, each taking the settings
-  objects below and returning numpy arrays in a dict;
+  objects below and returning numpy arrays in a dict; :func:`early_arrivals`: the exact early
+  sound (image sources, edge diffraction) that a hybrid bake adds to the particles;
 - the settings classes of the binding, made on first use: ``Acoustics``, ``Directivity``,
-  ``SoundSource``, ``Receivers``, ``SoundSettings``, ``Optics``, ``Emitters``,
+  ``SoundSource``, ``Receivers``, ``SoundSettings``, ``EarlySettings``, ``Optics``, ``Emitters``,
   ``LightSettings``, ``Lighting`` (documented in ``_core.pyi``);
 - the partitioned convolver of auralization: ``Convolver``, ``partition``, ``fold``.
 
@@ -33,6 +34,7 @@ from sonolux.errors import CoreMissingError, InvalidInputError
 if TYPE_CHECKING:
     from sonolux._core import (
         Acoustics,
+        EarlySettings,
         Emitters,
         Lighting,
         LightSettings,
@@ -43,8 +45,8 @@ if TYPE_CHECKING:
     )
 
 #: The binding's names that this gateway hands out as they are.
-_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "Emitters", "Lighting", "LightSettings",
-              "Optics", "Receivers", "SoundSettings", "SoundSource", "fold", "partition",
+_FROM_CORE = ("Acoustics", "Convolver", "Directivity", "EarlySettings", "Emitters", "Lighting",
+              "LightSettings", "Optics", "Receivers", "SoundSettings", "SoundSource", "fold", "partition",
               "MAX_THREADS")
 
 Progress = Callable[[int, int, float], bool]
@@ -207,11 +209,22 @@ class Geometry:
 
 def trace_sound(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],
                 receivers: Receivers, settings: SoundSettings,
-                progress: Progress | None = None) -> dict[str, Any]:
+                progress: Progress | None = None,
+                early: EarlySettings | None = None) -> dict[str, Any]:
     """Traces a sound bake; see ``_core.trace_sound`` for the dict it returns (the field is
-    float32[receiver, direction, band, time] in J/m²)."""
+    float32[receiver, direction, band, time] in J/m²). With ``early``, the specular-only paths
+    that :func:`early_arrivals` counts with those settings are left out."""
     return core().trace_sound(geometry._native, acoustics, list(sources), receivers, settings,
-                              progress)
+                              progress, early)
+
+
+def early_arrivals(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],
+                   receivers: Receivers, early: EarlySettings,
+                   settings: SoundSettings) -> dict[str, Any]:
+    """The exact early arrivals (image sources and edge diffraction) of every source at every
+    receiver, placed in the bins of a bake with ``settings``; see ``_core.early_arrivals``."""
+    return core().early_arrivals(geometry._native, acoustics, list(sources), receivers, early,
+                                 settings)
 
 
 def trace_light(geometry: Geometry, optics: Optics, emitters: Emitters, settings: LightSettings,
@@ -222,5 +235,6 @@ def trace_light(geometry: Geometry, optics: Optics, emitters: Emitters, settings
     return core().trace_light(geometry._native, optics, emitters, settings, progress, lighting)
 
 
-__all__ = ["Geometry", "core", "core_available", "physical_memory_bytes", "trace_light",
+__all__ = ["Geometry", "core", "core_available", "early_arrivals", "physical_memory_bytes",
+           "trace_light",
            "trace_sound", *_FROM_CORE]

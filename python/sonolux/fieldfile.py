@@ -19,6 +19,11 @@ Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m
     /sound/bands_hz        float64[band];  /sound/directions  str[direction]
     /sound/receivers_m     float64[receiver, 3];  /sound/grid_index  int64[receiver, 2]
     /sound/sources_m       float64[source, 3];    /sound/source_powers_w  float64[source]
+    /sound/early/...       (hybrid bakes only: the exact early arrivals, already in energy)
+                           source, receiver, kind (0 specular, 1 diffracted), order,
+                           direction_bin, time_bin (-1 past the end) int64[arrival];
+                           time_s float64[arrival]; from_direction float64[arrival, 3];
+                           energy float64[arrival, band]
     /light                 attrs: settings (JSON), stats (JSON), patch_size_m
     /light/patch_resolution uint32[triangle];  /light/patch_offset  uint64[triangle + 1]
     /light/patch_area_m2   float64[patch];  /light/flux_w  float64[patch, channel]
@@ -134,6 +139,10 @@ def _write_sound(f: Any, field: SoundField) -> None:
     if field.counts is not None:
         g.create_dataset("counts", data=field.counts, compression="gzip", shuffle=True,
                          chunks=per_receiver)
+    if field.early is not None:
+        early = g.create_group("early")
+        for name, values in field.early.items():
+            early.create_dataset(name, data=values, compression="gzip", shuffle=True)
 
 
 def _write_light(f: Any, field: LightField) -> None:
@@ -252,8 +261,10 @@ def _read_sound(f: Any, path: str) -> SoundField:
             counts=counts, quantum=float(g.attrs["quantum"]),
             theory=json.loads(theory) if theory is not None else None)
         check_sound(path, arrays)
+        early = {k: g["early"][k][...] for k in g["early"]} if "early" in g else None
         return SoundField(**arrays, scene_name=str(f.attrs.get("scene_name", "")),
-                          scene_origin=str(f.attrs.get("scene_origin", "")), path=path)
+                          scene_origin=str(f.attrs.get("scene_origin", "")), path=path,
+                          early=early)
     except KeyError as exc:
         raise FieldFileError(f"{path}: the sound field is incomplete ({exc.args[0]} is "
                              "missing)") from None

@@ -5,7 +5,8 @@
 //! share ([`bvh`]) and its shortcut for closed convex rooms ([`convex`]), the samplers that emit
 //! rays and choose bounces ([`sampling`]) and the random streams that make every ray replayable
 //! from (seed, source, ray) alone ([`rng`]), and the partitioned convolver that
-//! auralization runs on ([`convolver`]), and the wave solver for the low bands ([`wave`]).
+//! auralization runs on ([`convolver`]), the wave solver for the low bands ([`wave`]), and the
+//! exact early sound of image sources and edge diffraction ([`early`]).
 //!
 //! Conventions, the same in every module and in the Python package:
 //! - lengths in metres, z up; azimuth 0° is +x and grows counter-clockwise seen from above;
@@ -18,6 +19,7 @@
 pub mod bvh;
 pub mod convex;
 pub mod convolver;
+pub mod early;
 pub mod error;
 pub mod geometry;
 pub mod light;

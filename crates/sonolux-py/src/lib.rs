@@ -17,6 +17,7 @@ use sonolux_core::sound::MAX_THREADS;
 use sonolux_core::{Bvh, CoreError, Mesh, Ray};
 
 mod convolve;
+mod early;
 mod light;
 mod light_sources;
 mod sound;
@@ -296,6 +297,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sound::Receivers>()?;
     m.add_class::<sound::SoundSettings>()?;
     m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
+    m.add_class::<early::EarlySettings>()?;
+    m.add_function(wrap_pyfunction!(early::early_arrivals, m)?)?;
     m.add_class::<light::Optics>()?;
     m.add_class::<light::Emitters>()?;
     m.add_class::<light::LightSettings>()?;

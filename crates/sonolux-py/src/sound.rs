@@ -45,6 +45,12 @@ impl Acoustics {
     }
 }
 
+impl Acoustics {
+    pub(crate) fn inner(&self) -> &core::Acoustics {
+        &self.inner
+    }
+}
+
 /// How a source sends its rays out: `Directivity.omni()`, or `Directivity.cone(axis,
 /// half_angle_deg)`: uniformly within half_angle_deg (0 to 180°] of the axis, as the paper's
 /// directional source.
@@ -94,7 +100,7 @@ impl Directivity {
 /// impulse carries power_w joules (a source of that power for one second).
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct SoundSource {
-    inner: core::SoundSource,
+    pub(crate) inner: core::SoundSource,
 }
 
 #[pymethods]
@@ -142,6 +148,12 @@ impl Receivers {
     #[getter]
     fn count(&self) -> usize {
         self.inner.len()
+    }
+}
+
+impl Receivers {
+    pub(crate) fn inner(&self) -> &core::Receivers {
+        &self.inner
     }
 }
 
@@ -210,15 +222,24 @@ impl SoundSettings {
     }
 }
 
+impl SoundSettings {
+    pub(crate) fn inner(&self) -> &core::SoundSettings {
+        &self.inner
+    }
+}
+
 /// Traces a sound bake (or the range of rays its settings name). `progress(done, total,
-/// elapsed_s)` is called about every 100 ms and may return False to stop.
+/// elapsed_s)` is called about every 100 ms and may return False to stop. With `early` (an
+/// `EarlySettings`), the tracer leaves out the specular-only paths that `early_arrivals` counts
+/// with those settings (up to its order and time), so that the two add without double counting.
 ///
 /// Returns a dict: energy float32[receiver, direction, band, time] in J/m², bin_start_s and
 /// bin_width_s float64[time], early_bins, late_bin_s, quantum, counts uint64[receiver,
 /// direction, band, time] (only with keep_counts: energy = counts × quantum, exactly), saturated,
 /// cancelled and stats (a dict).
 #[pyfunction]
-#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None))]
+#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None, early = None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_sound<'py>(
     py: Python<'py>,
     geometry: &Geometry,
@@ -227,8 +248,10 @@ pub(crate) fn trace_sound<'py>(
     receivers: &Receivers,
     settings: &SoundSettings,
     progress: Option<Bound<'py, PyAny>>,
+    early: Option<PyRef<'py, crate::early::EarlySettings>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let set = &settings.inner;
+    let covered = early.map(|e| e.coverage());
     let threads = check_threads(set.threads)?;
     let sources: Vec<core::SoundSource> = sources.iter().map(|s| s.inner.clone()).collect();
     // Trace with the GIL released; the progress closure takes it back briefly to report and to
@@ -236,7 +259,7 @@ pub(crate) fn trace_sound<'py>(
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        let res = core::trace_sound(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, |p| {
+        let res = core::trace_sound_hybrid(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, covered, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })?;
         let energy = res.energy(threads);

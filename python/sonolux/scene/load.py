@@ -26,6 +26,7 @@ from sonolux.engine import Geometry
 from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_matches
 from sonolux.limits import MAX_SEED, MAX_THREADS, MAX_TIME_S
 from sonolux.scene import builtin
+from sonolux.scene.early import read_early
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.inside import RoomSpace
 from sonolux.scene.lighting import place_workplane, read_daylight
@@ -51,7 +52,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers",
-             "daylight", "workplane")
+             "daylight", "workplane", "early")
 SETTINGS_KEYS = ("sample_rate_hz", "bands_hz", "energy_drop_db", "max_time_s", "seed",
                  "threads", "air")
 AIR_KEYS = ("temperature_c", "humidity_percent", "pressure_kpa")
@@ -227,6 +228,7 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     light_specs = read_lights(light_tables)
     receiver_spec = read_receivers(root.table("receivers"))
     daylight = read_daylight(root.table("daylight"))
+    early = read_early(root.table("early"))
 
     entries = root.tables("geometry")
     if not entries:
@@ -269,4 +271,4 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
                  material_index=material_index, materials=materials, surface_tag=tags,
                  sources=sources, lights=lights, receivers=receivers, settings=settings,
                  mesh_report=report, warnings=warnings, geometry=geometry, daylight=daylight,
-                 workplane=workplane)
+                 workplane=workplane, early=early)

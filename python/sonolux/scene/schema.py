@@ -195,6 +195,8 @@ class Scene:
     #: ``[workplane]`` (a :class:`sonolux.scene.lighting.WorkplaneSpec`).
     daylight: Any = None
     workplane: Any = None
+    #: ``[early]`` (a :class:`sonolux.scene.early.EarlySpec`), or None: particles only.
+    early: Any = None
     #: The core's mesh and BVH, built once when the scene was loaded and shared by the tracers.
     geometry: Any = field(default=None, repr=False)
 

@@ -8,6 +8,10 @@ attenuation (ISO 9613-1), puts them in the engine's settings objects and hands t
 ``crates/sonolux-core/src/sound``); the energies come back as
 float32[receiver, direction, band, time] in J/m². The field also keeps what theory expects of
 the room (:func:`sonolux.scene.summary.theory`), for the analysis.
+
+A scene with an ``[early]`` table is baked as a hybrid (:mod:`sonolux.sound.early`): the core's
+image sources and edge diffraction give the early arrivals exactly, the tracer leaves out the
+specular-only paths they count, and the arrivals are added to the field in their bins.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 from sonolux.scene.summary import theory
+from sonolux.sound import early as early_sound
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
@@ -130,19 +135,30 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         azimuth_bands=options.azimuth_bands, elevation_bands=options.elevation_bands,
         max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
+    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"])
+    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s)) for s in src]
+    receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
+                                 scene.receivers.radius_m)
     started = time.perf_counter()
-    out = engine.trace_sound(
-        scene.geometry, engine.Acoustics(arrays["absorption"], arrays["scattering"]),
-        [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s)) for s in src],
-        engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
-                         scene.receivers.radius_m),
-        settings, callback)
+    early, arrivals = None, None
+    if scene.early is not None:
+        early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
+        found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
+                                      settings)
+        arrivals = early_sound.arrival_table(found)
+        early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
+    out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings, callback,
+                             early)
     seconds = time.perf_counter() - started
     stats = dict(out["stats"])
     stats.update(seconds=seconds, rays_per_second=stats["rays"] / seconds if seconds > 0 else None,
                  segments_per_second=stats["segments"] / seconds if seconds > 0 else None,
                  mean_free_path_theory_m=4 * scene.volume_m3 / scene.area_m2,
                  saturated=bool(out["saturated"]), cancelled=bool(out["cancelled"]))
+    energy = out["energy"]
+    if arrivals is not None:
+        stats["early"] = early_stats
+        energy = early_sound.add_arrivals(energy, arrivals)
     if out["saturated"]:
         raise SonoluxError("the sound field overflowed its fixed-point range (a bug: please report "
                            "the scene)")
@@ -154,19 +170,24 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "late_bin_s": options.late_bin_s, "azimuth_bands": options.azimuth_bands,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
         "volume_m3": scene.volume_m3, "area_m2": scene.area_m2,
+        "early": None if early is None else {
+            "max_order": early.max_order, "transition_s": early.max_time_s,
+            "diffraction": scene.early.diffraction, "level_of_detail": scene.early.level_of_detail,
+            "diffraction_piece_m": scene.early.diffraction_piece_m},
         "air": {"temperature_c": scene.settings.air.temperature_c,
                 "humidity_percent": scene.settings.air.humidity_percent,
                 "pressure_kpa": scene.settings.air.pressure_kpa},
     }
     return SoundField(
-        energy=out["energy"], bin_start_s=out["bin_start_s"], bin_width_s=out["bin_width_s"],
+        energy=energy, bin_start_s=out["bin_start_s"], bin_width_s=out["bin_width_s"],
         bands_hz=np.asarray(scene.settings.bands_hz, float),
         positions_m=np.asarray(scene.receivers.positions_m, float), radius_m=scene.receivers.radius_m,
         grid_index=scene.receivers.grid_index, grid_spacing_m=scene.receivers.spacing_m,
         source_positions_m=np.array([s.position_m for s in src], float),
         source_powers_w=np.array([s.power_w for s in src], float),
         settings=record, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
-        counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene))
+        counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene),
+        early=arrivals)
 
 
 def _directivity(source: Any) -> Any:

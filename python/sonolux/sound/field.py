@@ -42,6 +42,26 @@ def direction_names(n_azimuth: int, n_elevation: int) -> list[str]:
     return [f"{a}@{e}" for e in el for a in az]
 
 
+def add_arrivals(particles: np.ndarray, arrivals: dict[str, np.ndarray]) -> np.ndarray:
+    """float32[receiver, direction, band, time]: the particles' field plus every arrival's
+    energy in its (receiver, direction, time) bin. Each touched cell is summed in float64, the
+    arrivals in their order, then rounded once (the same bits every time); the field is copied
+    once, never widened. Arrivals past the field's end (time_bin −1) are left out."""
+    out = np.array(particles, dtype=np.float32, order="C", copy=True)
+    keep = arrivals["time_bin"] >= 0
+    n_bands = out.shape[2]
+    r, d, t = (arrivals[k][keep].astype(np.int64) for k in ("receiver", "direction_bin", "time_bin"))
+    bands = np.arange(n_bands, dtype=np.int64)
+    cells = np.ravel_multi_index((np.repeat(r, n_bands), np.repeat(d, n_bands),
+                                  np.tile(bands, r.size), np.repeat(t, n_bands)), out.shape)
+    unique, slot = np.unique(cells, return_inverse=True)
+    sums = np.zeros(unique.size, np.float64)
+    np.add.at(sums, slot, arrivals["energy"][keep].astype(np.float64).reshape(-1))
+    flat = out.reshape(-1)
+    flat[unique] = (flat[unique].astype(np.float64) + sums).astype(np.float32)
+    return out
+
+
 @dataclass
 class SoundField:
     energy: np.ndarray
@@ -62,6 +82,9 @@ class SoundField:
     quantum: float = 0.0
     path: str | None = None
     theory: dict[str, Any] | None = None
+    #: The exact early arrivals of a hybrid bake (:mod:`sonolux.sound.early`), already added to
+    #: ``energy``; None for particles only.
+    early: dict[str, np.ndarray] | None = field(default=None, repr=False)
 
     # --- shape -------------------------------------------------------------------------------
     @property
@@ -162,12 +185,14 @@ class SoundField:
         the ranges of a bake merge to the same bits as the bake done at once."""
         if self.counts is None or other.counts is None:
             raise SonoluxError("only fields baked with a ray range carry the counts to merge")
-        same = ("rays", "seed", "estimator", "max_time_s", "early_bins", "late_bin_s")
-        if self.quantum != other.quantum or any(self.settings[k] != other.settings[k] for k in same) \
+        same = ("rays", "seed", "estimator", "max_time_s", "early_bins", "late_bin_s", "early")
+        if self.quantum != other.quantum or any(self.settings.get(k) != other.settings.get(k) for k in same) \
                 or self.counts.shape != other.counts.shape:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
         counts = self.counts + other.counts
         energy = (counts.astype(np.float64) * self.quantum).astype(np.float32)
+        if self.early is not None:
+            energy = add_arrivals(energy, self.early)
         mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
         theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
         for a0, a1 in mine:

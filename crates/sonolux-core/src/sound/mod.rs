@@ -56,6 +56,32 @@ pub struct Acoustics {
     pub scattering: Vec<f64>,
 }
 
+/// The specular-only paths that another method already counts (the image sources of
+/// [`crate::early`]), which the tracer must then leave out so that nothing is counted twice.
+///
+/// A ray is "specular only" until its first diffuse bounce. A segment of such a ray after
+/// `k` reflections is exactly a path of an image source of order `k`; its deposits (into the
+/// spheres; and, for `k` = 0, the rain estimator's exact direct sound) are skipped when
+/// `k ≤ max_order` and the deposit's time is at most `max_time_s`: the same set of paths the
+/// image sources enumerate. Every reflection still splits the energy into its specular share
+/// (1 − s) and its diffuse share s (the tracer's choice of bounce and re-weighting), so what is
+/// left out has, in expectation, exactly the image sources' energy Π(1 − α)(1 − s), band by band;
+/// everything with at least one diffuse bounce (all rain connections included) is kept.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpecularCoverage {
+    pub max_order: u32,
+    pub max_time_s: f64,
+}
+
+impl SpecularCoverage {
+    /// Whether a deposit of a ray that has only reflected specularly, `reflections` times, at
+    /// `time_s`, is already counted.
+    #[inline]
+    pub fn covers(&self, reflections: u64, time_s: f64) -> bool {
+        reflections <= self.max_order as u64 && time_s <= self.max_time_s
+    }
+}
+
 /// Most worker threads a run may ask for (0 asks for one per core). More would only cost memory:
 /// each worker keeps its own scratch and statistics.
 pub const MAX_THREADS: usize = 1024;
@@ -252,6 +278,8 @@ pub(crate) struct Scene<'a> {
     pub uniform_scattering: bool,
     /// Offset from a surface for the next ray's origin.
     pub epsilon: f64,
+    /// Specular-only paths counted elsewhere (None: the tracer counts everything).
+    pub covered: Option<SpecularCoverage>,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -273,6 +301,27 @@ pub fn trace_sound(
     settings: &SoundSettings,
     progress: impl FnMut(&Progress) -> bool,
 ) -> Result<SoundResult, CoreError> {
+    trace_sound_hybrid(mesh, bvh, acoustics, sources, receivers, settings, None, progress)
+}
+
+/// [`trace_sound`] leaving out the specular-only paths that `covered` names (the hybrid with
+/// [`crate::early`]'s image sources); `None` is [`trace_sound`].
+#[allow(clippy::too_many_arguments)]
+pub fn trace_sound_hybrid(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    acoustics: &Acoustics,
+    sources: &[SoundSource],
+    receivers: &Receivers,
+    settings: &SoundSettings,
+    covered: Option<SpecularCoverage>,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<SoundResult, CoreError> {
+    if let Some(c) = covered {
+        if !(c.max_time_s >= 0.0) || c.max_order > 64 {
+            return Err(CoreError::invalid("specular coverage", format!("order {} (≤ 64) and time {} s (≥ 0) expected", c.max_order, c.max_time_s)));
+        }
+    }
     let nb = acoustics.n_bands;
     settings.validate(acoustics, receivers.len())?;
     let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
@@ -315,6 +364,7 @@ pub fn trace_sound(
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
+        covered,
     };
     let quantum = trace::quantum(sources, receivers.radius_m);
     let n = settings.end_ray - settings.first_ray;

@@ -88,6 +88,8 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     // Whether the spheres collect this segment: always in paper mode; in rain mode only after a
     // specular reflection (direct sound and diffuse reflections are handled exactly).
     let mut spheres = set.estimator == Estimator::Paper;
+    // Whether every reflection so far was specular: such segments may be the image sources'.
+    let mut specular_only = true;
     let radius = scene.receivers.radius_m;
     let sphere_volume = 4.0 / 3.0 * PI * radius.powi(3);
     // This ray's energy tallies (in units of its share), summed here and added to the
@@ -110,7 +112,11 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
                 // The wavefront reaches the sphere's centre at its distance from the image
                 // source, not where this ray passes nearest: exact times for specular paths.
                 let to_centre = ((wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - wave_radius;
-                let Some(tb) = lay.time_bin((path + to_centre) / set.speed_of_sound_m_s) else { return };
+                let time_s = (path + to_centre) / set.speed_of_sound_m_s;
+                if specular_only && scene.covered.is_some_and(|c| c.covers(reflections, time_s)) {
+                    return;
+                }
+                let Some(tb) = lay.time_bin(time_s) else { return };
                 let weight = share * c.chord / sphere_volume;
                 if scene.air {
                     for b in 0..nb {
@@ -193,6 +199,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
             dir = cosine_hemisphere(&Frame::from_normal(normal), rng.uniform(), rng.uniform());
             wave_radius = 0.0;
             spheres = set.estimator == Estimator::Paper;
+            specular_only = false;
         } else {
             dir = dir - 2.0 * dir.dot(normal) * normal;
             spheres = true;
@@ -279,6 +286,9 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
                 if scene.bvh.occluded(&ray, 0.0, 1.0) {
                     continue;
                 }
+            }
+            if scene.covered.is_some_and(|c| c.covers(0, d / set.speed_of_sound_m_s)) {
+                continue;
             }
             let Some(tb) = lay.time_bin(d / set.speed_of_sound_m_s) else { continue };
             let energy = src.power_w * gain * ball_mean_inverse_square(d, radius);

@@ -1,0 +1,232 @@
+//! Specular image sources on a mesh (Allen and Berkley 1979 for the images; Borish, "Extension
+//! of the image model to arbitrary polyhedra", JASA 75(6), 1984, for validity and visibility).
+//!
+//! One tree per source, shared by all receivers: node 0 is the source, a child is its parent
+//! mirrored in another plane. A child is kept only if geometry allows some receiver to use it:
+//! - the parent lies strictly off the child's plane (it has a side to reflect from);
+//! - the child's plane has a corner on the parent's side of the parent's plane (a path leaving
+//!   the parent's plane travels on that side);
+//! - the image lies within c · t_max of the receivers' bounding box: every path through an
+//!   image's descendants unfolds into a polyline from that image to the receiver, so it is at
+//!   least as long, and the whole subtree can go.
+//!
+//! Per receiver, each node's path is built backwards: from the receiver towards the last image,
+//! the BVH's closest hit must be a triangle of that image's plane (the reflection point lies on
+//! the surface and nothing stands in between); from there towards the image before; and the
+//! last leg to the source must be free.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+use super::lod::specular_share;
+use super::planes::Planes;
+use super::{directivity_gain, Arrival, ArrivalKind, Context, PairArrivals};
+use crate::geometry::Ray;
+use crate::sound::receivers::ball_mean_inverse_square;
+
+/// Node 0's plane.
+pub const NO_PLANE: u32 = u32::MAX;
+
+#[derive(Clone, Debug)]
+pub struct ImageNode {
+    pub position: DVec3,
+    /// The plane this image was mirrored in ([`NO_PLANE`] for the source).
+    pub plane: u32,
+    pub parent: u32,
+    pub order: u32,
+}
+
+/// A source's image sources, parents before children.
+#[derive(Clone, Debug)]
+pub struct ImageTree {
+    pub nodes: Vec<ImageNode>,
+}
+
+/// Distance from `p` to the box [lo, hi] (0 inside).
+fn box_distance(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    (lo - p).max(p - hi).max(DVec3::ZERO).length()
+}
+
+impl ImageTree {
+    /// All images up to `max_order` that could reach a receiver within `max_path_m`.
+    pub fn build(planes: &Planes, source: DVec3, receivers: &[DVec3], max_order: u32, max_path_m: f64) -> ImageTree {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for r in receivers {
+            lo = lo.min(*r);
+            hi = hi.max(*r);
+        }
+        let mut nodes = vec![ImageNode { position: source, plane: NO_PLANE, parent: 0, order: 0 }];
+        // Breadth first, so that nodes are in order of reflection count.
+        let mut start = 0;
+        for order in 1..=max_order {
+            let end = nodes.len();
+            for i in start..end {
+                let parent = nodes[i].clone();
+                for (q, pl) in planes.planes.iter().enumerate() {
+                    if q as u32 == parent.plane {
+                        continue;
+                    }
+                    let side = pl.distance(parent.position);
+                    if side.abs() < 1e-9 {
+                        continue;
+                    }
+                    if parent.plane != NO_PLANE {
+                        // The child's plane needs a corner on the side the parent's image reflects into.
+                        let pp = &planes.planes[parent.plane as usize];
+                        let grand = nodes[parent.parent as usize].position;
+                        let s = pp.distance(grand).signum();
+                        if !pl.vertices.iter().any(|v| pp.distance(*v) * s > 1e-9) {
+                            continue;
+                        }
+                    }
+                    let position = pl.mirror(parent.position);
+                    if receivers.is_empty() || box_distance(position, lo, hi) > max_path_m {
+                        continue;
+                    }
+                    nodes.push(ImageNode { position, plane: q as u32, parent: i as u32, order });
+                }
+            }
+            start = end;
+        }
+        ImageTree { nodes }
+    }
+
+    /// The child of `node` mirrored in `plane`, if the tree has it.
+    pub fn child(&self, node: u32, plane: u32) -> Option<u32> {
+        // Children of a node are contiguous and in plane order; trees are small enough that a
+        // scan of the next order's range is cheap next to the BVH queries around it.
+        self.nodes.iter().position(|n| n.parent == node && n.plane == plane && n.order > 0).map(|i| i as u32)
+    }
+}
+
+/// A valid path of one image to one receiver.
+pub(crate) struct SpecularPath {
+    /// Reflection points from the source side to the receiver side.
+    pub points: Vec<DVec3>,
+    /// Triangle hit at each reflection, same order.
+    pub triangles: Vec<u32>,
+    pub length_m: f64,
+}
+
+/// Checks node `node`'s path to `receiver` against the BVH: None if invalid or blocked.
+pub(crate) fn specular_path(ctx: &Context, tree: &ImageTree, node: u32, receiver: DVec3) -> Option<SpecularPath> {
+    let eps = ctx.epsilon_m;
+    let mut points = Vec::new();
+    let mut triangles = Vec::new();
+    let mut from = receiver;
+    let mut k = node;
+    let mut first_leg = true;
+    while k != 0 {
+        let img = &tree.nodes[k as usize];
+        let plane = &ctx.planes.planes[img.plane as usize];
+        let (d_from, d_img) = (plane.distance(from), plane.distance(img.position));
+        // The receiver side of a reflection is the side opposite the image.
+        if !(d_from * d_img < 0.0) {
+            return None;
+        }
+        let dir = img.position - from;
+        let t_plane = d_from / (d_from - d_img);
+        let point = from + dir * t_plane;
+        let len = dir.length();
+        let t_min = if first_leg { 0.0 } else { eps / len };
+        let ray = Ray::new(from.as_vec3(), dir.as_vec3());
+        let hit = ctx.bvh.closest_hit(&ray, t_min as f32, (t_plane + 4.0 * eps / len) as f32)?;
+        if ctx.planes.plane_of_triangle[hit.triangle as usize] != img.plane {
+            return None;
+        }
+        points.push(point);
+        triangles.push(hit.triangle);
+        from = point;
+        k = img.parent;
+        first_leg = false;
+    }
+    // The last leg, to the source itself, must be free.
+    let source = tree.nodes[0].position;
+    let dir = source - from;
+    let len = dir.length();
+    let t_min = if first_leg { 0.0 } else { eps / len };
+    if len > 0.0 && ctx.bvh.occluded(&Ray::new(from.as_vec3(), dir.as_vec3()), t_min as f32, (1.0 - eps / len) as f32) {
+        return None;
+    }
+    points.reverse();
+    triangles.reverse();
+    let length_m = (tree.nodes[node as usize].position - receiver).length();
+    Some(SpecularPath { points, triangles, length_m })
+}
+
+/// The energy per band that a valid path brings, written into `out`: the source's power and
+/// directivity towards the first leg, spreading over the unfolded length, each reflection's
+/// (1 − α)(1 − s) and (with level of detail) Rindel's specular share, and the air.
+pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: DVec3, receiver: DVec3, out: &mut [f64]) {
+    let set = ctx.settings;
+    let nb = out.len();
+    let src = &ctx.sources[s];
+    let first = path.points.first().copied().unwrap_or(receiver);
+    let emit = (first - source).normalize_or_zero();
+    let l = path.length_m;
+    let spread = if set.receiver_radius_m > 0.0 { ball_mean_inverse_square(l, set.receiver_radius_m) } else { 1.0 / (4.0 * PI * l * l) };
+    let g = src.power_w * directivity_gain(&src.directivity, emit) * spread;
+    for b in 0..nb {
+        out[b] = g * (-set.air_attenuation_per_m[b] * l).exp();
+    }
+    if let Some(hook) = ctx.gains {
+        let mut extra = vec![1.0; nb];
+        hook(s, emit, &mut extra);
+        for b in 0..nb {
+            out[b] *= extra[b];
+        }
+    }
+    let mut travelled = 0.0;
+    let mut prev = source;
+    for (k, (&p, &tri)) in path.points.iter().zip(&path.triangles).enumerate() {
+        let m = ctx.mesh.material[tri as usize] as usize * nb;
+        let alpha = &ctx.acoustics.absorption[m..m + nb];
+        let scat = &ctx.acoustics.scattering[m..m + nb];
+        let leg = (p - prev).length();
+        travelled += leg;
+        for b in 0..nb {
+            out[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);
+        }
+        if set.level_of_detail {
+            let plane = &ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize];
+            let panel = &ctx.planes.panels[ctx.planes.panel_of_triangle[tri as usize] as usize];
+            let incident = (p - prev) / leg;
+            let _ = k;
+            for b in 0..nb {
+                out[b] *= specular_share(panel, plane.normal, incident, travelled, l - travelled, set.band_centres_hz[b], set.speed_of_sound_m_s);
+            }
+        }
+        prev = p;
+    }
+}
+
+/// The specular arrivals (direct sound included) of source `s` at receiver `r`.
+pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, receiver: DVec3) -> PairArrivals {
+    let nb = ctx.acoustics.n_bands;
+    let set = ctx.settings;
+    let max_path_m = set.max_time_s * set.speed_of_sound_m_s;
+    let mut out = PairArrivals::new(nb);
+    let mut energy = vec![0.0; nb];
+    let source = tree.nodes[0].position;
+    for (i, node) in tree.nodes.iter().enumerate() {
+        let length = (node.position - receiver).length();
+        if length > max_path_m || !(length > 0.0) {
+            continue;
+        }
+        out.checked += 1;
+        let Some(path) = specular_path(ctx, tree, i as u32, receiver) else { continue };
+        path_energy(ctx, s, &path, source, receiver, &mut energy);
+        let from_direction = (node.position - receiver) / length;
+        let a = Arrival {
+            source: s as u32,
+            receiver: r as u32,
+            time_s: length / set.speed_of_sound_m_s,
+            from_direction,
+            kind: ArrivalKind::Specular { order: node.order },
+            image: i as u32,
+        };
+        out.push(a, &energy);
+    }
+    out
+}
