@@ -33,6 +33,23 @@ def _pyrato(pf, ra, signal):
                 for k in ("EDT", "T20")}
 
 
+def _xi_permille(pf, ra, signal, lo_db=-5.0, hi_db=-25.0):
+    """ISO 3382-2 Annex B's non-linearity ξ = 1000 (1 − r²) of the T20 range of each channel's
+    Schroeder curve, computed here from pyrato's curve (independently of sonolux's fit); inf
+    where the curve does not reach the range."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        edc = ra.edc.schroeder_integration(signal)
+    t = np.asarray(edc.times)
+    out = []
+    for curve in np.asarray(edc.time).reshape(-1, t.size):
+        db = 10 * np.log10(np.maximum(curve / curve[0], 1e-300))
+        sel = (db <= lo_db) & (db >= hi_db)
+        out.append(1000 * (1 - np.corrcoef(t[sel], db[sel])[0, 1] ** 2)
+                   if sel.sum() > 2 and db.min() < hi_db else np.inf)
+    return np.array(out)
+
+
 def _channels(pf, ir, fs):
     """float[7, n]: the whole response, then its octaves 125 Hz to 4 kHz (pyfar)."""
     with warnings.catch_warnings():
@@ -59,8 +76,13 @@ def test_edt_and_t20_match_pyrato(core, room, monkeypatch):
     # T20 within 0.05 % wherever sonolux defines them; tolerance 2 % (the issue's). With the
     # ISO range (0 dB start), EDT differs by up to 3.7 % in the 125-500 Hz octaves, where the
     # octave filter rounds the curve's first tenth of a dB: tolerance 5 % there.
-    # Between 1 and 7 of the 21 T20s per room are refused (curved decays of the synthesised
-    # octaves, ξ > 10 ‰); at least 60 % must be defined, so that refusing is not a way out.
+    # Some T20s are refused as curved (ξ > 10 ‰): in paper-large up to 10 of 21 (its walls
+    # reflect 95 % and its floor 70 %: a non-diffuse room whose decays bend; the broadband
+    # channel also mixes the 8 kHz octave's fast decay with the slow ones). So that refusing is
+    # not a way out, every refusal must be justified by an independent ξ from pyrato's own
+    # Schroeder curve above 0.8 of the limit (measured: every refused one at 10.3-41.8 ‰, every
+    # defined one at most 9.8 ‰; the two curves differ in their first bins), and at
+    # least one T20 per receiver must be defined.
     pf = pytest.importorskip("pyfar", reason="pyfar/pyrato not installed: pip install pyrato")
     ra = pytest.importorskip("pyrato", reason="pyrato not installed: pip install pyrato")
     import sonolux
@@ -69,7 +91,6 @@ def test_edt_and_t20_match_pyrato(core, room, monkeypatch):
     fs = field.sample_rate_hz
     distance_m = np.linalg.norm(field.positions_m - field.source_positions_m[0], axis=1)
     far = np.nonzero(distance_m > 1.0)[0]
-    defined, total = 0, 0
     for r in far[np.linspace(0, far.size - 1, 3).astype(int)]:
         x = _channels(pf, field.impulse_response(r, seed=3), fs)
         where = (field.positions_m[r], field.source_positions_m[0])
@@ -87,5 +108,6 @@ def test_edt_and_t20_match_pyrato(core, room, monkeypatch):
         np.testing.assert_allclose(iso["edt_s"], theirs["EDT"], rtol=0.05)
         ok = np.isfinite(iso["t20_s"])
         np.testing.assert_allclose(iso["t20_s"][ok], theirs["T20"][ok], rtol=0.02)
-        defined, total = defined + ok.sum(), total + ok.size
-    assert defined >= 0.6 * total
+        xi = _xi_permille(pf, ra, pf.Signal(x, fs))
+        assert np.all(xi[~ok] > 0.8 * decay.XI_LIMIT_PERMILLE), (xi, ok)
+        assert ok.any()
