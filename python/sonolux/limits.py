@@ -16,3 +16,7 @@ MAX_RAYS = 10**12
 MAX_GAIN_DB = 120.0
 #: Exposure in EV stops either way (2^±40 covers any physical scene).
 MAX_EXPOSURE_EV = 40.0
+#: The farthest a scene's geometry may reach from the origin, in metres (100 km: far beyond any
+#: building, and the core's single-precision vertices still resolve 8 mm there; the vertex
+#: weld's integer grid of 1 µm stays far inside int64).
+MAX_COORDINATE_M = 1e5

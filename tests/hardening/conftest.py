@@ -17,7 +17,9 @@ from hypothesis import HealthCheck, settings
 
 from sonolux import cli
 
-settings.register_profile("default", max_examples=40, deadline=None,
+# make test draws the same examples every run (derandomize): a failure there is reproducible;
+# make test-all's long profile explores new ones each time.
+settings.register_profile("default", max_examples=40, deadline=None, derandomize=True,
                           suppress_health_check=[HealthCheck.function_scoped_fixture,
                                                  HealthCheck.too_slow])
 settings.register_profile("long", max_examples=1500, deadline=None,

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pytest
 
+from sonolux.errors import SceneError
 from sonolux.scene import builtin, load_scene
 from sonolux.scene.load import weld
 from tests.conftest import EXAMPLES
@@ -332,3 +333,12 @@ def test_weld_joins_close_vertices_and_drops_unused():
     welded, tri = weld(v, t)
     assert welded.shape == (4, 3)
     np.testing.assert_array_equal(tri, [[0, 1, 2], [0, 1, 3]])
+
+
+@pytest.mark.parametrize("size_m", [[9223372036855.0, 4, 3], [4, 2e5, 3]])
+def test_a_geometry_beyond_the_coordinate_limit_is_named(size_m, library):
+    # Found by the hardening tests: a 9e12 m shoebox overflowed the vertex weld's integer grid.
+    with pytest.raises(SceneError, match=r"geometry\[0\].*within 100000 m"):
+        load_scene({"geometry": [{"type": "shoebox", "size_m": size_m,
+                                  "materials": {"default": "concrete-painted"}}]},
+                   library=library)

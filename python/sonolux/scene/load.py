@@ -24,7 +24,7 @@ import numpy as np
 
 from sonolux.engine import Geometry
 from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_matches
-from sonolux.limits import MAX_SEED, MAX_THREADS, MAX_TIME_S
+from sonolux.limits import MAX_COORDINATE_M, MAX_SEED, MAX_THREADS, MAX_TIME_S
 from sonolux.scene import builtin
 from sonolux.scene.early import read_early
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
@@ -237,7 +237,13 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     parts = []
     for t in entries:
         kind = t.string("type", choices=GEOMETRY_TYPES)
-        parts.append(build_shoebox(t, names) if kind == "shoebox" else build_mesh(t, names))
+        part = build_shoebox(t, names) if kind == "shoebox" else build_mesh(t, names)
+        reach = float(np.abs(part.vertices_m).max()) if part.vertices_m.size else 0.0
+        if not reach <= MAX_COORDINATE_M:
+            raise ctx.error(t.key, f"coordinates up to {reach:.3g} m",
+                            allowed=f"a geometry within {MAX_COORDINATE_M:g} m of the origin "
+                                    "in every axis")
+        parts.append(part)
     warnings = [w for p in parts for w in p.warnings]
     vertices_m, triangles, material_index, materials, tags = join_parts(parts)
     if triangles.shape[0] == 0:
