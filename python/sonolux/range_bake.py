@@ -42,3 +42,13 @@ def bake_ranges(work: ranges.RangeWork, *, client: Any = None, checkpoint: str |
     callback = ProgressLine(f"{work.kind} {work.name}",
                             unit=work.unit) if progress is True else (progress or None)
     return ranges.run_ranges(work, runner, checkpoint=side, progress=callback)
+
+
+def bake_field(work: ranges.RangeWork, *, checkpoint: str | Path | None = None,
+               **options: Any) -> Any:
+    """:func:`bake_ranges` for a caller whose output is the field itself (``sonolux.bake``,
+    ``sonolux.bake_light``): the field, with the checkpoint removed once the bake is complete."""
+    field, _ = bake_ranges(work, checkpoint=checkpoint, **options)
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)
+    return field

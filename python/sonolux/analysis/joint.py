@@ -176,11 +176,14 @@ def _sti(sound: Any, params: Any) -> tuple[np.ndarray, str]:
 def nearest_cells(points_m: np.ndarray, workplane: Any) -> np.ndarray:
     """int[point]: the work-plane cell nearest each point in plan, -1 when none lies within
     one spacing."""
+    from scipy.spatial import cKDTree
+
     if workplane is None or workplane.positions_m.shape[0] == 0:
         return np.full(points_m.shape[0], -1)
-    d = np.linalg.norm(points_m[:, None, :2] - workplane.positions_m[None, :, :2], axis=2)
-    k = d.argmin(axis=1)
-    return np.where(d[np.arange(k.size), k] <= workplane.spacing_m, k, -1)
+    # A k-d tree: a whole floor's receivers against its work plane would make a receivers ×
+    # cells distance matrix of gigabytes.
+    d, k = cKDTree(np.asarray(workplane.positions_m)[:, :2]).query(np.asarray(points_m)[:, :2])
+    return np.where(d <= workplane.spacing_m, k, -1)
 
 
 def joint_map(sound: Any = None, params: Any = None, light: Any = None,

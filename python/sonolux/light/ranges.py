@@ -178,10 +178,7 @@ def bake(scene: Scene, options: LightOptions | None = None, *, client: Any = Non
     if client is None and checkpoint is None:
         return bake_light(scene, options, progress=progress, log=log)
     work = LightRanges(scene, options, log=log)
-    field, _ = range_bake.bake_ranges(
+    return range_bake.bake_field(
         work, client=client, checkpoint=checkpoint, resume=resume, restart=restart,
         checkpoint_every_s=checkpoint_every_s, range_rays=range_particles, tasks=tasks,
         progress=progress, log=log)
-    if checkpoint is not None:
-        Path(checkpoint).unlink(missing_ok=True)
-    return field

@@ -10,23 +10,12 @@ import numpy as np
 
 from sonolux.analysis.joint import LIGHT_VALUES, SOUND_VALUES, JointMap
 from sonolux.plotting import pyplot
+from sonolux.plotting.maps import cells_image
 
 #: What is drawn, in order, when the map has it.
 PANELS = ("illuminance_lx", "daylight_factor_percent", "sti", "c50_db", "g_db", "t30_s")
 _CMAPS = {"illuminance_lx": "inferno", "daylight_factor_percent": "inferno", "sti": "RdYlGn",
           "c50_db": "magma", "g_db": "plasma", "t30_s": "viridis"}
-
-
-def _image(positions_m, grid_index, spacing_m, values):
-    """(image float[ny, nx] with NaN where no cell, extent) of values on a regular grid."""
-    gi = np.asarray(grid_index)
-    origin = positions_m[0, :2] - spacing_m * gi[0]
-    lo, hi = gi.min(axis=0), gi.max(axis=0)
-    img = np.full((hi[1] - lo[1] + 1, hi[0] - lo[0] + 1), np.nan)
-    img[gi[:, 1] - lo[1], gi[:, 0] - lo[0]] = values
-    x0, y0 = origin + spacing_m * lo - spacing_m / 2
-    x1, y1 = origin + spacing_m * hi + spacing_m / 2
-    return img, (x0, x1, y0, y1)
 
 
 def plot_joint_map(joint: JointMap, path: str | Path, outline=None) -> Path:
@@ -96,7 +85,7 @@ def _draw(ax, positions_m, grid_index, spacing_m, values, cmap, vmin=None, vmax=
         if vmax <= vmin:
             vmin, vmax = vmin - 0.5, vmax + 0.5
     if grid_index is not None and spacing_m:
-        img, extent = _image(positions_m, grid_index, spacing_m, values)
+        img, extent = cells_image(positions_m, grid_index, spacing_m, values)
         return ax.imshow(img, origin="lower", extent=extent, cmap=cmap, vmin=vmin, vmax=vmax,
                          interpolation="nearest")
     return ax.scatter(positions_m[:, 0], positions_m[:, 1], c=values, cmap=cmap, vmin=vmin,

@@ -41,9 +41,18 @@ def plan_section(vertices_m: np.ndarray, triangles: np.ndarray, height_m: float)
 
 def grid_image(field: SoundField, receivers: np.ndarray, values: np.ndarray):
     """(image float[ny, nx] with NaN where no receiver, extent (x0, x1, y0, y1)) for a grid."""
-    gi = field.grid_index[receivers]
-    s = field.grid_spacing_m
-    origin = field.positions_m[receivers[0], :2] - s * gi[0]
+    return cells_image(field.positions_m[receivers], field.grid_index[receivers],
+                       field.grid_spacing_m, values)
+
+
+def cells_image(positions_m: np.ndarray, grid_index: np.ndarray, spacing_m: float,
+                values: np.ndarray):
+    """(image float[ny, nx] with NaN where no cell, extent (x0, x1, y0, y1)) of values on the
+    cells of a regular grid (centres ``positions_m``, indices ``grid_index`` (i along x, j
+    along y), ``spacing_m`` apart): x along the columns, y along the rows."""
+    gi = np.asarray(grid_index)
+    s = spacing_m
+    origin = np.asarray(positions_m)[0, :2] - s * gi[0]
     lo, hi = gi.min(axis=0), gi.max(axis=0)
     img = np.full((hi[1] - lo[1] + 1, hi[0] - lo[0] + 1), np.nan)
     img[gi[:, 1] - lo[1], gi[:, 0] - lo[0]] = values

@@ -223,9 +223,6 @@ def bake(scene: Scene, options: SoundOptions | None = None, *, client: Any = Non
     if client is None and checkpoint is None:
         return bake_whole(scene, options, progress=progress, log=log)
     work = SoundRanges(scene, options, log=log)
-    field, _ = range_bake.bake_ranges(work, client=client, checkpoint=checkpoint, resume=resume,
-                           restart=restart, checkpoint_every_s=checkpoint_every_s,
-                           range_rays=range_rays, tasks=tasks, progress=progress, log=log)
-    if checkpoint is not None:
-        Path(checkpoint).unlink(missing_ok=True)
-    return field
+    return range_bake.bake_field(work, client=client, checkpoint=checkpoint, resume=resume,
+                                 restart=restart, checkpoint_every_s=checkpoint_every_s,
+                                 range_rays=range_rays, tasks=tasks, progress=progress, log=log)
