@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from sonolux.scene import Scene, load_scene
     from sonolux.sound.field import SoundField
     from sonolux.sound.options import SoundOptions
-    from sonolux.sound.ranges import bake
+    from sonolux.sound.baking import bake
     from sonolux.version import __version__
 
 #: Public name -> (module, name in it).
@@ -42,7 +42,7 @@ _LAZY = {
     "LightOptions": ("sonolux.light.options", "LightOptions"),
     "Scene": ("sonolux.scene", "Scene"),
     "load_scene": ("sonolux.scene", "load_scene"),
-    "bake": ("sonolux.sound.ranges", "bake"),
+    "bake": ("sonolux.sound.baking", "bake"),
     "SoundField": ("sonolux.sound.field", "SoundField"),
     "SoundOptions": ("sonolux.sound.options", "SoundOptions"),
 }

@@ -179,7 +179,8 @@ def add_commands(sub) -> None:
     bake.add_argument("scene", metavar="SCENE", help="a scene file (.toml) or a built-in name")
     bake.add_argument("-o", "--output", required=True, help="the field file to write (.h5)")
     bake.add_argument("--rays", type=parse.rays, default="auto",
-                      help="rays per source, or 'auto' (printed with the reason); default auto")
+                      help="rays per source, or 'auto': rounds of rays until T30, EDT and C80 "
+                           "are known to --accuracy (default auto)")
     bake.add_argument("--estimator", choices=("paper", "rain"), default="paper",
                       help="paper: sphere receivers, as the paper (default, measured faster to "
                            "a given accuracy on grids); rain: exact direct sound and diffuse rain "
@@ -207,6 +208,7 @@ def add_commands(sub) -> None:
                       help="leave out the air's absorption (for comparisons with theory that "
                            "leaves it out)")
     bake.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+    spread.add_progressive_flags(bake)
     spread.add_bake_flags(bake)
     bake.set_defaults(func=cmd_bake)
 

@@ -51,6 +51,38 @@ def add_bake_flags(bake: argparse.ArgumentParser) -> None:
                    help="ray ranges to make tasks of (default: 2 per worker thread)")
 
 
+def progressive_accuracy(args: argparse.Namespace) -> Any:
+    """The accuracy of a progressive bake (``--rays auto``), or None for a fixed ray count."""
+    from sonolux.errors import SonoluxError
+
+    given = [f for f, v in (("--accuracy", args.accuracy), ("--max-rays", args.max_rays),
+                            ("--max-seconds", args.max_seconds)) if v is not None]
+    if args.rays != "auto":
+        if given:
+            raise SonoluxError(f"{', '.join(given)} steer a progressive bake (--rays auto); "
+                               f"--rays {args.rays} fixes the count: give one or the other")
+        return None
+    if args.range is not None:
+        raise SonoluxError("--range splits a bake of a known size: give its ray count with "
+                           "--rays N (a progressive bake, --rays auto, decides it as it goes)")
+    from sonolux.sound.progressive import Accuracy
+
+    return Accuracy(fraction_of_jnd=0.25 if args.accuracy is None else args.accuracy,
+                    max_rays=args.max_rays, max_seconds=args.max_seconds).validate()
+
+
+def add_progressive_flags(bake: argparse.ArgumentParser) -> None:
+    """Adds the flags of the progressive bake (``--rays auto``) to the ``bake`` parser."""
+    g = bake.add_argument_group("progressive bake (--rays auto)")
+    g.add_argument("--accuracy", type=parse.number(0.0, 10.0, lo_open=True), default=None,
+                   metavar="F", help="stop when the standard error of T30, EDT and C80 is below "
+                   "F just-noticeable differences at every receiver and band (default 0.25)")
+    g.add_argument("--max-rays", type=parse.number(2048, MAX_RAYS, integer=True), default=None,
+                   metavar="N", help="rays per source at most (default 5e7)")
+    g.add_argument("--max-seconds", type=parse.number(0.0, 1e7, lo_open=True, unit="s"),
+                   default=None, metavar="S", help="stop after the round that passes S seconds")
+
+
 @contextmanager
 def bakers(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Callable[[], None]]]:
     """(the sound baker and the light baker for :func:`sonolux.multisensory.bake_senses`, the
@@ -67,7 +99,8 @@ def bakers(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Callable[[], No
         raise SonoluxError("--resume and --restart need the checkpoint: drop --no-checkpoint")
     if args.dask_workers is not None and args.dask is None:
         raise SonoluxError("--dask-workers is for --dask local")
-    if not args.checkpoint and args.dask is None:
+    accuracy = progressive_accuracy(args)
+    if not args.checkpoint and args.dask is None and accuracy is None:
         yield None, None, lambda: None
         return
     sound_side = side_file(args.output) if args.checkpoint else None
@@ -93,6 +126,17 @@ def bakers(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Callable[[], No
                 return field
             return bake
 
+        def progressive_bake(scene: Any, options: Any, progress: Any = False,
+                             log: Any = None) -> Any:
+            from sonolux.sound import progressive
+
+            field, _ = progressive.bake(
+                scene, options, accuracy, client=client, checkpoint=sound_side,
+                resume=args.resume, restart=args.restart,
+                checkpoint_every_s=args.checkpoint_every, range_rays=args.range_rays,
+                tasks=args.tasks, progress=progress, log=log)
+            return field  # its checkpoint goes once the output is written (done below)
+
         def sound_work(*a: Any, **k: Any) -> Any:
             from sonolux.sound.ranges import SoundRanges
             return SoundRanges(*a, **k)
@@ -106,7 +150,9 @@ def bakers(args: argparse.Namespace) -> Iterator[tuple[Any, Any, Callable[[], No
                 if side is not None:
                     side.unlink(missing_ok=True)
 
-        yield in_ranges(sound_work, sound_side), in_ranges(light_work, light_side), done
+        light = in_ranges(light_work, light_side) if args.checkpoint or client else None
+        sound = progressive_bake if accuracy is not None else in_ranges(sound_work, sound_side)
+        yield sound, light, done
 
 
 def cmd_merge(args: argparse.Namespace) -> int:

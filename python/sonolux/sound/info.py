@@ -56,11 +56,30 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
         f"  free path   {st['mean_free_path_m']:.3f} m measured, 4V/S = {theory:.3f} m",
         f"  balance     emitted = absorbed + air + escaped + remaining, to {balance:.1e} relative",
     ]
+    if se.get("progressive"):
+        lines.append(progressive_line(se["progressive"]))
     if d["escaped_share"] > LEAK_WARNING_SHARE:
         where = "; ".join(f"from ({', '.join(f'{v:.2f}' for v in e[2])})" for e in st["escapes"][:4])
         lines.append(f"  WARNING     {d['escaped_share']:.2%} of rays escaped: the geometry leaks "
                      f"({where})")
     return "\n".join(lines)
+
+
+def progressive_line(p: dict[str, Any]) -> str:
+    """One line on how a progressive bake ended and the standard errors it reached."""
+    errors = []
+    for name, e in p["errors"].items():
+        if "max" not in e:
+            errors.append(f"{name.upper()} undefined")
+            continue
+        scale, unit = (100.0, "%") if e["unit"] == "relative" else (1.0, " dB")
+        errors.append(f"{name.upper()} ≤ {e['max'] * scale:.2g}{unit}")
+    ended = {"converged": f"converged to {p['accuracy_jnd']:g} JND",
+             "max_rays": "stopped at --max-rays, not converged",
+             "max_seconds": "stopped at --max-seconds, not converged",
+             "cancelled": "cancelled, not converged"}.get(p["stopped"], p["stopped"])
+    return (f"  accuracy    {ended} in {len(p['rounds'])} rounds; standard error at the worst "
+            f"receiver and band: {', '.join(errors)}")
 
 
 def listener_warnings(field: SoundField, receiver: int) -> list[str]:

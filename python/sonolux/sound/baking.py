@@ -1,0 +1,62 @@
+"""``sonolux.bake``: which sound bake runs. At once (:func:`sonolux.sound.bake.bake`), in ray
+ranges that are checkpointed or spread over a Dask cluster (:func:`sonolux.sound.ranges.bake`),
+or progressive, in rounds until an accuracy is reached (:func:`sonolux.sound.progressive.bake`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from sonolux.errors import SonoluxError
+from sonolux.scene.schema import Scene
+from sonolux.sound import progressive
+from sonolux.sound import ranges as in_ranges
+from sonolux.sound.field import SoundField
+from sonolux.sound.options import SoundOptions
+
+
+def bake(scene: Scene, options: SoundOptions | None = None, *,
+         accuracy: progressive.Accuracy | float | None = None, client: Any = None,
+         checkpoint: str | Path | None = None, resume: bool = False, restart: bool = False,
+         checkpoint_every_s: float = 60.0, range_rays: int | None = None,
+         tasks: int | None = None, progress: bool | Callable[[int, int, float], bool] = False,
+         log: Callable[[str], None] | None = None, **overrides: Any) -> SoundField:
+    """Traces the scene's sound sources into a sound field over its receivers.
+
+    ``options`` (or keyword overrides such as ``rays=100_000``) set the bake, as for
+    :func:`sonolux.sound.bake.bake`; ``progress=True`` prints a progress line, or pass
+    ``f(done, total, elapsed_s) -> bool``; ``log`` receives one-line notes.
+
+    ``accuracy``: bake progressively (``rays`` must be "auto"): rounds of rays until the
+    standard error of T30, EDT and C80 at every receiver and band is below this fraction of a
+    just-noticeable difference (a float, e.g. 0.25), or a
+    :class:`sonolux.sound.progressive.Accuracy` with caps on rays and seconds. The field's
+    ``settings["progressive"]`` says how it ended and which errors it reached.
+
+    ``client``: a ``dask.distributed.Client``: the rays are traced as ``tasks`` ranges on its
+    workers (default 2 per worker thread) and summed exactly: the same bits as here.
+    ``checkpoint``: a side file that finished ranges are written to every
+    ``checkpoint_every_s``; ``resume=True`` continues from it, ``restart=True`` discards it; it
+    is removed when the bake is complete. ``range_rays`` fixes the rays per range in this process.
+    """
+    options = replace(options or SoundOptions(), **overrides)
+    if accuracy is None:
+        return in_ranges.bake(scene, options, client=client, checkpoint=checkpoint,
+                              resume=resume, restart=restart,
+                              checkpoint_every_s=checkpoint_every_s, range_rays=range_rays,
+                              tasks=tasks, progress=progress, log=log)
+    if options.rays != "auto":
+        raise SonoluxError(f"accuracy is for rays = 'auto' (a progressive bake); rays = "
+                           f"{options.rays!r} fixes the count: give one or the other")
+    if not isinstance(accuracy, progressive.Accuracy):
+        accuracy = progressive.Accuracy(fraction_of_jnd=accuracy)
+    field, _ = progressive.bake(scene, options, accuracy, client=client, checkpoint=checkpoint,
+                                resume=resume, restart=restart,
+                                checkpoint_every_s=checkpoint_every_s, range_rays=range_rays,
+                                tasks=tasks, progress=progress, log=log)
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)
+    return field

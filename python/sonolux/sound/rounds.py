@@ -1,0 +1,132 @@
+"""One round of a progressive sound bake as a :class:`sonolux.ranges.RangeWork`, so that rounds
+run in ranges here or on a Dask cluster and are checkpointed like any bake.
+
+A round traces rays ``start..end`` of one bake of ``nominal`` rays
+(:class:`sonolux.sound.ranges.SoundRanges`). The round is cut into ``groups`` equal parts; ray i
+belongs to group (i − start) · groups // (end − start). :meth:`RoundWork.trace` splits whatever
+range a runner hands it at those boundaries, so that every part knows its group exactly, however
+the runner (or a resumed checkpoint) cuts the round. The sum it builds, :class:`RoundSum`,
+carries the whole bake so far: the exact counts of every ray, and per group the counts summed
+over directions, uint64[group, receiver, band, time] (what the error estimate needs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from sonolux import ranges
+from sonolux.checkpoint import fingerprint
+from sonolux.memory import check_memory
+from sonolux.sound.ranges import SoundRanges, SoundSum, decode_sum, encode_sum
+
+Range = tuple[int, int]
+
+
+@dataclass
+class RoundSum:
+    """The exact sum of a progressive bake's rays so far: ``total`` (every ray's counts),
+    ``groups`` (uint64[group, receiver, band, time], direction-summed; None before the first
+    ray) and ``rounds`` (what each finished round reached, for the record)."""
+
+    total: SoundSum | None = None
+    groups: np.ndarray | None = None
+    rounds: list[dict[str, Any]] = field(default_factory=list)
+
+
+@dataclass
+class RoundPart:
+    """What one traced range adds: its counts and, per group it touched, its omni counts."""
+
+    total: SoundSum
+    by_group: dict[int, np.ndarray]
+
+
+class RoundWork:
+    """Rays ``start..end`` of the bake ``inner`` (a SoundRanges of ``nominal`` rays), added to
+    ``carry`` (the rounds before; a fresh RoundSum for the first)."""
+
+    unit = "rays"
+
+    def __init__(self, inner: SoundRanges, start: int, end: int, groups: int,
+                 carry: RoundSum) -> None:
+        if (end - start) % groups:
+            raise ValueError("a round must split into equal groups")
+        self.inner, self.groups, self.carry = inner, groups, carry
+        self.kind, self.name = inner.kind, inner.name
+        self.total = inner.total
+        self.target: Range = (start, end)
+        self.stamp = dict(inner.stamp, progressive=fingerprint(groups, start, end, carry.rounds))
+        self.fingerprint = fingerprint("sound-progressive", self.stamp)
+
+    def __getstate__(self) -> dict[str, Any]:  # Dask ships the work, never the sums
+        return dict(self.__dict__, carry=None)
+
+    def group_of(self, ray: int) -> int:
+        start, end = self.target
+        return (ray - start) * self.groups // (end - start)
+
+    def cuts(self, first: int, end: int) -> list[Range]:
+        """first..end cut at the groups' boundaries."""
+        start, stop = self.target
+        size = (stop - start) // self.groups
+        out, at = [], first
+        while at < end:
+            nxt = min(end, start + (self.group_of(at) + 1) * size)
+            out.append((at, nxt))
+            at = nxt
+        return out
+
+    def trace(self, first: int, end: int, threads: int | None = None,
+              progress: ranges.Progress | None = None) -> RoundPart:
+        total: SoundSum | None = None
+        by_group: dict[int, np.ndarray] = {}
+        for a, b in self.cuts(first, end):
+            part = self.inner.trace(a, b, threads, _offset(progress, a - first))
+            omni = part.counts.sum(axis=1, dtype=np.uint64)
+            g = self.group_of(a)
+            by_group[g] = omni if g not in by_group else by_group[g] + omni
+            total = part if total is None else total.add(part)
+        assert total is not None
+        return RoundPart(total, by_group)
+
+    def add(self, total: RoundSum | None, part: RoundPart) -> RoundSum:
+        out = self.carry if total is None else total
+        out.total = part.total if out.total is None else out.total.add(part.total)
+        for g, omni in part.by_group.items():
+            if out.groups is None:
+                check_memory(self.groups * omni.nbytes, "the progressive bake's ray groups",
+                             f"{self.groups} groups of {omni.nbytes:,} bytes")
+                out.groups = np.zeros((self.groups, *omni.shape), np.uint64)
+            out.groups[g] += omni
+        return out
+
+    def encode(self, total: RoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        meta, arrays = encode_sum(total.total) if total.total is not None else ({}, {})
+        meta = {"sum": meta, "progressive": {"rounds": total.rounds, "groups": self.groups,
+                                             "target": list(self.target)}}
+        if total.groups is not None:
+            arrays = dict(arrays, groups=total.groups)
+        return meta, arrays
+
+    def decode(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> RoundSum:
+        inner = {k: v for k, v in arrays.items() if k != "groups"}
+        total = decode_sum(meta["sum"], inner) if meta["sum"] else None
+        groups = np.array(arrays["groups"], np.uint64) if "groups" in arrays else None
+        return RoundSum(total, groups, list(meta["progressive"]["rounds"]))
+
+    def finish(self, total: RoundSum | None, done: list[Range]) -> RoundSum:
+        del done
+        return self.carry if total is None else total
+
+
+def _offset(progress: ranges.Progress | None, before: int) -> ranges.Progress | None:
+    if progress is None:
+        return None
+
+    def report(done: int, total: int, elapsed_s: float) -> bool:
+        return progress(before + done, total, elapsed_s)
+
+    return report

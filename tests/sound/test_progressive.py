@@ -1,0 +1,157 @@
+"""The progressive bake (rays = auto): its error estimate against the real spread of independent
+bakes, its stopping rules, the same bits however the rounds are traced, resumed after a kill."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sonolux
+from sonolux import cli
+from sonolux.analysis.params import onsets_s
+from sonolux.errors import SonoluxError
+from sonolux.sound import progressive
+from sonolux.sound.baking import bake
+
+pytestmark = pytest.mark.usefixtures("core")
+
+
+def room(**settings):
+    """A 5 × 4 × 3 m shoebox, three receivers, octaves 250 Hz–2 kHz: small enough to bake often."""
+    return sonolux.load_scene({
+        "name": "progressive",
+        "settings": {"bands_hz": [250, 500, 1000, 2000], "max_time_s": 1.2, **settings},
+        "materials": {"wall": {"absorption": 0.12, "scattering": 0.3}},
+        "geometry": [{"type": "shoebox", "size_m": [5, 4, 3], "materials": {"default": "wall"}}],
+        "sources": [{"position_m": [1.2, 1.1, 1.5]}],
+        "receivers": {"type": "points",
+                      "positions_m": [[3.8, 2.9, 1.2], [2.5, 1.0, 1.7], [4.0, 1.0, 1.0]]},
+    })
+
+
+def test_jackknife_error_matches_the_spread_of_independent_estimates():
+    """Synthetic decays with Poisson noise (each count one ray's crossing): over 120 independent
+    replicates, the mean jackknife standard error of T30, EDT and C80 must match the replicates'
+    own standard deviation. Tolerance 25 %: the standard deviation of 120 replicates is itself
+    known to about ±6.5 % (1/√(2·119)), and the delete-a-group jackknife of a smooth statistic
+    is unbiased to first order only (Shao and Tu 1995, §2.1), with 8 groups."""
+    rng = np.random.default_rng(7)
+    start = np.arange(1200) * 1e-3
+    width = np.full(start.size, 1e-3)
+    rate = np.exp(-13.82 * start / 0.5) * 2000.0  # T = 0.5 s, 2000 crossings per bin at first
+    rate[:5] = 0.0
+    rate[5] = 20_000.0  # the direct sound
+    values, errors = {k: [] for k in progressive.PARAMETERS}, {k: [] for k in progressive.PARAMETERS}
+    for _ in range(120):
+        groups = rng.poisson(np.broadcast_to(rate / 8, (8, 1, 1, start.size))).astype(np.uint64)
+        e = progressive.jackknife(groups.sum(axis=0, dtype=np.uint64), groups, start, width, None)
+        for k in progressive.PARAMETERS:
+            values[k].append(e.value[k][0, 0])
+            errors[k].append(e.standard_error[k][0, 0])
+    for k in progressive.PARAMETERS:
+        spread = np.std(values[k], ddof=1)
+        assert np.mean(errors[k]) == pytest.approx(spread, rel=0.25), k
+
+
+def test_onset_comes_from_the_whole_bake():
+    edges = np.arange(11) * 0.1
+    e = np.zeros((1, 10))
+    e[0, 3] = 1.0
+    assert onsets_s(e, edges)[0] == pytest.approx(0.3)
+
+
+def test_a_coarse_accuracy_stops_after_the_first_round_and_says_so():
+    field, errors = progressive.bake(room(), accuracy=progressive.Accuracy(9.0))
+    p = field.settings["progressive"]
+    assert p["stopped"] == "converged" and len(p["rounds"]) == 1
+    assert field.settings["rays"] == p["rounds"][0]["rays"]
+    assert errors.worst_over_target(9.0) <= 1.0
+    assert set(p["errors"]) == {"t30", "edt", "c80"}
+
+
+def test_the_ray_cap_stops_a_bake_that_has_not_converged():
+    cap = 2 * progressive.GROUPS * progressive.FIRST_GROUP_RAYS
+    field, errors = progressive.bake(room(), accuracy=progressive.Accuracy(0.01, max_rays=cap))
+    p = field.settings["progressive"]
+    assert p["stopped"] == "max_rays" and field.settings["rays"] == cap
+    assert errors.worst_over_target(0.01) > 1.0
+
+
+def test_rounds_end_where_the_error_says_and_energy_is_scaled_to_the_rays_traced():
+    """Two rounds; the field equals (exactly) the counts of those rays × quantum × nominal / n,
+    and its level matches a plain bake of as many rays (same rays, other scaling) to float32."""
+    scene = room()
+    field, _ = progressive.bake(scene, accuracy=progressive.Accuracy(0.3))
+    n = field.settings["rays"]
+    plain = sonolux.bake(scene, rays=n)
+    np.testing.assert_allclose(field.energy.sum(), plain.energy.sum(), rtol=1e-5)
+
+
+def test_same_bits_on_one_and_two_threads_and_whatever_the_ranges():
+    one, _ = progressive.bake(room(threads=1), accuracy=progressive.Accuracy(0.3))
+    two, _ = progressive.bake(room(threads=2), accuracy=progressive.Accuracy(0.3),
+                              range_rays=3001)
+    assert one.settings["progressive"]["rounds"][-1]["rays"] == \
+        two.settings["progressive"]["rounds"][-1]["rays"]
+    assert np.array_equal(one.energy, two.energy)
+
+
+class Stop(Exception):
+    """Stands for a kill."""
+
+
+def test_a_killed_progressive_bake_resumes_to_the_same_bits(tmp_path):
+    scene = room()
+    side = tmp_path / "p.h5.checkpoint"
+    whole, _ = progressive.bake(scene, accuracy=progressive.Accuracy(0.3))
+    rounds = whole.settings["progressive"]["rounds"]
+    assert len(rounds) >= 2, "the test needs a second round to kill"
+    first = rounds[0]["rays"]
+
+    def kill_in_round_two(done, total, elapsed):
+        if total != first and done > total // 3:
+            raise Stop
+        return True
+
+    with pytest.raises(Stop):
+        progressive.bake(scene, accuracy=progressive.Accuracy(0.3), checkpoint=side,
+                         checkpoint_every_s=0, range_rays=2048, progress=kill_in_round_two)
+    assert side.exists()
+    again = bake(scene, accuracy=progressive.Accuracy(0.3), checkpoint=side, resume=True,
+                 checkpoint_every_s=0, range_rays=2048)
+    assert np.array_equal(again.energy, whole.energy)
+    assert not side.exists()
+
+
+def test_accuracy_needs_rays_auto_and_is_checked():
+    with pytest.raises(SonoluxError, match="accuracy is for rays = 'auto'"):
+        bake(room(), rays=5000, accuracy=0.5)
+    with pytest.raises(SonoluxError, match="accuracy"):
+        bake(room(), accuracy=-1.0)
+    with pytest.raises(SonoluxError, match="ray range"):
+        progressive.bake(room(), sonolux.SoundOptions(ray_range=(0, 100)))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--rays", "5000", "--accuracy", "0.5"], "--accuracy steer a progressive bake"),
+    (["--range", "0:1000"], "--range splits a bake of a known size"),
+    (["--accuracy", "0"], "--accuracy"),
+    (["--max-rays", "10"], "--max-rays"),
+])
+def test_cli_flags_of_the_progressive_bake_are_usage_errors(capsys, tmp_path, argv, message):
+    code = cli.main(["bake", "paper-small", "--no-light", "-q", "-o", str(tmp_path / "x.h5"),
+                     *argv])
+    assert code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_cli_bake_auto_is_progressive_and_info_reports_its_error(capsys, tmp_path):
+    out = tmp_path / "p.h5"
+    assert cli.main(["bake", "paper-small", "--no-light", "-q", "--accuracy", "4",
+                     "-o", str(out)]) == 0
+    text = capsys.readouterr()
+    assert "progressive bake: converged" in text.err
+    assert "accuracy    converged to 4 JND" in text.out
+    assert not (tmp_path / "p.h5.checkpoint").exists()
+    assert cli.main(["info", str(out)]) == 0
+    assert "standard error at the worst receiver" in capsys.readouterr().out
