@@ -1,0 +1,82 @@
+"""Time to converge: the progressive bake of each estimator until every receiver and band knows
+T30, EDT and C80 to a quarter of a JND (docs/progressive.md), on paper-medium (its 55-receiver
+grid) and on the L-shaped mesh classroom (examples/l-room, four listeners).
+
+Run with ``make bench`` or ``.venv/bin/python benchmarks/converge.py``. Each bake runs on 2
+threads with a time cap (``--cap-seconds``, default 300 s); a bake that reaches the cap reports
+the error it reached instead. The estimators are measured one after the other in the same run:
+the ratio of their times (or of their errors at the cap, converted to time by 1/√n) says which
+converges sooner for that scene, and whether the default ("paper") is the right choice there.
+Results go to benchmarks/results/converge.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from common import machine_and_load, other_cpu_use, write_json
+
+import sonolux
+from sonolux.sound import progressive
+
+HERE = Path(__file__).resolve().parent
+SCENES = {"paper-medium": "paper-medium", "l-room": str(HERE.parent / "examples/l-room/l-room.toml")}
+ESTIMATORS = ("paper", "rain")
+
+
+def log(msg: str) -> None:
+    print(f"[converge {time.strftime('%H:%M:%S')}] {msg}", flush=True)
+
+
+def converge(scene, estimator: str, accuracy: float, cap_s: float) -> dict:
+    options = sonolux.SoundOptions(estimator=estimator)
+    started = time.perf_counter()
+    field, errors = progressive.bake(scene, options, progressive.Accuracy(accuracy,
+                                                                          max_seconds=cap_s))
+    seconds = time.perf_counter() - started
+    p = field.settings["progressive"]
+    worst = errors.worst_over_target(accuracy)
+    # Time it would take to converge, from 1/√n scaling of the worst error (= seconds if done).
+    projected = seconds * max(worst, 1.0) ** 2 if worst == worst else float("inf")
+    return {"seconds": seconds, "rays": field.settings["rays"], "stopped": p["stopped"],
+            "rounds": len(p["rounds"]), "worst_over_target": worst,
+            "projected_seconds": projected, "errors": p["errors"]}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--accuracy", type=float, default=0.25)
+    ap.add_argument("--cap-seconds", type=float, default=300.0)
+    ap.add_argument("--scenes", nargs="*", default=list(SCENES))
+    ap.add_argument("--out", type=Path, default=HERE / "results" / "converge.json")
+    a = ap.parse_args()
+    busy_start = other_cpu_use()
+    results: dict = {"accuracy_jnd": a.accuracy, "cap_seconds": a.cap_seconds, "scenes": {}}
+    for name in a.scenes:
+        scene = sonolux.load_scene(SCENES[name])
+        scene = replace(scene, settings=replace(scene.settings, threads=2))
+        row = {}
+        for est in ESTIMATORS:
+            log(f"{name}: {est} estimator, until {a.accuracy:g} JND or {a.cap_seconds:g} s")
+            row[est] = r = converge(scene, est, a.accuracy, a.cap_seconds)
+            log(f"  {r['stopped']} after {r['rays']:,} rays in {r['seconds']:.1f} s "
+                f"(worst SE / target {r['worst_over_target']:.2f}; projected "
+                f"{r['projected_seconds']:.0f} s to converge)")
+        fastest = min(ESTIMATORS, key=lambda e: row[e]["projected_seconds"])
+        row["fastest"] = fastest
+        row["default_is_fastest"] = fastest == "paper"
+        row["rain_over_paper_time"] = (row["rain"]["projected_seconds"]
+                                       / row["paper"]["projected_seconds"])
+        log(f"{name}: fastest to converge: {fastest} (rain / paper projected time "
+            f"{row['rain_over_paper_time']:.2f})")
+        results["scenes"][name] = row
+    results["machine"] = machine_and_load(busy_start, other_cpu_use())
+    write_json(a.out, results)
+    log(f"wrote {a.out}")
+
+
+if __name__ == "__main__":
+    main()
