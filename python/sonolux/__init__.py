@@ -25,9 +25,9 @@ if TYPE_CHECKING:
     from sonolux.light.options import LightOptions
     from sonolux.light.ranges import bake as bake_light
     from sonolux.scene import Scene, load_scene
+    from sonolux.sound.baking import bake
     from sonolux.sound.field import SoundField
     from sonolux.sound.options import SoundOptions
-    from sonolux.sound.baking import bake
     from sonolux.version import __version__
 
 #: Public name -> (module, name in it).
