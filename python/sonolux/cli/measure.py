@@ -18,14 +18,23 @@ def cmd_params(args: argparse.Namespace) -> int:
     from sonolux.analysis.tables import format_cell, format_grid, to_json
     from sonolux.fieldfile import open_field
 
+    from sonolux.analysis.sti import speech_settings_of
+
     field = open_field(args.field)
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"
+    speech = speech_settings_of(field, args.speech_dba, args.noise_db)
+    if args.octaves:
+        from sonolux.analysis.octaves import octave_field
+
+        field = octave_field(field)
+        title += ", octaves summed from its third-octaves"
     if args.at is not None:
         r = field.cell_at(*args.at)
-        p = room_parameters(field, [r], directional=True, compensation=args.compensation)
+        p = room_parameters(field, [r], directional=True, compensation=args.compensation,
+                            speech=speech)
         text = format_cell(p, title)
     else:
-        p = room_parameters(field, compensation=args.compensation)
+        p = room_parameters(field, compensation=args.compensation, speech=speech)
         text = format_grid(p, title)
     if args.json:
         print(json.dumps(to_json(p, field_path=str(args.field), scene=field.scene_name),
@@ -101,7 +110,8 @@ def add_commands(sub) -> None:
     params = sub.add_parser(
         "params", help="ISO 3382-1 room-acoustic parameters of a sound field",
         description="EDT, T20, T30, C50, C80, D50, Ts, G and the early lateral energy fraction "
-                    "(JLF, JLFC) per band and broadband, beside Sabine and Eyring: over the "
+                    "(JLF, JLFC) per band and broadband, beside Sabine and Eyring, and the "
+                    "speech transmission index (STI, IEC 60268-16) per receiver: over the "
                     "whole grid (mean, min, max), or for the cell at X,Y with its directions.")
     params.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
     params.add_argument("--at", type=parse.xy, default=None, metavar="X,Y",
@@ -112,6 +122,16 @@ def add_commands(sub) -> None:
                              "plain backward integral, right for simulated fields) or lundeby "
                              "(noise subtraction and truncation, for fields with a real noise "
                              "floor)")
+    params.add_argument("--octaves", action="store_true",
+                        help="of a third-octave field: the octaves its thirds make whole, each "
+                             "the sum of its three thirds' energies (never averaged times)")
+    params.add_argument("--speech-dba", type=parse.speech_dba, default=None, metavar="DBA",
+                        help="for STI: the talker's speech level at 1 m in dB(A) (default: the "
+                             "scene's [speech], else 60, normal vocal effort)")
+    params.add_argument("--noise-db", type=parse.octave_levels_db, default=None,
+                        metavar="L[,L...]",
+                        help="for STI: background noise per octave 125 Hz … 8 kHz in dB SPL, "
+                             "one level or seven (default: the scene's [speech], else none)")
     params.set_defaults(func=cmd_params)
 
     maps = sub.add_parser(

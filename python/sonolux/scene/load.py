@@ -45,6 +45,7 @@ from sonolux.scene.schema import (
     Table,
 )
 from sonolux.scene.shoebox import build_shoebox
+from sonolux.scene.speech import read_speech
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -52,7 +53,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers",
-             "daylight", "workplane", "early")
+             "daylight", "workplane", "early", "speech")
 SETTINGS_KEYS = ("sample_rate_hz", "bands", "bands_hz", "band_range_hz", "energy_drop_db",
                  "max_time_s", "seed", "threads", "air")
 AIR_KEYS = ("temperature_c", "humidity_percent", "pressure_kpa")
@@ -221,6 +222,7 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     receiver_spec = read_receivers(root.table("receivers"))
     daylight = read_daylight(root.table("daylight"))
     early = read_early(root.table("early"))
+    speech = read_speech(root.table("speech"))
 
     entries = root.tables("geometry")
     if not entries:
@@ -270,4 +272,4 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
                  material_index=material_index, materials=materials, surface_tag=tags,
                  sources=sources, lights=lights, receivers=receivers, settings=settings,
                  mesh_report=report, warnings=warnings, geometry=geometry, daylight=daylight,
-                 workplane=workplane, early=early)
+                 workplane=workplane, early=early, speech=speech)

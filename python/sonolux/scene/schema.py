@@ -224,6 +224,8 @@ class Scene:
     workplane: Any = None
     #: ``[early]`` (a :class:`sonolux.scene.early.EarlySpec`), or None: particles only.
     early: Any = None
+    #: ``[speech]`` (a :class:`sonolux.scene.speech.SpeechSpec`): talker and noise for STI.
+    speech: Any = None
     #: The core's mesh and BVH, built once when the scene was loaded and shared by the tracers.
     geometry: Any = field(default=None, repr=False)
 

@@ -170,6 +170,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "late_bin_s": options.late_bin_s, "azimuth_bands": options.azimuth_bands,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
         "bands": scene.settings.bands,
+        "speech": None if scene.speech is None else scene.speech.as_dict(),
         "volume_m3": scene.volume_m3, "area_m2": scene.area_m2,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,
