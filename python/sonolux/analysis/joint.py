@@ -196,6 +196,14 @@ def joint_map(sound: Any = None, params: Any = None, light: Any = None,
         positions = np.asarray(params.positions_m, float)
         grid = None if sound.grid_index is None else np.asarray(sound.grid_index)[params.receivers]
         spacing = sound.grid_spacing_m if grid is not None else None
+        band_set = getattr(sound, "band_set", None)
+        if band_set is not None and band_set.kind == "third-octave":
+            # Annex A.1's single numbers are octave means: octaves summed from the thirds.
+            from sonolux.analysis.octaves import octave_field
+            from sonolux.analysis.params import room_parameters
+
+            params = room_parameters(octave_field(sound), params.receivers, theory=False)
+            notes.append("sound: octaves summed from the field's third-octaves (energy adds)")
         values, how = single_numbers(params)
         notes.append(f"sound: single numbers are the {how} (ISO 3382-1 A.1) at the receivers' "
                      f"height {np.mean(positions[:, 2]):.2g} m")

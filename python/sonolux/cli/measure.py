@@ -15,10 +15,9 @@ from sonolux.cli import args as parse
 
 def cmd_params(args: argparse.Namespace) -> int:
     from sonolux.analysis.params import room_parameters
+    from sonolux.analysis.sti import speech_settings_of
     from sonolux.analysis.tables import format_cell, format_grid, to_json
     from sonolux.fieldfile import open_field
-
-    from sonolux.analysis.sti import speech_settings_of
 
     field = open_field(args.field)
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.acoustics.theory import air_energy_attenuation_per_m, eyring_t60, sabine_t60
 from sonolux.acoustics.bands import BandSet
+from sonolux.acoustics.theory import air_energy_attenuation_per_m, eyring_t60, sabine_t60
 from sonolux.scene.schema import Air, Scene
 
 
