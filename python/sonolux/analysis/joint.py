@@ -201,8 +201,12 @@ def joint_map(sound: Any = None, params: Any = None, light: Any = None,
             # Annex A.1's single numbers are octave means: octaves summed from the thirds.
             from sonolux.analysis.octaves import octave_field
             from sonolux.analysis.params import room_parameters
+            from sonolux.analysis.sti import SpeechSettings
 
-            params = room_parameters(octave_field(sound), params.receivers, theory=False)
+            speech = getattr(params, "speech", None) or {}
+            params = room_parameters(
+                octave_field(sound), params.receivers, theory=False,
+                speech=SpeechSettings(**speech).validate() if speech else None)
             notes.append("sound: octaves summed from the field's third-octaves (energy adds)")
         values, how = single_numbers(params)
         notes.append(f"sound: single numbers are the {how} (ISO 3382-1 A.1) at the receivers' "

@@ -65,7 +65,12 @@ def cmd_maps(args: argparse.Namespace) -> int:
     has = contents(args.field)
     sound = open_field(args.field) if has["sound"] else None
     light = open_light_field(args.field) if has["light"] else None
-    params = room_parameters(sound, theory=False) if sound is not None else None
+    params = None
+    if sound is not None:
+        from sonolux.analysis.sti import speech_settings_of
+
+        params = room_parameters(sound, theory=False,
+                                 speech=speech_settings_of(sound, args.speech_dba, args.noise_db))
     criteria = args.require if args.require else [Criterion.parse(t) for t in DEFAULT_CRITERIA]
     joint = joint_map(sound, params, light, [] if args.no_criteria else criteria)
     height = float(np.mean(joint.positions_m[:, 2]))
@@ -104,6 +109,15 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _speech_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--speech-dba", type=parse.speech_dba, default=None, metavar="DBA",
+                   help="for STI: the talker's speech level at 1 m in dB(A) (default: the "
+                        "scene's [speech], else 60, normal vocal effort)")
+    p.add_argument("--noise-db", type=parse.octave_levels_db, default=None, metavar="L[,L...]",
+                   help="for STI: background noise per octave 125 Hz … 8 kHz in dB SPL, one "
+                        "level or seven (default: the scene's [speech], else none)")
+
+
 def add_commands(sub) -> None:
     """Adds ``params``, ``maps`` and ``report`` to the subcommand table ``sub``."""
     params = sub.add_parser(
@@ -124,13 +138,7 @@ def add_commands(sub) -> None:
     params.add_argument("--octaves", action="store_true",
                         help="of a third-octave field: the octaves its thirds make whole, each "
                              "the sum of its three thirds' energies (never averaged times)")
-    params.add_argument("--speech-dba", type=parse.speech_dba, default=None, metavar="DBA",
-                        help="for STI: the talker's speech level at 1 m in dB(A) (default: the "
-                             "scene's [speech], else 60, normal vocal effort)")
-    params.add_argument("--noise-db", type=parse.octave_levels_db, default=None,
-                        metavar="L[,L...]",
-                        help="for STI: background noise per octave 125 Hz … 8 kHz in dB SPL, "
-                             "one level or seven (default: the scene's [speech], else none)")
+    _speech_options(params)
     params.set_defaults(func=cmd_params)
 
     maps = sub.add_parser(
@@ -150,6 +158,7 @@ def add_commands(sub) -> None:
                            "d50, g_db, edt_s, t30_s (default: " + ", ".join(DEFAULT_CRITERIA)
                            + ", where the field has them)")
     maps.add_argument("--no-criteria", action="store_true", help="flag nothing")
+    _speech_options(maps)
     maps.set_defaults(func=cmd_maps)
 
     report = sub.add_parser(

@@ -100,6 +100,7 @@ def summarize(scene: Scene) -> dict[str, Any]:
         "bbox_min_m": report["bbox_min"].tolist(),
         "bbox_max_m": report["bbox_max"].tolist(),
         "bands_hz": expected["bands_hz"],
+        "bands": expected["bands"],
         "mean_absorption": expected["mean_absorption"],
         "sabine_t60_s": expected["sabine_t60_s"],
         "eyring_t60_s": expected["eyring_t60_s"],
