@@ -83,3 +83,30 @@ def test_sti_of_thirds_is_the_sti_of_their_summed_octaves():
     quiet, noisy = (room_parameters(field, theory=False, speech=s).sti[0]
                     for s in (None, SpeechSettings(noise_db=(60.0,) * 7)))
     assert noisy < quiet - 0.1  # background noise lowers STI (A.2.3)
+
+
+def test_params_octaves_and_speech_options_on_the_command_line(capsys, tmp_path):
+    import json
+
+    from sonolux import cli
+    from sonolux.fieldfile import save_fields
+
+    path = save_fields(tmp_path / "thirds.h5",
+                       sound=thirds_field(np.linspace(1.6, 0.5, len(THIRDS_STI)), THIRDS_STI))
+    assert cli.main(["params", str(path), "--octaves", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["bands_hz"] == [125, 250, 500, 1000, 2000, 4000, 8000]
+    quiet = out["sti"]["mean"]
+    assert cli.main(["params", str(path), "--json", "--noise-db", "60"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["bands_hz"]) == len(THIRDS_STI) and out["sti"]["mean"] < quiet - 0.1
+    assert out["speech"] == {"speech_dba": 60.0, "noise_db": [60.0] * 7}
+    assert cli.main(["params", str(path), "--noise-db", "1,2"]) == 2
+    assert "--noise-db: '1,2' is not a noise level" in capsys.readouterr().err
+    assert cli.main(["params", str(path), "--speech-dba", "200"]) == 2
+    octave = thirds_field([1.0] * 6, DEFAULT_THIRDS_HZ[:6])
+    octave.settings["bands"] = "octave"
+    octave.bands_hz = np.array([125, 250, 500, 1000, 2000, 4000], float)
+    path = save_fields(tmp_path / "octave.h5", sound=octave)
+    assert cli.main(["params", str(path), "--octaves"]) == 2
+    assert "need a third-octave field" in capsys.readouterr().err
