@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.acoustics.bands import KINDS, is_contiguous_run
 from sonolux.errors import FieldFileError, MemoryLimitError
 from sonolux.memory import check_memory
 
@@ -95,7 +96,12 @@ def check_sound(path: str, a: dict[str, Any]) -> None:
     c.array("energy", e, 4, shape=(None, n_dir, None, None))
     c.array("bin_start_s", a["bin_start_s"], 1, lo=0.0, shape=(n_t,))
     c.array("bin_width_s", a["bin_width_s"], 1, positive=True, shape=(n_t,))
-    c.array("bands_hz", a["bands_hz"], 1, positive=True, shape=(n_b,))
+    bands = c.array("bands_hz", a["bands_hz"], 1, positive=True, shape=(n_b,))
+    kind = s.get("bands")
+    if kind is not None and not (kind in KINDS and is_contiguous_run(bands.tolist(), kind)):
+        raise c.fail("settings.bands", f"= {kind!r} does not describe bands_hz "
+                     f"{bands.tolist()}: \"octave\" or \"third-octave\" with a contiguous run "
+                     "of that kind's centres")
     c.array("receivers_m", a["positions_m"], 2, shape=(n_r, 3))
     c.number("radius_m", a["radius_m"], positive=True)
     if a["grid_index"] is not None:

@@ -58,6 +58,27 @@ export interface BundleIndex {
   boundsMax: Vec3;
   planSegments: [number, number, number, number][];
   cells: Cell[];
+  /** The field's frequency bands, as the bundle names them (none in bundles without them). */
+  bands: Bands | null;
+}
+
+/** Frequency bands of the field: their kind and nominal centres, read from field.json. */
+export interface Bands {
+  kind: 'octave' | 'third-octave';
+  centresHz: number[];
+}
+
+function hz(f: number): string {
+  return f >= 1000 ? `${+(f / 1000).toPrecision(3)} kHz` : `${+f.toPrecision(3)} Hz`;
+}
+
+/** '6 octaves, 125 Hz – 4 kHz', '18 third-octaves, 100 Hz – 5 kHz'. */
+export function bandsLabel(b: Bands | null): string {
+  if (!b || b.centresHz.length === 0) return '';
+  const n = b.centresHz.length;
+  const kind = b.kind === 'octave' ? (n === 1 ? 'octave' : 'octaves') : n === 1 ? 'third-octave' : 'third-octaves';
+  const span = n === 1 ? hz(b.centresHz[0]) : `${hz(b.centresHz[0])} – ${hz(b.centresHz[n - 1])}`;
+  return `${n} ${kind}, ${span}`;
 }
 
 export class BundleError extends Error {
@@ -192,7 +213,22 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
       return [a[0], a[1], a[2], a[3]];
     }),
     cells,
+    bands: readBands(r, j.field),
   };
+}
+
+/** field.bands_hz and field.bands (the kind; octaves in bundles written before thirds). */
+function readBands(r: Reader, field: unknown): Bands | null {
+  if (field === undefined || field === null) return null;
+  const f = r.obj(field, 'field');
+  if (f.bands_hz === undefined) return null;
+  const centresHz = r.arr(f.bands_hz, 'field.bands_hz').map((v, k) => r.num(v, `field.bands_hz[${k}]`, 0));
+  for (let k = 1; k < centresHz.length; k++) {
+    if (!(centresHz[k] > centresHz[k - 1])) r.fail('field.bands_hz', 'is not increasing');
+  }
+  const kind = f.bands === undefined || f.bands === null ? 'octave' : r.str(f.bands, 'field.bands');
+  if (kind !== 'octave' && kind !== 'third-octave') r.fail('field.bands', `= ${kind} is not "octave" or "third-octave"`);
+  return { kind, centresHz };
 }
 
 /** The bundle's folder URL, always ending in '/'. */

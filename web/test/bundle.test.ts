@@ -1,5 +1,5 @@
 import { describe, expect, test } from 'vitest';
-import { BundleError, bundleBase, parseIndex } from '../src/bundle';
+import { BundleError, bandsLabel, bundleBase, parseIndex } from '../src/bundle';
 import { crc32 } from '../src/crc32';
 import { decodeCell } from '../src/responses';
 
@@ -43,6 +43,21 @@ describe('field.json', () => {
     bad((j) => ((j.cells as any)[0].full = [[0, 9, 0, 1]]), 'past its cell block');
     bad((j) => ((j.cells as any)[0].full = []), 'has 0 items, not 1');
     bad((j) => (j.sample_rate_hz = 'x'), 'sample_rate_hz is not a number');
+  });
+
+  test('the bands come from the bundle, octaves or thirds', () => {
+    const j = index();
+    expect(parseIndex(j).bands).toBeNull(); // a bundle without them
+    j.field = { bands_hz: [125, 250, 500, 1000, 2000, 4000] }; // written before thirds: octaves
+    expect(bandsLabel(parseIndex(j).bands)).toBe('6 octaves, 125 Hz – 4 kHz');
+    j.field = { bands_hz: [100, 125, 160, 200, 250, 315, 400, 500, 630, 800, 1000, 1250, 1600, 2000, 2500, 3150, 4000, 5000], bands: 'third-octave' };
+    const b = parseIndex(j).bands!;
+    expect(b.centresHz.length).toBe(18);
+    expect(bandsLabel(b)).toBe('18 third-octaves, 100 Hz – 5 kHz');
+    j.field = { bands_hz: [1000, 500] };
+    expect(() => parseIndex(j)).toThrow('field.bands_hz is not increasing');
+    j.field = { bands_hz: [1000], bands: 'sixth' };
+    expect(() => parseIndex(j)).toThrow('field.bands');
   });
 
   test('the bundle folder URL ends in a slash', () => {

@@ -25,12 +25,12 @@ from typing import Any
 import numpy as np
 
 from sonolux import engine
-from sonolux.acoustics.theory import air_energy_attenuation_per_m, sabine_t60
+from sonolux.acoustics.theory import sabine_t60
 from sonolux.errors import SonoluxError
 from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
-from sonolux.scene.summary import theory
+from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import early as early_sound
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
@@ -43,16 +43,16 @@ PAPER_RULE_CONSTANT = 3e6 / (65 * 6.0**2)
 
 
 def band_arrays(scene: Scene) -> dict[str, np.ndarray]:
-    """Absorption and scattering float64[materials, bands] and the air's energy attenuation
-    float64[bands] (1/m) for the scene's simulated bands."""
-    idx = np.asarray(scene.settings.band_indices)
-    air = scene.settings.air
+    """Absorption and scattering float64[materials, bands] on the scene's bands (converted from
+    each material's own octaves or thirds, docs/bands.md) and the air's energy attenuation
+    float64[bands] (1/m) at each band's exact mid-band frequency (ISO 9613-1, clause 8)."""
+    bands = scene.settings.band_set
     return {
-        "absorption": np.ascontiguousarray([m.absorption[idx] for m in scene.materials], float),
-        "scattering": np.ascontiguousarray([m.scattering[idx] for m in scene.materials], float),
-        "air": np.asarray(air_energy_attenuation_per_m(np.asarray(scene.settings.bands_hz, float),
-                                                       air.temperature_c, air.humidity_percent,
-                                                       air.pressure_kpa), float),
+        "absorption": np.ascontiguousarray([m.absorption_in(bands) for m in scene.materials],
+                                           float),
+        "scattering": np.ascontiguousarray([m.scattering_in(bands) for m in scene.materials],
+                                           float),
+        "air": band_air_attenuation_per_m(bands, scene.settings.air),
     }
 
 
@@ -169,6 +169,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "max_time_s": max_time_s, "early_bins": int(out["early_bins"]),
         "late_bin_s": options.late_bin_s, "azimuth_bands": options.azimuth_bands,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
+        "bands": scene.settings.bands,
+        "speech": None if scene.speech is None else scene.speech.as_dict(),
         "volume_m3": scene.volume_m3, "area_m2": scene.area_m2,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,

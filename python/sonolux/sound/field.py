@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.acoustics.bands import BandSet, band_set_of
 from sonolux.errors import SonoluxError, check_number
 from sonolux.limits import MAX_SEED
 
@@ -96,6 +97,24 @@ class SoundField:
         return int(self.settings["sample_rate_hz"])
 
     @property
+    def band_set(self) -> BandSet | None:
+        """The bands as IEC 61260-1 octaves or thirds: the kind the bake recorded (files from
+        before third-octaves hold octaves), or None when ``bands_hz`` is no such run (a
+        synthetic field of arbitrary centres)."""
+        try:
+            return band_set_of(self.bands_hz, self.settings.get("bands"))
+        except ValueError:
+            return None
+
+    @property
+    def synthesis_bands_hz(self) -> np.ndarray:
+        """float64[band]: the centres the synthesis filter bank is built on, the exact mid-band
+        frequencies (so that its crossovers, at the geometric means of neighbouring centres,
+        are the IEC 61260-1 band edges), or ``bands_hz`` for arbitrary centres."""
+        bands = self.band_set
+        return np.asarray(self.bands_hz, float) if bands is None else bands.exact_hz
+
+    @property
     def azimuth_bands(self) -> int:
         return int(self.settings["azimuth_bands"])
 
@@ -162,7 +181,7 @@ class SoundField:
         seed = check_number("seed", seed, 0, MAX_SEED, integer=True)
         e = (self.omni_energy(receiver) if direction is None
              else self.energy[receiver, self.direction_index(direction)].astype(np.float64))
-        return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.bands_hz,
+        return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.synthesis_bands_hz,
                            self.sample_rate_hz, self.settings["volume_m3"],
                            self.settings["speed_of_sound_m_s"], seed=seed)
 

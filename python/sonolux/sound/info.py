@@ -23,6 +23,7 @@ def info(field: SoundField) -> dict[str, Any]:
         "scene": field.scene_name, "origin": field.scene_origin, "path": field.path,
         "receivers": field.n_receivers, "radius_m": field.radius_m,
         "directions": field.direction_names, "bands_hz": field.bands_hz.tolist(),
+        "bands": None if field.band_set is None else field.band_set.kind,
         "duration_s": float(field.bin_start_s[-1] + field.bin_width_s[-1]) if field.bin_start_s.size else 0.0,
         "time_bins": int(field.bin_start_s.size), "early_bins": se["early_bins"],
         "late_bin_s": se["late_bin_s"], "bytes_per_receiver": field.bytes_per_receiver,
@@ -44,7 +45,8 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
         f"sound field of {d['scene']}" + (f"  ({path})" if path else ""),
         f"  receivers   {d['receivers']}, spheres of radius {d['radius_m']:g} m",
         f"  directions  {len(d['directions'])}: {', '.join(d['directions'])}",
-        f"  bands       {', '.join(f'{b:g}' for b in d['bands_hz'])} Hz",
+        f"  bands       {', '.join(f'{b:g}' for b in d['bands_hz'])} Hz"
+        + (f" ({len(d['bands_hz'])} {d['bands']}s)" if d["bands"] else ""),
         f"  time        {d['duration_s']:.3f} s: {d['early_bins']} one-sample bins at "
         f"{se['sample_rate_hz']} Hz, then {d['late_bin_s'] * 1e3:g} ms bins",
         f"  memory      {d['bytes_per_receiver'] / 1e6:.2f} MB per receiver (float32)",

@@ -70,8 +70,8 @@ def cell_responses(field: SoundField, receiver: int, seed: int,
         full.append(_cut(field.impulse_response(receiver, d, seed=s), fs, max_length_s))
         e = np.where(keep, field.energy[receiver, d].astype(np.float64), 0.0)
         if np.any(e > 0):
-            ir = pressure_ir(e, field.bin_start_s, field.bin_width_s, field.bands_hz, fs, volume,
-                             c, seed=s)
+            ir = pressure_ir(e, field.bin_start_s, field.bin_width_s, field.synthesis_bands_hz,
+                             fs, volume, c, seed=s)
             direct.append(_cut(ir, fs, max_length_s))
         else:
             direct.append(np.zeros(0))
