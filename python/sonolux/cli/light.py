@@ -14,6 +14,7 @@ import sys
 
 from sonolux.cli import args as parse
 from sonolux.light.image import TONE_MAPS
+from sonolux.web.options import TAIL_DB
 
 
 def log(message: str) -> None:
@@ -71,7 +72,14 @@ def web_options(args: argparse.Namespace):
     from sonolux.web.options import WebExportOptions
 
     return WebExportOptions(max_length_s=args.max_length_s, sample_format=args.sample_format,
-                            seed=args.seed)
+                            seed=args.seed, tail_db=args.tail_db, compress=not args.no_compress)
+
+
+def _tail_db(text: str) -> float | None:
+    """--tail-db: a decay from 20 to 200 dB, or 'none'."""
+    if text.strip().lower() == "none":
+        return None
+    return float(parse.number(20, 200, unit="dB")(text))
 
 
 def add_bundle_options(p: argparse.ArgumentParser) -> None:
@@ -82,6 +90,12 @@ def add_bundle_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sample-format", choices=("int16", "float32"), default="int16",
                    help="samples of the responses (default int16, half the size)")
     g.add_argument("--seed", type=parse.seed, default=0, help="seed of the responses' fine structure")
+    g.add_argument("--tail-db", type=_tail_db, default=TAIL_DB, metavar="DB",
+                   help=f"end each cell's responses where its decay has fallen DB below its "
+                        f"whole energy (default {TAIL_DB:g}, as the T60; 'none' keeps the "
+                        f"field's whole time axis)")
+    g.add_argument("--no-compress", action="store_true",
+                   help="store the responses uncompressed (default: deflated per cell, lossless)")
 
 
 def add_commands(sub) -> None:
