@@ -91,25 +91,24 @@ def export_sofa(field_path: str | Path, out_path: str | Path, receiver: int | No
     chosen = list(range(field.n_receivers)) if receiver is None else [field.receiver_index(receiver)]
     n_dir = int(field.energy.shape[1])
     fs = field.sample_rate_hz
-    # The responses are at most the field's time axis long (pressure_ir); float64 in memory
-    # twice (the list, then the padded array) and once more as sofar writes it.
+    # The responses are at most the field's time axis long (pressure_ir): synthesised straight
+    # into one float64 array of that length (then cut to the longest), which netCDF may copy
+    # once more as it writes.
     n_axis = int(math.ceil(float(np.max(field.bin_start_s + field.bin_width_s)) * fs))
-    check_memory(3.0 * 8 * len(chosen) * n_dir * n_axis, "the SOFA export",
+    check_memory(2.0 * 8 * len(chosen) * n_dir * n_axis, "the SOFA export",
                  f"{len(chosen)} receivers × {n_dir} directions × {n_axis:,} samples",
                  fits="export one receiver at a time with --receiver N")
 
-    responses = []
+    data = np.zeros((len(chosen), n_dir, n_axis))
+    n = 0
     for k, m in enumerate(chosen):
-        responses.append([field.impulse_response(m, d, seed=seed + m * n_dir + d)
-                          for d in range(n_dir)])
+        for d in range(n_dir):
+            x = field.impulse_response(m, d, seed=seed + m * n_dir + d)
+            data[k, d, :x.size] = x
+            n = max(n, x.size)
         if len(chosen) > 1 and (k + 1) * 10 // len(chosen) > k * 10 // len(chosen):
             say(f"responses: {k + 1}/{len(chosen)} receivers")
-    n = max(x.size for row in responses for x in row)
-    data = np.zeros((len(chosen), n_dir, n))
-    for k, row in enumerate(responses):
-        for d, x in enumerate(row):
-            data[k, d, :x.size] = x
-    del responses
+    data = data[:, :, :n]
 
     sofa = sofar.Sofa(CONVENTION)
     sofa.GLOBAL_Title = f"{field.scene_name or 'sonolux'}: spatial room impulse responses"
