@@ -1,11 +1,15 @@
 /**
  * The bundle's index, field.json (written by `sonolux export FIELD --web DIR`, format
- * sonolux-web/1), read and checked: anything missing or out of range is a BundleError that
+ * sonolux-web/2; sonolux-web/1, the same without compression, still reads), read and checked: anything missing or out of range is a BundleError that
  * names the file and the field, which the page shows.
  */
 import type { Vec3 } from './coords';
 
-export const FORMAT = 'sonolux-web/1';
+export const FORMAT = 'sonolux-web/2';
+const FORMATS = ['sonolux-web/1', FORMAT];
+
+/** How a cell's block is stored in responses.bin: as is, or zlib-compressed (RFC 1950). */
+export type Encoding = 'none' | 'deflate';
 
 /** `delay` zeros, then `length` samples from `offset` (samples into the cell's block), × `scale`. */
 export interface ResponseRef {
@@ -26,7 +30,10 @@ export interface Cell {
   position: Vec3;
   gridIndex: [number, number] | null;
   byteOffset: number;
+  /** Bytes of the block as stored (what a range request fetches; the CRC-32 is of these). */
   byteLength: number;
+  /** Bytes of the block once inflated (byteLength when not compressed). */
+  rawLength: number;
   crc32: number;
   full: ResponseRef[];
   direct: ResponseRef[];
@@ -46,6 +53,7 @@ export interface BundleIndex {
   sampleRateHz: number;
   responseLengthSamples: number;
   sampleFormat: 'int16' | 'float32';
+  encoding: Encoding;
   responsesFile: string;
   responsesBytes: number;
   playbackGain: number;
@@ -139,7 +147,9 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
   const r = new Reader(file);
   const j = r.obj(raw, 'the index');
   const format = r.str(j.format, 'format');
-  if (format !== FORMAT) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMAT}`);
+  if (!FORMATS.includes(format)) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMATS.join(' and ')}`);
+  const encoding = j.encoding === undefined ? 'none' : r.str(j.encoding, 'encoding');
+  if (encoding !== 'none' && encoding !== 'deflate') r.fail('encoding', `is ${JSON.stringify(encoding)}, not "none" or "deflate"`);
   const scene = r.obj(j.scene, 'scene');
   const sampleFormat = r.str(j.sample_format, 'sample_format');
   if (sampleFormat !== 'int16' && sampleFormat !== 'float32') r.fail('sample_format', `is ${sampleFormat}`);
@@ -171,6 +181,7 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
     const byteOffset = r.int(o.byte_offset, `cells[${i}].byte_offset`);
     const byteLength = r.int(o.byte_length, `cells[${i}].byte_length`);
     if (byteOffset + byteLength > responsesBytes) r.fail(`cells[${i}]`, 'reaches past the end of responses_bytes');
+    const rawLength = encoding === 'deflate' ? r.int(o.raw_length, `cells[${i}].raw_length`) : byteLength;
     const gi = o.grid_index === null ? null : r.arr(o.grid_index, `cells[${i}].grid_index`, 2);
     return {
       index: i,
@@ -178,9 +189,10 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
       gridIndex: gi === null ? null : [r.num(gi[0], 'grid_index'), r.num(gi[1], 'grid_index')],
       byteOffset,
       byteLength,
+      rawLength,
       crc32: r.int(o.crc32, `cells[${i}].crc32`, 0, 0xffffffff),
-      full: refs(o.full, `cells[${i}].full`, byteLength),
-      direct: refs(o.direct, `cells[${i}].direct`, byteLength),
+      full: refs(o.full, `cells[${i}].full`, rawLength),
+      direct: refs(o.direct, `cells[${i}].direct`, rawLength),
     };
   });
   if (cells.length === 0) r.fail('cells', 'is empty');
@@ -195,6 +207,7 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
     sampleRateHz: r.int(j.sample_rate_hz, 'sample_rate_hz', 3000, 768000),
     responseLengthSamples: r.int(j.response_length_samples, 'response_length_samples'),
     sampleFormat: sampleFormat as 'int16' | 'float32',
+    encoding: encoding as Encoding,
     responsesFile: r.str(j.responses_file, 'responses_file'),
     responsesBytes,
     playbackGain: r.num(j.playback_gain, 'playback_gain', 0),
