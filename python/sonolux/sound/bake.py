@@ -283,6 +283,7 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str
     keeping each tile's field compact, its stored late bins shown ``split`` to a bin (or
     dense for ``storage="full"``). The time axis returned is the one shown."""
     compact = memory.compact
+    partial = (base["first_ray"], base["end_ray"]) != (0, base["rays"])
     acoustics, sources = geometry_args
     positions = np.ascontiguousarray(scene.receivers.positions_m, float)
     n, size = positions.shape[0], memory.tile_receivers
@@ -304,10 +305,10 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str
         early_bins = int(out["early_bins"])
         energy = out.pop("energy")
         if compact:
-            # A part of a bake in ranges keeps every early cell (parts add up exactly); a
-            # whole bake keeps its strongest early arrivals and an envelope of the rest.
+            # A part of a bake keeps every early cell (parts add up exactly); a whole bake
+            # keeps its strongest early arrivals and an envelope of the rest.
             energy = CompactArray.of(energy, early_bins, split)
-            energy = energy if keep_counts else energy.reduce(*reduce)
+            energy = energy if partial else energy.reduce(*reduce)
         energies.append(energy)
         if keep_counts:
             counts.append(CompactArray.of(out.pop("counts"), early_bins, split) if compact

@@ -235,7 +235,8 @@ class CompactArray:
 
     def reduce(self, arrivals: int, envelope_split: int) -> CompactArray:
         """The early part as the ``arrivals`` strongest (direction, sample) arrivals of each
-        receiver, exact in every band, and the rest of it as an envelope of bins
+        receiver, exact in every band (with every cell up to its onset and at its peak), and
+        the rest of it as an envelope of bins
         ``envelope_split`` samples wide (spread evenly over them when shown). Every envelope
         bin keeps its energy's sum, so energies over windows of whole envelope bins (and the
         total) are unchanged; the arrivals keep the exact times and directions of the
@@ -260,6 +261,14 @@ class CompactArray:
         rank = np.empty(ukeys.size, np.int64)
         rank[order] = np.arange(ukeys.size) - first[a_row[order]]
         keep = (rank < arrivals)[slot]
+        # Also kept exact: every cell up to each receiver's onset and at its peak, so that the
+        # onset (the first sample within 20 dB of the peak power, ISO 3382-1 A.3.4), from
+        # which C50, C80, D50, Ts and EDT are counted, is the same sample as in the full field.
+        omni = np.zeros((n_r, eb), np.float64)
+        np.add.at(omni, (rows, t), self.value.astype(np.float64))
+        peak = np.argmax(omni, axis=1)
+        onset = np.argmax(omni >= 0.01 * omni[np.arange(n_r), peak][:, None], axis=1)
+        keep |= (t <= onset[rows]) | (t == peak[rows])
         envelope = np.zeros((n_r, n_d, n_b, n_env), np.float64)
         np.add.at(envelope, (rows[~keep], d[~keep], b[~keep], t[~keep] // envelope_split),
                   self.value[~keep].astype(np.float64))
@@ -335,3 +344,12 @@ def energy_of(counts: Any, quantum: float) -> Any:
     for r in range(counts.shape[0]):
         energy[r] = convert(counts[r])
     return energy
+
+
+def reduced(energy: Any, settings: dict[str, Any]) -> Any:
+    """A complete bake's compact energy reduced as its settings say (``compact_arrivals``,
+    ``compact_envelope_s``); dense or already reduced energy as it is."""
+    if not isinstance(energy, CompactArray) or energy.envelope is not None:
+        return energy
+    split = max(1, round(float(settings["compact_envelope_s"]) * float(settings["sample_rate_hz"])))
+    return energy.reduce(int(settings["compact_arrivals"]), split)

@@ -25,7 +25,7 @@ import numpy as np
 
 from sonolux.errors import SonoluxError, check_number
 from sonolux.limits import MAX_SEED
-from sonolux.sound.compact import CompactArray, add_counts, energy_of
+from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 
 EIGHT_NAMES = ("front", "front-left", "left", "back-left", "back", "back-right", "right",
                "front-right")
@@ -205,8 +205,6 @@ class SoundField:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
         counts = add_counts(self.counts, other.counts)
         energy = energy_of(counts, self.quantum)
-        if self.early is not None:
-            energy = add_arrivals(energy, self.early)
         mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
         theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
         for a0, a1 in mine:
@@ -220,5 +218,12 @@ class SoundField:
                  for k, v in self.stats.items()}
         settings = dict(self.settings, ray_range=[ranges[0][0], max(r[1] for r in ranges)],
                         ray_ranges=ranges)
+        covered = 0
+        for a, b in ranges:
+            covered = b if a <= covered else covered
+        if covered >= int(self.settings["rays"]):  # complete: as the bake done at once
+            energy = reduced(energy, self.settings)
+        if self.early is not None:
+            energy = add_arrivals(energy, self.early)
         return SoundField(**{**self.__dict__, "energy": energy,
                              "counts": counts, "stats": stats, "settings": settings, "path": None})

@@ -25,7 +25,7 @@ from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.sound.bake import auto_rays, band_arrays
 from sonolux.sound.bake import bake as bake_whole
-from sonolux.sound.compact import CompactArray, add_counts, energy_of
+from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.version import __version__
@@ -168,7 +168,7 @@ def counts_arrays(counts: Any) -> dict[str, np.ndarray]:
     if isinstance(counts, CompactArray):
         return {"counts_offset": counts.offset, "counts_cell": counts.cell,
                 "counts_value": counts.value, "counts_late": counts.late,
-                "counts_early_bins": np.array([counts.early_bins], np.int64)}
+                "counts_early_bins": np.array([counts.early_bins, counts.late_split], np.int64)}
     return {"counts": counts}
 
 
@@ -176,9 +176,10 @@ def counts_of_arrays(arrays: dict[str, np.ndarray]) -> Any:
     """The counts that :func:`counts_arrays` wrote."""
     if "counts" in arrays:
         return np.array(arrays["counts"], np.uint64)
-    return CompactArray(int(arrays["counts_early_bins"][0]), np.array(arrays["counts_offset"]),
+    early_bins, late_split = (int(v) for v in arrays["counts_early_bins"])
+    return CompactArray(early_bins, np.array(arrays["counts_offset"]),
                         np.array(arrays["counts_cell"]), np.array(arrays["counts_value"]),
-                        np.array(arrays["counts_late"]))
+                        np.array(arrays["counts_late"]), late_split)
 
 
 def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
@@ -199,10 +200,8 @@ def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
     for k, n in (("rays_per_second", "rays"), ("segments_per_second", "segments")):
         stats[k] = stats.get(n, 0) / seconds if seconds > 0 else None
     energy = energy_of(total.counts, t.quantum)
-    if whole and isinstance(energy, CompactArray):
-        energy = energy.reduce(int(t.settings["compact_arrivals"]),
-                               max(1, round(float(t.settings["compact_envelope_s"])
-                                            * float(t.settings["sample_rate_hz"]))))
+    if whole:
+        energy = reduced(energy, t.settings)
     return replace(t, energy=energy,
                    counts=None if whole else total.counts, settings=settings, stats=stats)
 
