@@ -150,6 +150,8 @@ def _write_array(g: Any, name: str, a: Any) -> None:
         c.attrs["early_bins"] = a.early_bins
         c.attrs["late_split"] = a.late_split
         c.attrs["envelope_split"] = a.envelope_split
+        if a.onset is not None:
+            c.create_dataset("onset", data=a.onset, compression="gzip", shuffle=True)
         if a.envelope is not None:
             env = a.envelope
             c.create_dataset("envelope", data=env, compression="gzip", compression_opts=4,
@@ -196,8 +198,13 @@ def _read_array(c: Checker, g: Any, name: str) -> Any:
     late_split = int(h.attrs.get("late_split", 1))
     if late_split < 1:
         raise c.fail(name, f"has late_split = {late_split}, not a whole number ≥ 1")
+    onset = c.dataset(h, "onset") if "onset" in h else None
+    if onset is not None and (onset.shape != (late.shape[0],) or onset.size
+                              and (np.min(onset) < 0 or np.max(onset) >= max(early_bins, 1))):
+        raise c.fail(f"{name}/onset", "is not one early sample per receiver")
     return CompactArray(early_bins, offset.astype(np.int64), cell.astype(np.uint32), early, late,
-                        late_split, envelope, split)
+                        late_split, envelope, split,
+                        None if onset is None else onset.astype(np.int64))
 
 
 def _write_light(f: Any, field: LightField) -> None:

@@ -48,6 +48,9 @@ class CompactArray:
     #: bins wide and spread evenly over them; None: every non-zero early cell is kept.
     envelope: np.ndarray | None = None
     envelope_split: int = 1
+    #: int64[receiver]: each receiver's onset sample (a reduced array): the envelope is spread
+    #: over samples from it on only, so that nothing seems to arrive before the direct sound.
+    onset: np.ndarray | None = None
 
     # --- what it stands for ----------------------------------------------------------------
     @property
@@ -87,7 +90,8 @@ class CompactArray:
         out = np.zeros((d, b, t), self.dtype)
         early = out[:, :, : self.early_bins]
         if self.envelope is not None:
-            early[...] = spread_even(self.envelope[k], self.envelope_split, self.early_bins)
+            start = 0 if self.onset is None else int(self.onset[k])
+            early[...] = spread_even(self.envelope[k], self.envelope_split, self.early_bins, start)
         lo, hi = int(self.offset[k]), int(self.offset[k + 1])
         # early is a view of a C-contiguous block's first columns: index through its shape.
         di, rest = np.divmod(self.cell[lo:hi].astype(np.int64), b * self.early_bins)
@@ -145,9 +149,12 @@ class CompactArray:
         np.cumsum(counts, out=offset[1:])
         envelope = None if parts[0].envelope is None else \
             np.concatenate([p.envelope for p in parts])  # type: ignore[misc]
+        onset = None if parts[0].onset is None else \
+            np.concatenate([p.onset for p in parts])  # type: ignore[misc]
         return replace(parts[0], offset=offset, cell=np.concatenate([p.cell for p in parts]),
                        value=np.concatenate([p.value for p in parts]),
-                       late=np.concatenate([p.late for p in parts]), envelope=envelope)
+                       late=np.concatenate([p.late for p in parts]), envelope=envelope,
+                       onset=onset)
 
     def _keys(self) -> np.ndarray:
         """int64 (receiver, cell) keys of the non-zero cells, in order."""
@@ -231,7 +238,8 @@ class CompactArray:
         np.cumsum(counts, out=offset[1:])
         return replace(self, offset=offset, cell=self.cell[take], value=self.value[take],
                        late=self.late[receivers],
-                       envelope=None if self.envelope is None else self.envelope[receivers])
+                       envelope=None if self.envelope is None else self.envelope[receivers],
+                       onset=None if self.onset is None else self.onset[receivers])
 
     def reduce(self, arrivals: int, envelope_split: int) -> CompactArray:
         """The early part as the ``arrivals`` strongest (direction, sample) arrivals of each
@@ -275,7 +283,8 @@ class CompactArray:
         offset = np.zeros(n_r + 1, np.int64)
         np.cumsum(np.bincount(rows[keep], minlength=n_r), out=offset[1:])
         return replace(self, offset=offset, cell=self.cell[keep], value=self.value[keep],
-                       envelope=envelope.astype(self.dtype), envelope_split=envelope_split)
+                       envelope=envelope.astype(self.dtype), envelope_split=envelope_split,
+                       onset=onset.astype(np.int64))
 
 
 def is_compact(array: Any) -> bool:
@@ -287,13 +296,18 @@ def is_compact(array: Any) -> bool:
 MAX_LOG_STEP = math.log(1e6)
 
 
-def spread_even(envelope: np.ndarray, split: int, n: int) -> np.ndarray:
+def spread_even(envelope: np.ndarray, split: int, n: int, start: int = 0) -> np.ndarray:
     """float[..., bins] -> float[..., n]: each bin's value shared evenly by the ``split``
-    one-sample bins it covers (the last may cover fewer)."""
+    one-sample bins it covers (the last may cover fewer), none before sample ``start``."""
     e = np.asarray(envelope, np.float64)
-    counts = np.full(e.shape[-1], split, np.int64)
-    counts[-1] = n - split * (e.shape[-1] - 1)
-    return np.repeat(e / counts, counts, axis=-1).astype(envelope.dtype)
+    lo = np.arange(e.shape[-1]) * split
+    hi = np.minimum(lo + split, n)
+    counts = hi - np.clip(start, lo, hi)
+    share = np.where(counts > 0, e / np.maximum(counts, 1), 0.0)
+    out = np.repeat(share, hi - lo, axis=-1)
+    out[..., :start] = 0.0
+    # A bin wholly before the start (empty by construction) stays empty.
+    return out.astype(envelope.dtype)
 
 
 def spread_late(late: np.ndarray, split: int) -> np.ndarray:
