@@ -272,8 +272,11 @@ def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
         sample_rate_hz=float(scene.settings.sample_rate_hz),
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s, volume_m3=scene.volume_m3,
         area_m2=scene.area_m2, radius_m=scene.receivers.radius_m)
+    partial = options.ray_range is not None and tuple(options.ray_range) != (0, options.rays)
     return sound_budget.plan(shape, options.memory_bytes or budget_bytes(), compact=compact,
-                             keep_counts=options.ray_range is not None, early_cells=cells)
+                             keep_counts=options.ray_range is not None, early_cells=cells,
+                             reduced=None if partial else
+                             reduction(options, scene.settings.sample_rate_hz))
 
 
 def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str, Any],

@@ -93,15 +93,20 @@ def early_cells_estimate(shape: FieldShape, *, rays: int, sources: int, estimato
 
 
 def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bool,
-         early_cells: int) -> MemoryPlan:
+         early_cells: int, reduced: tuple[int, int] | None = None) -> MemoryPlan:
     """The tile size that fits ``budget_bytes``, or :class:`MemoryLimitError` saying what would
     fit. Kept per receiver: float32 energies (and u64 counts for a ray range) of the late part
-    and of the early part (dense when full; its non-zero cells, each with a u32 index, when
-    compact)."""
+    and of the early part: dense when full; when compact its non-zero cells (each with a u32
+    index), or, ``reduced`` = (arrivals, samples per envelope bin) for a whole bake, its
+    envelope and the cells of its strongest arrivals (twice as many, for the onset's)."""
     value = 4 + (8 if keep_counts else 0)
     late = shape.directions * shape.bands * shape.late_bins
     early_dense = shape.directions * shape.bands * shape.early_bins
     early = early_cells * (value + 4) + 8 if compact else early_dense * value
+    if compact and reduced is not None:
+        arrivals, split = reduced
+        envelope = shape.directions * shape.bands * -(-shape.early_bins // split) * 4
+        early = min(early, envelope + 2 * arrivals * shape.bands * (value + 4) + 16)
     kept = shape.receivers * (late * value + early)
     per_receiver = shape.cells_per_receiver * TRACE_BYTES_PER_CELL
     room = budget_bytes - BASE_BYTES - kept
