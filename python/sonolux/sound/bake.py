@@ -28,19 +28,19 @@ from sonolux import engine
 from sonolux.acoustics.theory import air_energy_attenuation_per_m, sabine_t60
 from sonolux.errors import SonoluxError
 from sonolux.memory import budget_bytes
-from sonolux.sound import budget as sound_budget
-from sonolux.sound.compact import CompactArray
 from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 from sonolux.scene.summary import theory
+from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
+from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
-#: A compact field's stored late bins: the shortest T60 over this many (1.2 dB of decay a bin),
+#: A compact field's stored late bins: the shortest T60 over this many (0.6 dB of decay a bin),
 #: at most MAX_COMPACT_LATE_BIN_S. Measured to keep EDT, T20 and T30 within 0.5 % of the full
 #: field's on the paper rooms and the mesh room (tests/sound/test_compact.py).
-LATE_BINS_PER_T60 = 50
+LATE_BINS_PER_T60 = 100
 MAX_COMPACT_LATE_BIN_S = 0.05
 #: Sphere crossings wanted per receiver in each late time bin, for the automatic ray count.
 HITS_PER_LATE_BIN = 20

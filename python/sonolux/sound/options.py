@@ -42,8 +42,8 @@ class SoundOptions:
         and the late part stored at ``compact_late_bin_s``, shown at ``late_bin_s``:
         :mod:`sonolux.sound.compact`) or "full" (every cell dense, as given).
     compact_late_bin_s: the stored late bins of a compact field, a whole multiple of
-        ``late_bin_s``; "auto": the shortest Sabine T60 of the bands (air included) / 50,
-        rounded down to a multiple of ``late_bin_s`` (a decay of 1.2 dB a bin), at most 50 ms.
+        ``late_bin_s``; "auto": the shortest Sabine T60 of the bands (air included) / 100,
+        rounded down to a multiple of ``late_bin_s`` (a decay of 0.6 dB a bin), at most 50 ms.
         It keeps every ISO 3382-1 parameter within a tenth of its JND of the full field's
         (measured: tests/sound/test_compact.py, docs/fieldfile.md).
     compact_arrivals: the strongest early arrivals (direction, sample) a receiver of a compact
