@@ -92,6 +92,11 @@ def early_cells_estimate(shape: FieldShape, *, rays: int, sources: int, estimato
     return int(min(dense, EARLY_MARGIN * (crossings + 1) * shape.bands))
 
 
+def flag_size(n: float) -> str:
+    """A size as --memory takes it, rounded up: 950M, 12G."""
+    return f"{math.ceil(n / 1e6)}M" if n < 1e10 else f"{math.ceil(n / 1e9)}G"
+
+
 def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bool,
          early_cells: int, reduced: tuple[int, int] | None = None) -> MemoryPlan:
     """The tile size that fits ``budget_bytes``, or :class:`MemoryLimitError` saying what would
@@ -117,7 +122,7 @@ def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bo
             f"the sound bake needs at least {gb(need)} ({gb(kept)} for the "
             f"{'compact' if compact else 'full'} field of {shape.receivers:,} receivers, "
             f"{gb(per_receiver)} to trace one receiver at a time, {gb(BASE_BYTES)} for the "
-            f"rest), more than the budget of {gb(budget_bytes)}: give --memory {gb(need * 1.05)} "
+            f"rest), more than the budget of {gb(budget_bytes)}: give --memory {flag_size(need * 1.05)} "
             "or more, or fewer receivers, a shorter max_time_s or wider late bins")
     tile = int(tile)
     return MemoryPlan(shape, budget_bytes, kept, tile, tile * per_receiver, compact)

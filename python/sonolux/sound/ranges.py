@@ -108,8 +108,11 @@ class SoundRanges:
         self.target = tuple(options.ray_range or (0, rays))
         if self.target[1] > rays:
             raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
-        self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None)
+        # The memory limits do not change the bits: they are left out of the fingerprint.
+        self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None,
+                               memory_bytes=None)
         self.max_field_bytes = options.max_field_bytes
+        self.memory_bytes = options.memory_bytes
         self.scene, self.name = scene, scene.name
         self.stamp = {"scene": fingerprint(ranges.scene_content(scene)),
                       "settings": fingerprint(self.options), "version": __version__}
@@ -124,7 +127,8 @@ class SoundRanges:
     def trace(self, first: int, end: int, threads: int | None = None,
               progress: ranges.Progress | None = None) -> SoundSum:
         options = replace(self.options, ray_range=(first, end),
-                          max_field_bytes=self.max_field_bytes)
+                          max_field_bytes=self.max_field_bytes,
+                          memory_bytes=getattr(self, "memory_bytes", None))
         return SoundSum.of(bake_whole(self.loaded_scene(threads), options, progress=progress))
 
     def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
