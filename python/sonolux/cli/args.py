@@ -122,6 +122,26 @@ def rays(text: str) -> int | str:
     return value
 
 
+_SIZE_UNITS = {"": 1, "B": 1, "K": 10**3, "KB": 10**3, "M": 10**6, "MB": 10**6, "G": 10**9,
+               "GB": 10**9, "T": 10**12, "TB": 10**12}
+
+
+def memory_size(text: str) -> int:
+    """A memory budget: bytes, or a number with K, M, G or T (powers of 1000), e.g. 8G or 500MB;
+    from 1 MB to 1000 TB."""
+    t = text.strip().upper()
+    digits = t.rstrip("KMGTB")
+    unit = t[len(digits):]
+    value = _to_number(digits, integer=False) if digits else None
+    if value is None or unit not in _SIZE_UNITS or not math.isfinite(value):
+        value = -1.0
+    size = value * _SIZE_UNITS.get(unit, 0)
+    if not 1e6 <= size <= 1e18:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a memory size: bytes or a number with "
+                                         "K, M, G or T (e.g. 8G, 500M), from 1M to 1000T")
+    return int(size)
+
+
 def ray_range(text: str) -> tuple[int, int]:
     """FIRST:END, 0 <= FIRST < END."""
     try:
