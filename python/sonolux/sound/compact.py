@@ -119,6 +119,7 @@ class CompactArray:
             idx = np.arange(n)[key]
             out = np.stack([self.receiver(int(k)) for k in idx]) if idx.size else \
                 np.zeros((0, *self.shape[1:]), self.dtype)
+            rest = (slice(None), *rest) if rest else rest  # the receiver axis is kept
         return out[rest] if rest else out
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
