@@ -23,6 +23,8 @@ from sonolux.acoustics.bands import OCTAVE, THIRD_OCTAVE, octave_grouping
 from sonolux.errors import AnalysisError
 from sonolux.sound.field import SoundField
 
+#: Receivers summed at once.
+_CHUNK = 32
 #: Levels on the Schroeder curve between which T30 is read (ISO 3382-1: −5 to −35 dB).
 _T30_LEVELS_DB = (-5.0, -35.0)
 
@@ -40,10 +42,14 @@ def octave_field(field_: SoundField) -> SoundField:
         octaves, groups = octave_grouping(bands)
     except ValueError as exc:
         raise AnalysisError(str(exc)) from None
-    energy = np.empty(field_.energy.shape[:2] + (octaves.n_bands,) + field_.energy.shape[3:],
-                      dtype=np.float32)
-    for k, g in enumerate(groups):
-        energy[:, :, k] = field_.energy[:, :, g].sum(axis=2, dtype=np.float64)
+    shape = tuple(field_.energy.shape)
+    energy = np.empty(shape[:2] + (octaves.n_bands,) + shape[3:], dtype=np.float32)
+    # A few receivers at a time, each read whole (``energy[lo:hi]``): bounded float64 copies,
+    # and the one kind of indexing every field's energy supports (dense or compact).
+    for lo in range(0, shape[0], _CHUNK):
+        block = np.asarray(field_.energy[lo:lo + _CHUNK])
+        for k, g in enumerate(groups):
+            energy[lo:lo + _CHUNK, :, k] = block[:, :, g].sum(axis=2, dtype=np.float64)
     settings = dict(field_.settings, bands=OCTAVE, octaves_from="third-octave")
     if "air_attenuation_per_m" in settings:
         # The octave's exact mid-band frequency is its centre third's.
