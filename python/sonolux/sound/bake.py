@@ -12,6 +12,9 @@ the room (:func:`sonolux.scene.summary.theory`), for the analysis.
 A scene with an ``[early]`` table is baked as a hybrid (:mod:`sonolux.sound.early`): the core's
 image sources and edge diffraction give the early arrivals exactly, the tracer leaves out the
 specular-only paths they count, and the arrivals are added to the field in their bins.
+
+With ``waves`` (:mod:`sonolux.sound.waves`), the bands below a crossover come from the wave
+solver instead, and the field keeps the waves' pressure response below it.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from sonolux.progress import ProgressLine
 from sonolux.scene.schema import Scene
 from sonolux.scene.summary import theory
 from sonolux.sound import early as early_sound
+from sonolux.sound import waves as wave_sound
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
@@ -159,6 +163,13 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if arrivals is not None:
         stats["early"] = early_stats
         energy = early_sound.add_arrivals(energy, arrivals)
+    wave_part = None
+    if options.waves:
+        wave_part = _bake_waves(scene, options, arrays, settings, max_time_s, progress, log)
+        energy = wave_sound.keep_wave_bands(energy, wave_part.pop("energy"),
+                                            wave_part["wave_bands"])
+        stats["waves"] = wave_part.pop("stats")
+        stats["seconds"] = time.perf_counter() - started
     if out["saturated"]:
         raise SonoluxError("the sound field overflowed its fixed-point range (a bug: please report "
                            "the scene)")
@@ -174,6 +185,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
             "max_order": early.max_order, "transition_s": early.max_time_s,
             "diffraction": scene.early.diffraction, "level_of_detail": scene.early.level_of_detail,
             "diffraction_piece_m": scene.early.diffraction_piece_m},
+        "waves": None if wave_part is None else {
+            k: wave_part[k] for k in ("crossover_hz", "wave_bands", "max_frequency_hz",
+                                      "schroeder_hz", "sample_rate_hz")},
         "air": {"temperature_c": scene.settings.air.temperature_c,
                 "humidity_percent": scene.settings.air.humidity_percent,
                 "pressure_kpa": scene.settings.air.pressure_kpa},
@@ -187,7 +201,22 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         source_powers_w=np.array([s.power_w for s in src], float),
         settings=record, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
         counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene),
-        early=arrivals)
+        early=arrivals, waves=wave_part)
+
+
+def _bake_waves(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray], binning: Any,
+                max_time_s: float, progress: Any, log: Callable[[str], None] | None
+                ) -> dict[str, Any]:
+    """The wave part of a hybrid bake: crossover, one run per source; see sound/waves.py."""
+    limit = wave_sound.memory_limit(options.max_field_bytes)
+    cross = wave_sound.choose_crossover(scene, max_time_s, crossover_hz=options.crossover_hz,
+                                        time_budget_s=options.wave_time_budget_s,
+                                        memory_limit_bytes=limit)
+    part = wave_sound.bake_waves(scene, arrays, binning, cross, max_time_s, limit,
+                                 progress=progress, log=log)
+    part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
+                max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
+    return part
 
 
 def _directivity(source: Any) -> Any:

@@ -35,7 +35,13 @@ class SoundOptions:
     air_absorption: False turns the air's absorption off (for comparisons with theory that
         leaves it out); the scene's air still sets the speed of sound.
     max_field_bytes: the most memory the field may take (the engine estimates it before it
-        allocates and refuses a larger one); None = half of this machine's memory.
+        allocates and refuses a larger one); None = half of this machine's memory. It is
+        also the wave solver's memory limit.
+    waves: bake the bands below a crossover with the wave solver (FDTD), the rest with the
+        tracer, joined into one field (:mod:`sonolux.sound.waves`).
+    crossover_hz: where the waves hand over to the rays (snapped to the nearest band edge);
+        None = automatic, from the room's Schroeder frequency and the grid's budget.
+    wave_time_budget_s: the planned wave run time the automatic crossover may spend.
     """
 
     rays: int | str = "auto"
@@ -48,6 +54,9 @@ class SoundOptions:
     ray_range: tuple[int, int] | None = None
     air_absorption: bool = True
     max_field_bytes: int | None = None
+    waves: bool = False
+    crossover_hz: float | None = None
+    wave_time_budget_s: float = 600.0
 
     def validate(self) -> SoundOptions:
         """Every option checked by :func:`sonolux.errors.check_number` (the test shared with
@@ -73,4 +82,15 @@ class SoundOptions:
                 raise bad("ray_range", self.ray_range, "(first, end) with 0 ≤ first < end")
         check_number("sound option max_field_bytes", self.max_field_bytes, 1, none_ok=True,
                      integer=True)
+        if not isinstance(self.waves, bool):
+            raise bad("waves", self.waves, "true or false")
+        check_number("sound option crossover_hz", self.crossover_hz, 10.0, 20_000.0,
+                     none_ok=True, unit="Hz")
+        check_number("sound option wave_time_budget_s", self.wave_time_budget_s, 0.0, 1e6,
+                     lo_open=True, unit="s")
+        if not self.waves and self.crossover_hz is not None:
+            raise bad("crossover_hz", self.crossover_hz, "only with waves = true")
+        if self.waves and self.ray_range is not None:
+            raise bad("ray_range", self.ray_range, "none with waves = true (the wave part is "
+                      "not split into ranges: bake the waves in one piece)")
         return self
