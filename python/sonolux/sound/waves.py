@@ -291,7 +291,14 @@ def joined_response(field: Any, receiver: int, direction: int | None,
         k = int(w["wave_bands"])
         e = field.energy[receiver, :, :k, :].sum(axis=1, dtype=np.float64)  # [direction, time]
         total = e.sum(axis=0)
-        share = np.divide(e[direction], total, out=np.zeros_like(total), where=total > 0)
+        # One-sample bins are finer than the wave rate: an empty bin takes the share of the
+        # last bin that holds energy (the first one's before it).
+        held = np.flatnonzero(total > 0)
+        if held.size == 0:
+            return synthesized
+        source_bin = held[np.clip(np.searchsorted(held, np.arange(total.size), side="right") - 1,
+                                  0, None)]
+        share = e[direction, source_bin] / total[source_bin]
         ends = np.asarray(field.bin_start_s) + np.asarray(field.bin_width_s)
         bins = np.minimum(np.searchsorted(ends, np.arange(n_out) / fs, side="right"), share.size - 1)
         low = low * np.sqrt(share[bins])
