@@ -163,13 +163,6 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if arrivals is not None:
         stats["early"] = early_stats
         energy = early_sound.add_arrivals(energy, arrivals)
-    wave_part = None
-    if options.waves:
-        wave_part = _bake_waves(scene, options, arrays, settings, max_time_s, progress, log)
-        energy = wave_sound.keep_wave_bands(energy, wave_part.pop("energy"),
-                                            wave_part["wave_bands"])
-        stats["waves"] = wave_part.pop("stats")
-        stats["seconds"] = time.perf_counter() - started
     if out["saturated"]:
         raise SonoluxError("the sound field overflowed its fixed-point range (a bug: please report "
                            "the scene)")
@@ -185,14 +178,11 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
             "max_order": early.max_order, "transition_s": early.max_time_s,
             "diffraction": scene.early.diffraction, "level_of_detail": scene.early.level_of_detail,
             "diffraction_piece_m": scene.early.diffraction_piece_m},
-        "waves": None if wave_part is None else {
-            k: wave_part[k] for k in ("crossover_hz", "wave_bands", "max_frequency_hz",
-                                      "schroeder_hz", "sample_rate_hz")},
         "air": {"temperature_c": scene.settings.air.temperature_c,
                 "humidity_percent": scene.settings.air.humidity_percent,
                 "pressure_kpa": scene.settings.air.pressure_kpa},
     }
-    return SoundField(
+    field = SoundField(
         energy=energy, bin_start_s=out["bin_start_s"], bin_width_s=out["bin_width_s"],
         bands_hz=np.asarray(scene.settings.bands_hz, float),
         positions_m=np.asarray(scene.receivers.positions_m, float), radius_m=scene.receivers.radius_m,
@@ -201,22 +191,43 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         source_powers_w=np.array([s.power_w for s in src], float),
         settings=record, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
         counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene),
-        early=arrivals, waves=wave_part)
+        early=arrivals)
+    return add_waves(scene, options, field, progress=progress, log=log) if options.waves else field
 
 
-def _bake_waves(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray], binning: Any,
-                max_time_s: float, progress: Any, log: Callable[[str], None] | None
-                ) -> dict[str, Any]:
-    """The wave part of a hybrid bake: crossover, one run per source; see sound/waves.py."""
+def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
+              progress: bool | Callable[[int, int, float], bool] = False,
+              log: Callable[[str], None] | None = None) -> SoundField:
+    """The field with its bands below the crossover from the wave solver, and the waves'
+    pressure kept (:mod:`sonolux.sound.waves`): the hybrid's second half, after the rays (whole,
+    or summed from ranges). The waves use the field's own bins, air and speed of sound."""
+    started = time.perf_counter()
+    rec = field.settings
+    arrays = band_arrays(scene)
+    arrays["air"] = np.asarray(rec["air_attenuation_per_m"], float)
+    binning = engine.SoundSettings(
+        rays=1, first_ray=0, end_ray=1, seed=0, threads=scene.settings.threads,
+        estimator="paper", speed_of_sound_m_s=rec["speed_of_sound_m_s"],
+        air_attenuation_per_m=arrays["air"].tolist(), energy_drop_db=rec["energy_drop_db"],
+        max_time_s=rec["max_time_s"], sample_rate_hz=float(rec["sample_rate_hz"]),
+        early_s=rec["early_bins"] / float(rec["sample_rate_hz"]), late_bin_s=rec["late_bin_s"],
+        azimuth_bands=rec["azimuth_bands"], elevation_bands=rec["elevation_bands"],
+        max_field_bytes=options.max_field_bytes or budget_bytes())
     limit = wave_sound.memory_limit(options.max_field_bytes)
-    cross = wave_sound.choose_crossover(scene, max_time_s, crossover_hz=options.crossover_hz,
+    cross = wave_sound.choose_crossover(scene, rec["max_time_s"], crossover_hz=options.crossover_hz,
                                         time_budget_s=options.wave_time_budget_s,
                                         memory_limit_bytes=limit)
-    part = wave_sound.bake_waves(scene, arrays, binning, cross, max_time_s, limit,
+    part = wave_sound.bake_waves(scene, arrays, binning, cross, rec["max_time_s"], limit,
                                  progress=progress, log=log)
+    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands)
     part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
                 max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
-    return part
+    stats = dict(field.stats, waves=part.pop("stats"))
+    stats["seconds"] = (stats.get("seconds") or 0.0) + time.perf_counter() - started
+    settings = dict(rec, waves={k: part[k] for k in ("crossover_hz", "wave_bands",
+                                                     "max_frequency_hz", "schroeder_hz",
+                                                     "sample_rate_hz")})
+    return replace(field, energy=energy, stats=stats, settings=settings, waves=part)
 
 
 def _directivity(source: Any) -> Any:
