@@ -73,7 +73,7 @@ def test_levels_agree_across_the_crossover(both):
     Why 1 dB: in an octave band the level at one point of a diffuse field scatters with a
     standard deviation of about 4.34/√(1 + B·T/6.9) dB (Schroeder's room statistics, for band
     noise: Lubman, JASA 44, 1968), B = 177 Hz and T ≈ 0.65 s at 250 Hz: 1.0 dB; over 16 points
-    0.25 dB, so 1 dB is four of them. Measured: 250 Hz -0.29 dB."""
+    0.25 dB, so 1 dB is four of them. Measured: 250 Hz -0.35 dB (125 Hz, below f_S: -0.28 dB)."""
     hybrid, rays = both
     level = [10 * np.log10(hybrid.energy[:, :, b].sum(dtype=np.float64)
                            / rays.energy[:, :, b].sum(dtype=np.float64)) for b in range(4)]
@@ -90,8 +90,11 @@ def test_decay_is_continuous_across_the_crossover(both):
     bandwidth B at one point scatters by σ(T30) = 0.55·T·√(2.9/(B·T)) and σ(T20) = 0.88·T·√(...)
     (n = 1 decay); EDT is taken as T20's. At 250 Hz (B = 177 Hz, T ≈ 0.65 s) that is 8.5% and
     13.6%; the mean over 16 points 2.1% and 3.4%; a difference of two such 3.0% and 4.8%.
-    Three of those: 9% for T30 and 14% for EDT. Measured: T30 +5.2%, EDT +9% (the waves decay
-    slightly slower; docs/waves.md)."""
+    Three of those: 9% for T30 and 14% for EDT. Measured: T30 +7.1% against the rays' 250 Hz
+    and +7.6% against their 500 Hz, EDT +7.8% and +8.4%: the waves decay slightly slower, by
+    more than the noise (docs/waves.md: modes whose waves graze a locally reacting wall lose
+    less than its random-incidence absorption, a physical effect the diffuse rays lack; at
+    125 Hz, below f_S, +27%)."""
     hybrid, rays = both
 
     def mean_times(field):
@@ -247,3 +250,32 @@ def test_options_refuse_waves_with_ranges_and_lone_crossover():
         bake(scene, rays=1000, waves=True, ray_range=(0, 500))
     with pytest.raises(SettingError, match="crossover_hz"):
         bake(scene, rays=1000, waves=True, crossover_hz=5)
+
+
+@pytest.mark.slow
+def test_paper_room_decay_continuous_across_the_crossover():
+    """paper-small (6 × 2.5 × 2 m, walls 0.05, floor 0.3, scattering 0.1) baked with waves at
+    the automatic crossover (707 Hz: 125-500 Hz from the waves) and without: T30 of the waves'
+    500 Hz octave against the rays' 500 and 1000 Hz, mean over the 14 receivers that do not
+    hold the source. Tolerance from ISO 3382-2 annex A as above: σ(T30) per point at 500 Hz
+    (B = 354 Hz, T ≈ 0.84 s) 5.4%, but the grid is mirror-symmetric, so about 4 independent
+    points: 2.7%, a difference 3.8%, three of them 11%. Measured (2026-11-25): -1.0% and 0.0%.
+    EDT is printed, not asserted: the waves' 500 Hz EDT was 16% shorter, since a locally
+    reacting floor absorbs more near normal incidence than its random-incidence 0.3, which the
+    rays apply at every angle (docs/waves.md)."""
+    scene = sonolux.load_scene("paper-small")
+    hybrid = bake(scene, rays=20_000, waves=True)
+    rays = bake(scene, rays=20_000)
+    far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
+
+    def mean_times(field):
+        e = field.energy[far].sum(axis=1, dtype=np.float64)
+        d = decay_times(e, field.bin_start_s, field.bin_width_s)
+        return {k: np.nanmean(d[k], axis=0) for k in ("t30_s", "edt_s")}
+
+    h, r = mean_times(hybrid), mean_times(rays)
+    assert hybrid.waves["wave_bands"] == 3
+    print("T30 hybrid", h["t30_s"], "rays", r["t30_s"])
+    print("EDT hybrid", h["edt_s"], "rays", r["edt_s"])
+    assert abs(h["t30_s"][2] / r["t30_s"][2] - 1) < 0.11
+    assert abs(h["t30_s"][2] / h["t30_s"][3] - 1) < 0.11

@@ -222,8 +222,8 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
     energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands)
     part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
                 max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
-    stats = dict(field.stats, waves=part.pop("stats"))
-    stats["seconds"] = (stats.get("seconds") or 0.0) + time.perf_counter() - started
+    stats = dict(field.stats, waves={"runs": part.pop("stats"),
+                                     "seconds": time.perf_counter() - started})
     settings = dict(rec, waves={k: part[k] for k in ("crossover_hz", "wave_bands",
                                                      "max_frequency_hz", "schroeder_hz",
                                                      "sample_rate_hz")})

@@ -16,7 +16,8 @@ core's wave solver (FDTD, ``docs/waves.md``) does. A hybrid bake runs both and j
   scheme is accurate (10 points per wavelength: phase error ≤ 1.1%).
 - **Energy field.** Bands below the crossover come from the waves (energy per band, direction
   and time bin in the tracer's own bins, air included: ``bands::direction_energies``), bands
-  above from the tracer. Sources are incoherent in the tracer's field, so each source is its own
+  above from the tracer. Like the tracer's, a wave receiver is a sphere: its energy is the mean
+  over seven points of it (:func:`ball_points`); its pressure is the centre's. Sources are incoherent in the tracer's field, so each source is its own
   wave run and the energies add, each times the source's power (the wave energies are per joule
   of source energy in each band, the tracer's convention: a free field gives P/(4πr²)).
 - **Pressure.** The field keeps the waves' own pressure response below the crossover,
@@ -126,7 +127,8 @@ def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | Non
     edges = band_edges_hz(bands)
     th = theory(scene)
     f_s = schroeder_hz(th)
-    c, threads, n_rec = scene.settings.speed_of_sound_m_s, scene.settings.threads, scene.receivers.count
+    c, threads = scene.settings.speed_of_sound_m_s, scene.settings.threads
+    n_rec = BALL_POINTS * scene.receivers.count
 
     def estimate(f_max: float) -> dict[str, int]:
         s = wave_settings(f_max, duration_s + 0.05, c, threads, memory_limit_bytes)
@@ -183,7 +185,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
     pulse_s = 6.0 / (math.pi * cross.max_frequency_hz)  # the pulse's delay, 6σ
     settings = wave_settings(cross.max_frequency_hz, duration_s + pulse_s, c,
                              scene.settings.threads, memory_limit_bytes)
-    receivers = np.ascontiguousarray(scene.receivers.positions_m, float)
+    centres = np.ascontiguousarray(scene.receivers.positions_m, float)
+    receivers = ball_points(scene.geometry, centres, scene.receivers.radius_m)
     est = engine.wave_memory_estimate(settings, scene.geometry, len(receivers), bands)
     if log:
         log(f"waves: {cross.why}; grid {settings.spacing_m * 1e3:.1f} mm up to "
@@ -199,7 +202,12 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                                     binning, callback)
         if out["cancelled"]:
             raise SonoluxError("the wave simulation was stopped before its end")
-        e = out["energy"].astype(np.float64) * src.power_w
+        # The sphere's energy: the mean over its points ([receiver][point] in order).
+        e = out["energy"].astype(np.float64).reshape(len(centres), BALL_POINTS,
+                                                     *out["energy"].shape[1:]).mean(axis=1)
+        e *= src.power_w
+        # The pressure: the centre's (the listener's ear is at one point).
+        out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
         energy = e if energy is None else energy + e
         p = low_pressure(out, bands, cross.wave_bands, arrays["air"], c,
                          float(scene.settings.sample_rate_hz)) * math.sqrt(src.power_w)
@@ -208,6 +216,28 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
     assert energy is not None and pressure is not None
     return {"energy": energy.astype(np.float32), "pressure": pressure.astype(np.float32),
             "sample_rate_hz": float(out["sample_rate_hz"]), "stats": stats}
+
+
+#: Points per receiver sphere: its centre and six on the axes at R·√0.7, equally weighted, a
+#: cubature of the ball exact for polynomials up to degree 3 (the mean of x² over a ball of
+#: radius R is R²/5 = 2·(0.7 R²)/7).
+BALL_POINTS = 7
+
+
+def ball_points(geometry: Any, centres_m: np.ndarray, radius_m: float) -> np.ndarray:
+    """float64[receiver · 7, 3]: each receiver sphere's cubature points, receiver by receiver.
+
+    The tracer's receivers are spheres: its energy is the mean over the sphere's volume
+    (Pope and Chalmers' estimator), which smooths the interference a point would see (at
+    500 Hz, λ/3 for the paper's 0.25 m spheres). The waves take the same mean, over these
+    points, so that both sides of the crossover measure the same thing. A point outside the
+    room (a sphere through a wall) is replaced by the centre."""
+    a = radius_m * math.sqrt(0.7)
+    offsets = np.vstack([np.zeros(3), a * np.eye(3), -a * np.eye(3)])
+    pts = (centres_m[:, None, :] + offsets[None]).reshape(-1, 3)
+    inside = np.abs(geometry.winding_numbers(pts)) > 0.5
+    pts[~inside] = np.repeat(centres_m, BALL_POINTS, axis=0)[~inside]
+    return np.ascontiguousarray(pts)
 
 
 def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air_per_m: np.ndarray,
