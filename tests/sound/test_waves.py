@@ -92,9 +92,8 @@ def test_decay_is_continuous_across_the_crossover(both):
     13.6%; the mean over 16 points 2.1% and 3.4%; a difference of two such 3.0% and 4.8%.
     Three of those: 9% for T30 and 14% for EDT. Measured: T30 +7.1% against the rays' 250 Hz
     and +7.6% against their 500 Hz, EDT +7.8% and +8.4%: the waves decay slightly slower, by
-    more than the noise (docs/waves.md: modes whose waves graze a locally reacting wall lose
-    less than its random-incidence absorption, a physical effect the diffuse rays lack; at
-    125 Hz, below f_S, +27%)."""
+    more than the noise, for a reason not yet settled (at 125 Hz, below f_S, where modes rule,
+    +27%)."""
     hybrid, rays = both
 
     def mean_times(field):
@@ -260,9 +259,8 @@ def test_paper_room_decay_continuous_across_the_crossover():
     hold the source. Tolerance from ISO 3382-2 annex A as above: σ(T30) per point at 500 Hz
     (B = 354 Hz, T ≈ 0.84 s) 5.4%, but the grid is mirror-symmetric, so about 4 independent
     points: 2.7%, a difference 3.8%, three of them 11%. Measured (2026-11-25): -1.0% and 0.0%.
-    EDT is printed, not asserted: the waves' 500 Hz EDT was 16% shorter, since a locally
-    reacting floor absorbs more near normal incidence than its random-incidence 0.3, which the
-    rays apply at every angle (docs/waves.md)."""
+    EDT is printed, not asserted: the waves' 500 Hz EDT was 16% shorter, a difference beyond
+    the noise whose cause is not settled (docs/waves.md)."""
     scene = sonolux.load_scene("paper-small")
     hybrid = bake(scene, rays=20_000, waves=True)
     rays = bake(scene, rays=20_000)
