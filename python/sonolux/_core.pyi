@@ -26,6 +26,8 @@ __all__ = [
     "EarlySettings",
     "early_arrivals",
     "trace_sound",
+    "WaveSettings",
+    "simulate_waves",
     "Optics",
     "Emitters",
     "LightSettings",

@@ -204,11 +204,11 @@ def _modes_figure(f: SoundField, scene, tmp: Path, slug: str) -> str:
             box = sides
     png = plot_wave_spectrum(f, cell, tmp / f"img/{slug}-modes.png", box_m=box)
     w = f.waves or {}
+    marked = ", marked where a rigid box has them" if box is not None else ""
     return h.figure(f"img/{png.name}", f"The low bands from the wave solver (below "
                     f"{w.get('crossover_hz', 0):.0f} Hz; Schroeder frequency "
                     f"{w.get('schroeder_hz', 0):.0f} Hz): the pressure response's spectrum at the "
-                    "receiver farthest from the source shows the room's modes" + (", marked where a rigid box has them" if box is not None
-                                          else "") + ".")
+                    f"receiver farthest from the source shows the room's modes{marked}.")
 
 
 def _joint_section(f: SoundField, grid: RoomParameters, path: Path, tmp: Path, slug: str,

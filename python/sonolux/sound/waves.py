@@ -17,9 +17,10 @@ core's wave solver (FDTD, ``docs/waves.md``) does. A hybrid bake runs both and j
 - **Energy field.** Bands below the crossover come from the waves (energy per band, direction
   and time bin in the tracer's own bins, air included: ``bands::direction_energies``), bands
   above from the tracer. Like the tracer's, a wave receiver is a sphere: its energy is the mean
-  over seven points of it (:func:`ball_points`); its pressure is the centre's. Sources are incoherent in the tracer's field, so each source is its own
-  wave run and the energies add, each times the source's power (the wave energies are per joule
-  of source energy in each band, the tracer's convention: a free field gives P/(4πr²)).
+  over seven points of it (:func:`ball_points`); its pressure is the centre's. Sources are
+  incoherent in the tracer's field, so each source is its own wave run and the energies add,
+  each times the source's power (the wave energies are per joule of source energy in each
+  band, the tracer's convention: a free field gives P/(4πr²)).
 - **Pressure.** The field keeps the waves' own pressure response below the crossover,
   ``waves["pressure"]`` float32[receiver, time] at the wave rate, time 0 at emission, in the
   synthesis' unit (pressure / √(ρc), √(W/m²): Σp²/fs is J/m²). It is the impulse response
