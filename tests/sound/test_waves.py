@@ -155,6 +155,24 @@ def test_the_file_keeps_the_waves(both, tmp_path):
                                   hybrid.impulse_response(3, "left", seed=5))
 
 
+def test_modes_figure(both, tmp_path):
+    """The report's figure: rigid-box modes by Rayleigh's formula (exact values), and the
+    spectrum it draws (up to the grid's maximum frequency, 0 dB at its peak). The solver's modes
+    themselves are checked against the analytic ones in the core's tests (rigid box, 0.0002%)."""
+    from sonolux.plotting.modes import box_modes_hz, plot_wave_spectrum, wave_spectrum
+
+    c = 343.0
+    modes = box_modes_hz(SIZE, c, 100.0)
+    # (1,0,0) 34.3, (0,1,0) 42.9, (1,1,0) 54.9, (0,0,1) 57.2, (1,0,1) 66.7, (2,0,0) 68.6 Hz
+    np.testing.assert_allclose(modes[:6], [c / 10, c / 8, c / 2 * math.hypot(1 / 5, 1 / 4),
+                                           c / 6, c / 2 * math.hypot(1 / 5, 1 / 3), c / 5])
+    hybrid, _ = both
+    png = plot_wave_spectrum(hybrid, 0, tmp_path / "modes.png", box_m=SIZE)
+    assert png.stat().st_size > 10_000
+    f, level = wave_spectrum(hybrid, 0)
+    assert f[-1] <= hybrid.waves["max_frequency_hz"] and level.max() == pytest.approx(0.0)
+
+
 def test_same_bits_on_one_and_two_threads():
     """A small hybrid bake: energy and wave pressure the same bits on 1 and 2 threads."""
     pts = [[2.9, 2.1, 1.2], [2.5, 0.7, 1.6]]
