@@ -26,6 +26,8 @@ __all__ = [
     "EarlySettings",
     "early_arrivals",
     "trace_sound",
+    "WaveSettings",
+    "simulate_waves",
     "Optics",
     "Emitters",
     "LightSettings",
@@ -132,6 +134,50 @@ def trace_sound(
     settings: SoundSettings,
     progress: _Progress | None = None,
     early: EarlySettings | None = None,
+) -> dict[str, Any]: ...
+
+@final
+class WaveSettings:
+    """How to run the wave solver (FDTD): grid from max_frequency_hz, length duration_s."""
+
+    def __new__(
+        cls,
+        *,
+        max_frequency_hz: float,
+        duration_s: float,
+        points_per_wavelength: float = 10.0,
+        courant: float = ...,
+        speed_of_sound_m_s: float = 343.0,
+        air_density_kg_m3: float = 1.2,
+        absorption_kind: str = "random",
+        threads: int = 0,
+        memory_limit_bytes: int = ...,
+    ) -> WaveSettings: ...
+    @property
+    def spacing_m(self) -> float: ...
+    @property
+    def sample_rate_hz(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def memory_limit_bytes(self) -> int: ...
+    def memory_estimate(
+        self, geometry: Geometry, n_receivers: int, band_centres_hz: Sequence[float]
+    ) -> dict[str, int]: ...
+    def max_frequency_within(
+        self, geometry: Geometry, n_receivers: int, band_centres_hz: Sequence[float],
+        budget_bytes: int
+    ) -> float | None: ...
+
+def simulate_waves(
+    geometry: Geometry,
+    absorption: NDArray[np.float64],
+    band_centres_hz: Sequence[float],
+    sources_m: NDArray[np.float64],
+    receivers_m: NDArray[np.float64],
+    settings: WaveSettings,
+    binning: SoundSettings | None = None,
+    progress: _Progress | None = None,
 ) -> dict[str, Any]: ...
 
 @final

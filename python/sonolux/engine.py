@@ -11,7 +11,9 @@ Everything else in sonolux reaches the core through the names here:
 - the settings classes of the binding, made on first use: ``Acoustics``, ``Directivity``,
   ``SoundSource``, ``Receivers``, ``SoundSettings``, ``EarlySettings``, ``Optics``, ``Emitters``,
   ``LightSettings``, ``Lighting`` (documented in ``_core.pyi``);
-- the partitioned convolver of auralization: ``Convolver``, ``partition``, ``fold``.
+- the partitioned convolver of auralization: ``Convolver``, ``partition``, ``fold``;
+- :func:`simulate_waves` and ``WaveSettings``: the wave solver (FDTD) of the low bands, with
+  its memory estimate and the largest frequency that fits a budget.
 
 Array conventions: points float64[k, 3] in metres; the sound field
 float32[receiver, direction, band, time] (docs/fieldfile.md). The core raises
@@ -42,12 +44,13 @@ if TYPE_CHECKING:
         Receivers,
         SoundSettings,
         SoundSource,
+        WaveSettings,
     )
 
 #: The binding's names that this gateway hands out as they are.
 _FROM_CORE = ("Acoustics", "Convolver", "Directivity", "EarlySettings", "Emitters", "Lighting",
-              "LightSettings", "Optics", "Receivers", "SoundSettings", "SoundSource", "fold", "partition",
-              "MAX_THREADS")
+              "LightSettings", "Optics", "Receivers", "SoundSettings", "SoundSource", "WaveSettings",
+              "fold", "partition", "MAX_THREADS")
 
 Progress = Callable[[int, int, float], bool]
 
@@ -105,7 +108,7 @@ class _Checked:
 
 #: The binding's settings classes, whose arguments come from users (through the library).
 _SETTINGS = ("Acoustics", "Directivity", "Emitters", "Lighting", "LightSettings", "Optics",
-             "Receivers", "SoundSettings", "SoundSource")
+             "Receivers", "SoundSettings", "SoundSource", "WaveSettings")
 
 
 def __getattr__(name: str) -> Any:
@@ -235,6 +238,38 @@ def trace_light(geometry: Geometry, optics: Optics, emitters: Emitters, settings
     return core().trace_light(geometry._native, optics, emitters, settings, progress, lighting)
 
 
+def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: Sequence[float],
+                   sources_m: Any, receivers_m: Any, settings: WaveSettings,
+                   binning: SoundSettings | None = None,
+                   progress: Progress | None = None) -> dict[str, Any]:
+    """Runs the wave solver over the geometry (all sources at once, coherently): absorption
+    float64[material, band] at ``band_centres_hz``; sources and receivers float64[k, 3]. Returns
+    pressure_pa float32[receiver, time] and velocity_m_s float32[receiver, axis, time] at
+    ``sample_rate_hz``, the pulse's free-field pressure at 1 m, stats, and with ``binning`` (the
+    bake's SoundSettings) energy float32[receiver, direction, band, time] per joule of source
+    energy; see ``_core.simulate_waves``."""
+    a = np.ascontiguousarray(absorption, dtype=np.float64)
+    if a.ndim != 2:
+        raise InvalidInputError(f"absorption: expected shape (material, band), got {a.shape}")
+    return _converted(core().simulate_waves, geometry._native, a,
+                      [float(f) for f in band_centres_hz], _points(sources_m, "sources_m"),
+                      _points(receivers_m, "receivers_m"), settings, binning, progress)
+
+
+def wave_memory_estimate(settings: WaveSettings, geometry: Geometry, n_receivers: int,
+                         band_centres_hz: Sequence[float]) -> dict[str, int]:
+    """What a wave run would take, before anything is allocated (cells, steps, bytes)."""
+    return dict(settings.memory_estimate(geometry._native, int(n_receivers),
+                                         [float(f) for f in band_centres_hz]))
+
+
+def wave_max_frequency(settings: WaveSettings, geometry: Geometry, n_receivers: int,
+                       band_centres_hz: Sequence[float], budget_bytes: int) -> float | None:
+    """The largest max_frequency_hz whose run fits ``budget_bytes`` (None: not even 1 Hz)."""
+    return settings.max_frequency_within(geometry._native, int(n_receivers),
+                                         [float(f) for f in band_centres_hz], int(budget_bytes))
+
+
 __all__ = ["Geometry", "core", "core_available", "early_arrivals", "physical_memory_bytes",
-           "trace_light",
+           "simulate_waves", "wave_max_frequency", "wave_memory_estimate", "trace_light",
            "trace_sound", *_FROM_CORE]

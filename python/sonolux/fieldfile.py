@@ -24,6 +24,11 @@ Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m
                            direction_bin, time_bin (-1 past the end) int64[arrival];
                            time_s float64[arrival]; from_direction float64[arrival, 3];
                            energy float64[arrival, band]
+    /sound/waves/pressure  (hybrid bakes with waves only) float32[receiver, time]: the waves'
+                           pressure response below the crossover, in sqrt(W/m²), time 0 at
+                           emission; attrs sample_rate_hz, crossover_hz, wave_bands (bands
+                           [0, wave_bands) of energy came from the waves), max_frequency_hz,
+                           schroeder_hz
     /light                 attrs: settings (JSON), stats (JSON), patch_size_m
     /light/patch_resolution uint32[triangle];  /light/patch_offset  uint64[triangle + 1]
     /light/patch_area_m2   float64[patch];  /light/flux_w  float64[patch, channel]
@@ -69,6 +74,8 @@ from sonolux.sound.field import SoundField
 SCHEMA = "sonolux-field/3"
 #: Schemas this version reads: the current one and the two before it.
 READABLE = (SCHEMA, "sonolux-field/2", "sonolux-field/1")
+#: What /sound/waves carries besides its pressure.
+WAVE_ATTRS = ("sample_rate_hz", "crossover_hz", "wave_bands", "max_frequency_hz", "schroeder_hz")
 LIGHT_SCENE_ARRAYS = ("vertices_m", "triangles", "material_index", "rho", "specular",
                       "roughness", "emitted_radiance")
 
@@ -140,6 +147,13 @@ def _write_sound(f: Any, field: SoundField) -> None:
         early = g.create_group("early")
         for name, values in field.early.items():
             early.create_dataset(name, data=values, compression="gzip", shuffle=True)
+    if field.waves is not None:
+        w = g.create_group("waves")
+        p = np.asarray(field.waves["pressure"], np.float32)
+        w.create_dataset("pressure", data=p, compression="gzip", shuffle=True,
+                         chunks=(1, p.shape[1]) if p.size else None)
+        for k in WAVE_ATTRS:
+            w.attrs[k] = field.waves[k]
 
 
 def _write_array(g: Any, name: str, a: Any) -> None:
@@ -324,15 +338,34 @@ def _read_sound(f: Any, path: str) -> SoundField:
             theory=json.loads(theory) if theory is not None else None)
         check_sound(path, arrays)
         early = {k: g["early"][k][...] for k in g["early"]} if "early" in g else None
+        waves = _read_waves(c, g, arrays) if "waves" in g else None
         return SoundField(**arrays, scene_name=str(f.attrs.get("scene_name", "")),
                           scene_origin=str(f.attrs.get("scene_origin", "")), path=path,
-                          early=early)
+                          early=early, waves=waves)
     except KeyError as exc:
         raise FieldFileError(f"{path}: the sound field is incomplete ({exc.args[0]} is "
                              "missing)") from None
     except (ValueError, TypeError, OSError) as exc:  # JSON, attributes, truncated chunks
         raise FieldFileError(f"{path}: the sound field cannot be read "
                              f"({' '.join(str(exc).split())})") from None
+
+
+def _read_waves(c: Checker, g: Any, arrays: dict[str, Any]) -> dict[str, Any]:
+    """/sound/waves, checked against the field it belongs to."""
+    w = g["waves"]
+    waves: dict[str, Any] = {k: float(w.attrs[k]) for k in WAVE_ATTRS}
+    waves["wave_bands"] = int(waves["wave_bands"])
+    waves["pressure"] = c.dataset(w, "pressure")
+    p = waves["pressure"]
+    n_rec, n_bands = arrays["energy"].shape[0], arrays["energy"].shape[2]
+    if p.ndim != 2 or p.shape[0] != n_rec or not np.all(np.isfinite(p)):
+        raise FieldFileError(f"{c.path}: /sound/waves/pressure must be finite float[receiver "
+                             f"= {n_rec}, time], not shape {p.shape}")
+    if not (0 < waves["wave_bands"] < n_bands + 1 and waves["sample_rate_hz"] > 0):
+        raise FieldFileError(f"{c.path}: /sound/waves: wave_bands = {waves['wave_bands']} and "
+                             f"sample_rate_hz = {waves['sample_rate_hz']} do not fit a field "
+                             f"of {n_bands} bands")
+    return waves
 
 
 def _strings(d: Any) -> list[str]:

@@ -21,6 +21,7 @@ mod early;
 mod light;
 mod light_sources;
 mod sound;
+mod wave;
 
 /// `sonolux.errors.InvalidInputError` and `sonolux.errors.GeometryError`, fetched at import.
 static INVALID_INPUT: PyOnceLock<Py<PyType>> = PyOnceLock::new();
@@ -297,6 +298,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sound::Receivers>()?;
     m.add_class::<sound::SoundSettings>()?;
     m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
+    m.add_class::<wave::WaveSettings>()?;
+    m.add_function(wrap_pyfunction!(wave::simulate_waves, m)?)?;
     m.add_class::<early::EarlySettings>()?;
     m.add_function(wrap_pyfunction!(early::early_arrivals, m)?)?;
     m.add_class::<light::Optics>()?;

@@ -81,14 +81,17 @@ def cell_responses(field, receiver: int, seed: int = 0) -> np.ndarray:
     (SeedSequence([seed, receiver, direction])): directions and neighbouring cells are then
     decorrelated, as the equal-power cross-fades between cells assume. n is the longest
     direction's length; shorter ones are zero-padded."""
+    from sonolux.sound.waves import joined_response, ray_bands
+
     e = field.energy[receiver]
     out = []
     for d in range(e.shape[0]):
         ss = np.random.SeedSequence([int(seed), int(receiver), d])
-        out.append(pressure_ir(e[d].astype(np.float64), field.bin_start_s, field.bin_width_s,
-                               field.synthesis_bands_hz, field.sample_rate_hz,
-                               field.settings["volume_m3"],
-                               field.settings["speed_of_sound_m_s"], seed=ss))
+        ir = pressure_ir(ray_bands(field, e[d]), field.bin_start_s, field.bin_width_s,
+                         field.synthesis_bands_hz, field.sample_rate_hz,
+                          field.settings["volume_m3"],
+                         field.settings["speed_of_sound_m_s"], seed=ss)
+        out.append(joined_response(field, receiver, d, ir))
     n = max(1, max(r.size for r in out))
     h = np.zeros((len(out), n), np.float32)
     for d, r in enumerate(out):

@@ -58,7 +58,9 @@ def cmd_bake(args: argparse.Namespace) -> int:
                                        air_absorption=not args.no_air, storage=args.storage,
                                        memory_bytes=args.memory,
                                        **({} if args.late_bin_ms is None
-                                          else {"late_bin_s": args.late_bin_ms / 1e3})),
+                                          else {"late_bin_s": args.late_bin_ms / 1e3}),
+                                       waves=args.waves, crossover_hz=args.crossover_hz,
+                                       wave_time_budget_s=args.wave_time_budget),
             light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
             progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
             sound_baker=sound_baker, light_baker=light_baker)
@@ -203,6 +205,17 @@ def add_commands(sub) -> None:
                            "tiles to stay within it (default: 80%% of the memory available)")
     bake.add_argument("--range", type=parse.ray_range, default=None, metavar="FIRST:END",
                       help="trace only rays FIRST..END of the bake (ranges merge exactly)")
+    bake.add_argument("--waves", action="store_true",
+                      help="bake the bands below a crossover with the wave solver (FDTD) and the "
+                           "rest with rays, joined into one field (docs/waves.md)")
+    bake.add_argument("--crossover-hz", type=parse.number(10, 20_000, unit="Hz"), default=None,
+                      metavar="HZ", help="with --waves: where waves hand over to rays, snapped "
+                                         "to a band edge (default: from the Schroeder frequency "
+                                         "and the grid's budget, printed)")
+    bake.add_argument("--wave-time-budget", type=parse.number(0, 1e6, lo_open=True, unit="s"),
+                      default=600.0, metavar="S",
+                      help="with --waves: planned run time the automatic crossover may spend "
+                           "(default 600 s)")
     bake.add_argument("--sound", action=argparse.BooleanOptionalAction, default=None,
                       help="trace sound (default: when the scene has a source and receivers)")
     bake.add_argument("--light", action=argparse.BooleanOptionalAction, default=None,

@@ -182,6 +182,8 @@ def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: Report
     out.append(h.figure(f"img/{edc.name}", "Schroeder decay curves (the plain backward "
                         "integral of the simulated record) per band and broadband; T30 is "
                         "fitted over the shaded range."))
+    if f.waves is not None:
+        out.append(_modes_figure(f, scene, tmp, slug))
     outline = (plan_section(scene.vertices_m, scene.triangles, float(np.mean(f.positions_m[:, 2])))
                if scene is not None else None)
     for part, names in (("maps", ("t30_s", "c80_db", "d50", "g_db")),
@@ -200,6 +202,27 @@ def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: Report
     if options.auralize:
         out.append("<h3>Listening</h3>" + _auralizations(f, path, tmp, slug, xy))
     return "\n".join(out)
+
+
+def _modes_figure(f: SoundField, scene, tmp: Path, slug: str) -> str:
+    """The spectrum of the waves' pressure (a hybrid bake's low bands) at the receiver farthest
+    from the first source, where the direct sound weighs least, with the rigid-box modes marked
+    when the room is a box."""
+    from sonolux.plotting.modes import plot_wave_spectrum
+
+    cell = int(np.argmax(np.linalg.norm(f.positions_m - f.source_positions_m[0], axis=1)))
+    box = None
+    if scene is not None:
+        sides = scene.mesh_report["bbox_max"] - scene.mesh_report["bbox_min"]
+        if np.isclose(float(np.prod(sides)), scene.volume_m3, rtol=1e-6):
+            box = sides
+    png = plot_wave_spectrum(f, cell, tmp / f"img/{slug}-modes.png", box_m=box)
+    w = f.waves or {}
+    marked = ", marked where a rigid box has them" if box is not None else ""
+    return h.figure(f"img/{png.name}", f"The low bands from the wave solver (below "
+                    f"{w.get('crossover_hz', 0):.0f} Hz; Schroeder frequency "
+                    f"{w.get('schroeder_hz', 0):.0f} Hz): the pressure response's spectrum at the "
+                    f"receiver farthest from the source shows the room's modes{marked}.")
 
 
 def _joint_section(f: SoundField, grid: RoomParameters, path: Path, tmp: Path, slug: str,

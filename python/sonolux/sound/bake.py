@@ -12,6 +12,9 @@ the room (:func:`sonolux.scene.summary.theory`), for the analysis.
 A scene with an ``[early]`` table is baked as a hybrid (:mod:`sonolux.sound.early`): the core's
 image sources and edge diffraction give the early arrivals exactly, the tracer leaves out the
 specular-only paths they count, and the arrivals are added to the field in their bins.
+
+With ``waves`` (:mod:`sonolux.sound.waves`), the bands below a crossover come from the wave
+solver instead, and the field keeps the waves' pressure response below it.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
 from sonolux.sound.compact import CompactArray
+from sonolux.sound import waves as wave_sound
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
@@ -199,7 +203,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                 "humidity_percent": scene.settings.air.humidity_percent,
                 "pressure_kpa": scene.settings.air.pressure_kpa},
     }
-    return SoundField(
+    field = SoundField(
         energy=energy, bin_start_s=out["bin_start_s"], bin_width_s=out["bin_width_s"],
         bands_hz=np.asarray(scene.settings.bands_hz, float),
         positions_m=np.asarray(scene.receivers.positions_m, float), radius_m=scene.receivers.radius_m,
@@ -209,6 +213,42 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         settings=record, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
         counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene),
         early=arrivals)
+    return add_waves(scene, options, field, progress=progress, log=log) if options.waves else field
+
+
+def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
+              progress: bool | Callable[[int, int, float], bool] = False,
+              log: Callable[[str], None] | None = None) -> SoundField:
+    """The field with its bands below the crossover from the wave solver, and the waves'
+    pressure kept (:mod:`sonolux.sound.waves`): the hybrid's second half, after the rays (whole,
+    or summed from ranges). The waves use the field's own bins, air and speed of sound."""
+    started = time.perf_counter()
+    rec = field.settings
+    arrays = band_arrays(scene)
+    arrays["air"] = np.asarray(rec["air_attenuation_per_m"], float)
+    binning = engine.SoundSettings(
+        rays=1, first_ray=0, end_ray=1, seed=0, threads=scene.settings.threads,
+        estimator="paper", speed_of_sound_m_s=rec["speed_of_sound_m_s"],
+        air_attenuation_per_m=arrays["air"].tolist(), energy_drop_db=rec["energy_drop_db"],
+        max_time_s=rec["max_time_s"], sample_rate_hz=float(rec["sample_rate_hz"]),
+        early_s=rec["early_bins"] / float(rec["sample_rate_hz"]), late_bin_s=rec["late_bin_s"],
+        azimuth_bands=rec["azimuth_bands"], elevation_bands=rec["elevation_bands"],
+        max_field_bytes=options.max_field_bytes or budget_bytes())
+    limit = wave_sound.memory_limit(options.max_field_bytes)
+    cross = wave_sound.choose_crossover(scene, rec["max_time_s"], crossover_hz=options.crossover_hz,
+                                        time_budget_s=options.wave_time_budget_s,
+                                        memory_limit_bytes=limit)
+    part = wave_sound.bake_waves(scene, arrays, binning, cross, rec["max_time_s"], limit,
+                                 progress=progress, log=log)
+    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands)
+    part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
+                max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
+    stats = dict(field.stats, waves={"runs": part.pop("stats"),
+                                     "seconds": time.perf_counter() - started})
+    settings = dict(rec, waves={k: part[k] for k in ("crossover_hz", "wave_bands",
+                                                     "max_frequency_hz", "schroeder_hz",
+                                                     "sample_rate_hz")})
+    return replace(field, energy=energy, stats=stats, settings=settings, waves=part)
 
 
 def _directivity(source: Any) -> Any:

@@ -92,6 +92,11 @@ class SoundField:
     #: The exact early arrivals of a hybrid bake (:mod:`sonolux.sound.early`), already added to
     #: ``energy``; None for particles only.
     early: dict[str, np.ndarray] | None = field(default=None, repr=False)
+    #: The wave part of a hybrid bake (:mod:`sonolux.sound.waves`): ``pressure``
+    #: float32[receiver, time] below the crossover at ``sample_rate_hz``, ``crossover_hz``,
+    #: ``wave_bands`` (bands [0, wave_bands) of ``energy`` came from the waves),
+    #: ``max_frequency_hz``, ``schroeder_hz``; None for rays only.
+    waves: dict[str, Any] | None = field(default=None, repr=False)
 
     # --- shape -------------------------------------------------------------------------------
     @property
@@ -188,16 +193,21 @@ class SoundField:
     def impulse_response(self, receiver: int, direction: str | int | None = None,
                          seed: int = 0) -> np.ndarray:
         """Pressure impulse response (float64[samples]) of one receiver and direction (None:
-        all directions). See :func:`sonolux.sound.synthesis.pressure_ir`."""
+        all directions). See :func:`sonolux.sound.synthesis.pressure_ir`; in a hybrid field the
+        waves' own pressure below the crossover (:func:`sonolux.sound.waves.joined_response`)."""
         from sonolux.sound.synthesis import pressure_ir
+        from sonolux.sound.waves import joined_response, ray_bands
 
         receiver = self.receiver_index(receiver)
         seed = check_number("seed", seed, 0, MAX_SEED, integer=True)
-        e = (self.omni_energy(receiver) if direction is None
-             else self.energy[receiver, self.direction_index(direction)].astype(np.float64))
-        return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.synthesis_bands_hz,
-                           self.sample_rate_hz, self.settings["volume_m3"],
-                           self.settings["speed_of_sound_m_s"], seed=seed)
+        d = None if direction is None else self.direction_index(direction)
+        e = (self.omni_energy(receiver) if d is None
+             else self.energy[receiver, d].astype(np.float64))
+        ir = pressure_ir(ray_bands(self, e), self.bin_start_s, self.bin_width_s,
+                         self.synthesis_bands_hz,
+                         self.sample_rate_hz, self.settings["volume_m3"],
+                         self.settings["speed_of_sound_m_s"], seed=seed)
+        return joined_response(self, receiver, d, ir)
 
     def paper_filters(self, receiver: int, length: int = 3840) -> np.ndarray:
         """The paper's filters: float64[direction, band, length] energy taps at the sample rate."""

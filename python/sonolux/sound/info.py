@@ -62,6 +62,15 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
     ]
     if se.get("progressive"):
         lines.append(progressive_line(se["progressive"]))
+    if field.waves is not None:
+        w, runs = field.waves, st.get("waves", {}).get("runs", [])
+        lines.append(
+            f"  waves       bands {', '.join(f'{b:g}' for b in field.bands_hz[:w['wave_bands']])} Hz "
+            f"from the wave solver (crossover {w['crossover_hz']:.0f} Hz, Schroeder frequency "
+            f"{w['schroeder_hz']:.0f} Hz), grid up to {w['max_frequency_hz']:.0f} Hz"
+            + (f" ({runs[0]['spacing_m'] * 1e3:.1f} mm, {runs[0]['cells']:,} cells × "
+               f"{runs[0]['steps']:,} steps × {len(runs)} source(s), "
+               f"{st['waves']['seconds']:.2f} s)" if runs else ""))
     if d["escaped_share"] > LEAK_WARNING_SHARE:
         where = "; ".join(f"from ({', '.join(f'{v:.2f}' for v in e[2])})" for e in st["escapes"][:4])
         lines.append(f"  WARNING     {d['escaped_share']:.2%} of rays escaped: the geometry leaks "

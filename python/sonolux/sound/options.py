@@ -36,7 +36,8 @@ class SoundOptions:
     air_absorption: False turns the air's absorption off (for comparisons with theory that
         leaves it out); the scene's air still sets the speed of sound.
     max_field_bytes: the most memory the engine's accumulator may take at once (it estimates
-        it before it allocates and refuses a larger one); None = the memory budget.
+        it before it allocates and refuses a larger one); None = the memory budget. It
+        is also the wave solver's memory limit.
     storage: "compact" (the default: the early part's non-zero one-sample cells, up to the
         later of ``early_s`` and the mixing time after the farthest receiver's direct sound,
         and the late part stored at ``compact_late_bin_s``, shown at ``late_bin_s``:
@@ -52,6 +53,11 @@ class SoundOptions:
     memory_bytes: the bake's memory budget: receivers are traced in tiles small enough to keep
         the whole bake within it (:mod:`sonolux.sound.budget`); None = 80% of the memory this
         machine has available (:func:`sonolux.memory.budget_bytes`).
+    waves: bake the bands below a crossover with the wave solver (FDTD), the rest with the
+        tracer, joined into one field (:mod:`sonolux.sound.waves`).
+    crossover_hz: where the waves hand over to the rays (snapped to the nearest band edge);
+        None = automatic, from the room's Schroeder frequency and the grid's budget.
+    wave_time_budget_s: the planned wave run time the automatic crossover may spend.
     """
 
     rays: int | str = "auto"
@@ -69,6 +75,9 @@ class SoundOptions:
     compact_arrivals: int = 128
     compact_envelope_s: float = 0.001
     memory_bytes: int | None = None
+    waves: bool = False
+    crossover_hz: float | None = None
+    wave_time_budget_s: float = 600.0
 
     def validate(self) -> SoundOptions:
         """Every option checked by :func:`sonolux.errors.check_number` (the test shared with
@@ -109,4 +118,15 @@ class SoundOptions:
                      unit="s")
         check_number("sound option memory_bytes", self.memory_bytes, 1, none_ok=True,
                      integer=True, unit="bytes")
+        if not isinstance(self.waves, bool):
+            raise bad("waves", self.waves, "true or false")
+        check_number("sound option crossover_hz", self.crossover_hz, 10.0, 20_000.0,
+                     none_ok=True, unit="Hz")
+        check_number("sound option wave_time_budget_s", self.wave_time_budget_s, 0.0, 1e6,
+                     lo_open=True, unit="s")
+        if not self.waves and self.crossover_hz is not None:
+            raise bad("crossover_hz", self.crossover_hz, "only with waves = true")
+        if self.waves and self.ray_range is not None:
+            raise bad("ray_range", self.ray_range, "none with waves = true (the wave part is "
+                      "not split into ranges: bake the waves in one piece)")
         return self

@@ -49,6 +49,7 @@ from sonolux.limits import MAX_RAYS
 from sonolux.range_bake import bake_ranges
 from sonolux.ranges import Checkpointing
 from sonolux.scene.schema import Scene
+from sonolux.sound.bake import add_waves
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
@@ -265,8 +266,10 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
             Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state), state, [])
     if log:
         log(f"progressive bake: {stop} after {target:,} rays")
-    return _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds,
-                  stop), errors
+    field = _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds, stop)
+    if options.waves:  # the hybrid's wave bands, once, to the whole field (as ranges do)
+        field = add_waves(scene, options, field, progress=bool(progress), log=log)
+    return field, errors
 
 
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,

@@ -23,7 +23,7 @@ from sonolux import range_bake, ranges
 from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
-from sonolux.sound.bake import auto_rays, band_arrays
+from sonolux.sound.bake import add_waves, auto_rays, band_arrays
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.field import SoundField
@@ -117,18 +117,21 @@ class SoundRanges:
         self.stamp = {"scene": fingerprint(ranges.scene_content(scene)),
                       "settings": fingerprint(self.options), "version": __version__}
         self.fingerprint = fingerprint("sound", self.stamp)
+        self._log = log  # for the waves of a hybrid, added in this process (finish)
 
     def __getstate__(self) -> dict[str, Any]:
-        return dict(self.__dict__, scene=replace(self.scene, geometry=None))
+        return dict(self.__dict__, scene=replace(self.scene, geometry=None), _log=None)
 
     def loaded_scene(self, threads: int | None = None) -> Scene:
         return ranges.loaded_scene(self.scene, self.stamp["scene"], threads)
 
     def trace(self, first: int, end: int, threads: int | None = None,
               progress: ranges.Progress | None = None) -> SoundSum:
+        # The rays alone; the waves are added once, to the whole field (finish).
         options = replace(self.options, ray_range=(first, end),
                           max_field_bytes=self.max_field_bytes,
-                          memory_bytes=getattr(self, "memory_bytes", None))
+                          memory_bytes=getattr(self, "memory_bytes", None), waves=False,
+                          crossover_hz=None)
         return SoundSum.of(bake_whole(self.loaded_scene(threads), options, progress=progress))
 
     def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
@@ -141,7 +144,12 @@ class SoundRanges:
         return decode_sum(meta, arrays)
 
     def finish(self, total: SoundSum, done: list[ranges.Range]) -> SoundField:
-        return field_of_sum(total, done, self.total, self.fingerprint)
+        field = field_of_sum(total, done, self.total, self.fingerprint)
+        if self.options.waves and field.counts is None:
+            options = replace(self.options, max_field_bytes=self.max_field_bytes)
+            field = add_waves(self.loaded_scene(), options, field, progress=self._log is not None,
+                              log=self._log)
+        return field
 
 
 def encode_sum(total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:

@@ -1,0 +1,344 @@
+"""Waves below the crossover, rays above: the hybrid sound bake (``sonolux bake --waves``).
+
+Below a few hundred hertz a room is modes and interference, which no particle tracer gives; the
+core's wave solver (FDTD, ``docs/waves.md``) does. A hybrid bake runs both and joins them:
+
+- **Crossover.** Schroeder's frequency f_S = 2000·√(T/V) (T the Eyring T60 of the scene's
+  materials averaged over its bands up to 1 kHz, V the mesh's volume; Schroeder, "Die
+  statistischen Parameter der Frequenzkurven von grossen Räumen", Acustica 4, 1954) marks
+  where a room's modes overlap; the tracer is sound from about twice that. The grid allows
+  f_grid = the largest maximum frequency whose run fits the memory budget and the time budget
+  (cells × steps at :data:`UPDATES_PER_CORE_S`). The crossover is the band edge (geometric mean
+  of two neighbouring band centres) nearest max(2·f_S, the lowest edge) in log frequency, but
+  not above f_grid/√2; or the edge nearest a crossover the user gives. Whole bands go to one
+  side: **no band straddles the crossover**, since it always lies on a band edge. The grid is
+  then made for f_max = crossover·√2, so the last wave band and its filter skirt lie where the
+  scheme is accurate (10 points per wavelength: phase error ≤ 1.1%).
+- **Energy field.** Bands below the crossover come from the waves (energy per band, direction
+  and time bin in the tracer's own bins, air included: ``bands::direction_energies``), bands
+  above from the tracer. Like the tracer's, a wave receiver is a sphere: its energy is the mean
+  over seven points of it (:func:`ball_points`); its pressure is the centre's. Sources are
+  incoherent in the tracer's field, so each source is its own wave run and the energies add,
+  each times the source's power (the wave energies are per joule of source energy in each
+  band, the tracer's convention: a free field gives P/(4πr²)).
+- **Pressure.** The field keeps the waves' own pressure response below the crossover,
+  ``waves["pressure"]`` float32[receiver, time] at the wave rate, time 0 at emission, in the
+  synthesis' unit (pressure / √(ρc), √(W/m²): Σp²/fs is J/m²). It is the impulse response
+  (the run divided by the source pulse's spectrum), summed over the sources with √power
+  (coherently: every source plays the same signal), low-passed by H_L = the sum of the wave
+  bands' weights of the synthesis' amplitude-complementary bank
+  (:func:`sonolux.sound.synthesis.band_split_weights`: cos² from the last wave band's centre to
+  the first ray band's) made power-complementary to the synthesis' 1 − H_L, G = √(H_L(2 − H_L))
+  so that |G|² + |1 − H_L|² = 1: the waves and the synthesis' random phases are incoherent, and
+  amplitude-complementary filters would lose up to 3 dB at the crossover (measured: 0.9 dB in
+  the 250 Hz octave of a hybrid crossing at 354 Hz). Each band is damped by the air as
+  exp(−m·c·t/2), and the whole high-passed at the
+  energy field's lowest band edge (:func:`low_edge_gain`): a hybrid response holds nothing
+  below the lowest band's lower edge (88 Hz for octaves from 125 Hz). A consumer's pressure
+  response is G·(waves) + (1 − H_L)·(synthesis): the synthesis is given the ray bands only,
+  whose weights sum to exactly 1 − H_L (:func:`joined_response`). Per direction, the wave
+  pressure is weighted by √(the direction's share of the wave bands' energy in each time bin),
+  so that the directions' energies add up to the omni response's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import fft as sfft
+from scipy import signal as ssignal
+
+from sonolux import engine
+from sonolux.errors import SettingError, SonoluxError
+from sonolux.memory import budget_bytes, gb
+from sonolux.progress import ProgressLine
+from sonolux.sound.synthesis import band_split_weights
+
+#: Planning rate of the wave solver, air-cell updates per second per core: about half of what
+#: ``make bench`` measured on this machine (1.2-1.35 G/s per core on a 256³ grid,
+#: docs/waves.md), since the machine is shared; it only sets the automatic crossover's time
+#: budget and the printed estimate.
+UPDATES_PER_CORE_S = 0.6e9
+#: Frequencies where the pulse's spectrum is this far below its peak are left out of the
+#: deconvolution (as ``bands::BandFilters::inverse_of`` does).
+PULSE_FLOOR = 1e-6
+
+
+@dataclass(frozen=True)
+class Crossover:
+    """Where the waves hand over to the rays, and why."""
+
+    crossover_hz: float
+    #: Bands [0, wave_bands) come from the waves.
+    wave_bands: int
+    #: The grid's maximum frequency (crossover·√2).
+    max_frequency_hz: float
+    schroeder_hz: float
+    grid_limit_hz: float
+    why: str
+
+
+def band_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
+    """float64[band - 1]: the edges between neighbouring bands (geometric means)."""
+    b = np.asarray(bands_hz, float)
+    return np.sqrt(b[:-1] * b[1:])
+
+
+def schroeder_hz(theory: dict[str, Any]) -> float:
+    """2000·√(T/V), T the mean Eyring T60 over the bands up to 1 kHz (all bands if none)."""
+    bands = np.asarray(theory["bands_hz"], float)
+    t60 = np.array([np.nan if t is None else t for t in theory["eyring_t60_s"]], float)
+    pick = bands <= 1000.0 if np.any(bands <= 1000.0) else np.ones(bands.size, bool)
+    t = float(np.nanmean(t60[pick])) if np.any(np.isfinite(t60[pick])) else 10.0
+    return 2000.0 * math.sqrt(t / theory["volume_m3"])
+
+
+def wave_settings(f_max_hz: float, duration_s: float, c: float, threads: int,
+                  memory_limit_bytes: int) -> Any:
+    return engine.WaveSettings(max_frequency_hz=float(f_max_hz), duration_s=float(duration_s),
+                               speed_of_sound_m_s=float(c), threads=int(threads),
+                               memory_limit_bytes=int(memory_limit_bytes))
+
+
+def run_seconds(estimate: dict[str, int], threads: int) -> float:
+    """The planned run time of an estimate (cells × steps at UPDATES_PER_CORE_S per core)."""
+    cores = threads or _cores()
+    return estimate["cells"] * estimate["steps"] / (UPDATES_PER_CORE_S * max(cores, 1))
+
+
+def _cores() -> int:
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | None,
+                     time_budget_s: float, memory_limit_bytes: int) -> Crossover:
+    """The crossover of a hybrid bake of ``scene`` (see the module's doc)."""
+    from sonolux.scene.summary import theory
+
+    bands = np.asarray(scene.settings.bands_hz, float)
+    if bands.size < 2:
+        raise SettingError("waves need at least two bands (one below the crossover, one above): "
+                           f"the scene has {bands.size}")
+    edges = band_edges_hz(bands)
+    th = theory(scene)
+    f_s = schroeder_hz(th)
+    c, threads = scene.settings.speed_of_sound_m_s, scene.settings.threads
+    n_rec = BALL_POINTS * scene.receivers.count
+
+    def estimate(f_max: float) -> dict[str, int]:
+        s = wave_settings(f_max, duration_s + 0.05, c, threads, memory_limit_bytes)
+        return engine.wave_memory_estimate(s, scene.geometry, n_rec, bands)
+
+    probe = wave_settings(bands[0], duration_s + 0.05, c, threads, memory_limit_bytes)
+    f_mem = engine.wave_max_frequency(probe, scene.geometry, n_rec, bands, memory_limit_bytes) or 0.0
+    # Run time grows as f⁴ (cells f³, steps f): bisect the budget in log frequency.
+    lo, hi = 1.0, max(f_mem, 2.0)
+    if run_seconds(estimate(hi), threads) <= time_budget_s:
+        f_time = hi
+    else:
+        while hi / lo > 1.01:
+            mid = math.sqrt(lo * hi)
+            lo, hi = (mid, hi) if run_seconds(estimate(mid), threads) <= time_budget_s else (lo, mid)
+        f_time = lo
+    f_grid = min(f_mem, f_time)
+    limit = "memory" if f_mem <= f_time else f"the time budget of {time_budget_s:g} s"
+    fits = edges[edges * math.sqrt(2) <= f_grid]
+    if crossover_hz is None:
+        target = max(2.0 * f_s, edges[0])
+        if fits.size == 0:
+            raise SettingError(f"waves: the grid allows up to {f_grid:.0f} Hz ({limit}), too little "
+                               f"for a crossover at the lowest band edge {edges[0]:.0f} Hz (its grid "
+                               f"needs {edges[0] * math.sqrt(2):.0f} Hz); raise the budget or bake "
+                               "without --waves")
+        x = float(fits[np.argmin(np.abs(np.log(fits / target)))])
+        why = (f"crossover {x:.0f} Hz: Schroeder frequency {f_s:.0f} Hz (2000·√(T/V)), "
+               f"2·f_S = {2 * f_s:.0f} Hz, snapped to a band edge within the grid's limit of "
+               f"{f_grid:.0f} Hz ({limit})")
+    else:
+        x = float(edges[np.argmin(np.abs(np.log(edges / crossover_hz)))])
+        if x * math.sqrt(2) > f_mem:
+            raise SettingError(f"waves crossover_hz = {crossover_hz:g} Hz (band edge {x:.0f} Hz) "
+                               f"needs a grid up to {x * math.sqrt(2):.0f} Hz, but the memory budget "
+                               f"allows {f_mem:.0f} Hz: the largest crossover that fits is "
+                               + (f"{fits.max():.0f} Hz" if fits.size else "none"))
+        why = (f"crossover {x:.0f} Hz: the band edge nearest the {crossover_hz:g} Hz asked "
+               f"(Schroeder frequency {f_s:.0f} Hz)")
+    k = int(np.searchsorted(edges, x) + 1)
+    return Crossover(crossover_hz=x, wave_bands=k, max_frequency_hz=x * math.sqrt(2),
+                     schroeder_hz=f_s, grid_limit_hz=f_grid, why=why)
+
+
+def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: Crossover,
+               duration_s: float, memory_limit_bytes: int, *,
+               progress: bool | Callable[[int, int, float], bool] = False,
+               log: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """One wave run per source; returns energy float32[receiver, direction, band, time] (every
+    band, the caller keeps the wave bands), pressure float32[receiver, time] at sample_rate_hz
+    (the low part, see the module's doc), and stats."""
+    bands = np.asarray(scene.settings.bands_hz, float)
+    c = scene.settings.speed_of_sound_m_s
+    pulse_s = 6.0 / (math.pi * cross.max_frequency_hz)  # the pulse's delay, 6σ
+    settings = wave_settings(cross.max_frequency_hz, duration_s + pulse_s, c,
+                             scene.settings.threads, memory_limit_bytes)
+    centres = np.ascontiguousarray(scene.receivers.positions_m, float)
+    receivers = ball_points(scene.geometry, centres, scene.receivers.radius_m)
+    est = engine.wave_memory_estimate(settings, scene.geometry, len(receivers), bands)
+    if log:
+        log(f"waves: {cross.why}; grid {settings.spacing_m * 1e3:.1f} mm up to "
+            f"{cross.max_frequency_hz:.0f} Hz, {est['cells']:,} cells × {est['steps']:,} steps × "
+            f"{len(scene.sources)} source(s), about {gb(est['total_bytes'])} and "
+            f"{run_seconds(est, scene.settings.threads) * len(scene.sources):.0f} s")
+    energy, pressure, stats = None, None, []
+    for i, src in enumerate(scene.sources):
+        label = f"waves {scene.name} source {i + 1}/{len(scene.sources)}"
+        callback = ProgressLine(label, unit="steps") if progress is True else (progress or None)
+        out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
+                                    np.asarray([src.position_m], float), receivers, settings,
+                                    binning, callback)
+        if out["cancelled"]:
+            raise SonoluxError("the wave simulation was stopped before its end")
+        # The sphere's energy: the mean over its points ([receiver][point] in order).
+        e = out["energy"].astype(np.float64).reshape(len(centres), BALL_POINTS,
+                                                     *out["energy"].shape[1:]).mean(axis=1)
+        e *= src.power_w
+        # The pressure: the centre's (the listener's ear is at one point).
+        out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
+        energy = e if energy is None else energy + e
+        p = low_pressure(out, bands, cross.wave_bands, arrays["air"], c,
+                         float(scene.settings.sample_rate_hz)) * math.sqrt(src.power_w)
+        pressure = p if pressure is None else pressure + p
+        stats.append(dict(out["stats"]))
+    assert energy is not None and pressure is not None
+    return {"energy": energy.astype(np.float32), "pressure": pressure.astype(np.float32),
+            "sample_rate_hz": float(out["sample_rate_hz"]), "stats": stats}
+
+
+#: Points per receiver sphere: its centre and six on the axes at R·√0.7, equally weighted, a
+#: cubature of the ball exact for polynomials up to degree 3 (the mean of x² over a ball of
+#: radius R is R²/5 = 2·(0.7 R²)/7).
+BALL_POINTS = 7
+
+
+def ball_points(geometry: Any, centres_m: np.ndarray, radius_m: float) -> np.ndarray:
+    """float64[receiver · 7, 3]: each receiver sphere's cubature points, receiver by receiver.
+
+    The tracer's receivers are spheres: its energy is the mean over the sphere's volume
+    (Pope and Chalmers' estimator), which smooths the interference a point would see (at
+    500 Hz, λ/3 for the paper's 0.25 m spheres). The waves take the same mean, over these
+    points, so that both sides of the crossover measure the same thing. A point outside the
+    room (a sphere through a wall) is replaced by the centre."""
+    a = radius_m * math.sqrt(0.7)
+    offsets = np.vstack([np.zeros(3), a * np.eye(3), -a * np.eye(3)])
+    pts = (centres_m[:, None, :] + offsets[None]).reshape(-1, 3)
+    inside = np.abs(geometry.winding_numbers(pts)) > 0.5
+    pts[~inside] = np.repeat(centres_m, BALL_POINTS, axis=0)[~inside]
+    return np.ascontiguousarray(pts)
+
+
+def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air_per_m: np.ndarray,
+                 c: float, output_rate_hz: float) -> np.ndarray:
+    """float64[receiver, time]: a run's impulse responses below the crossover, air included, in
+    √(W/m²) per √W of source power for a field at ``output_rate_hz``; time 0 at emission."""
+    p = np.asarray(out["pressure_pa"], np.float64)
+    fs = float(out["sample_rate_hz"])
+    n = p.shape[1]
+    n_fft = sfft.next_fast_len(2 * n, real=True)
+    pulse = sfft.rfft(np.asarray(out["source_pressure_1m_pa"], np.float64), n_fft)
+    keep = np.abs(pulse) > PULSE_FLOOR * np.abs(pulse).max()
+    inverse = np.where(keep, 1.0 / np.where(keep, pulse, 1.0), 0.0)
+    spectra = sfft.rfft(p, n_fft, axis=1) * inverse * low_edge_gain(n_fft, fs, bands_hz)
+    weights = band_split_weights(n_fft, fs, bands_hz)
+    h_low = weights[:wave_bands].sum(axis=0)
+    # Power-complementary to the synthesis' 1 − H_L: the two parts are incoherent.
+    to_power = np.divide(np.sqrt(h_low * (2.0 - h_low)), h_low, out=np.zeros_like(h_low),
+                         where=h_low > 1e-12)
+    t = np.arange(n) / fs
+    low = np.zeros_like(p)
+    for b in range(wave_bands):
+        band = sfft.irfft(spectra * (weights[b] * to_power), n_fft, axis=1)[:, :n]
+        low += band * np.exp(-air_per_m[b] * c * t / 2.0)
+    # h is δ(t − r/c)/r in free field: one sample of the wave rate, an impulse of area 1/(r·fs).
+    # The synthesis writes a free-field arrival of energy E = 1/(4πr²) per joule as one sample
+    # √(E·f_out) at the field's rate f_out: an impulse of area √(E/f_out), the same in every
+    # band. So h·fs/√(4π·f_out) is that impulse at the wave rate, and it stays so when resampled.
+    return low * fs / math.sqrt(4.0 * math.pi * output_rate_hz)
+
+
+def low_edge_gain(n_fft: int, fs: float, bands_hz: np.ndarray) -> np.ndarray:
+    """float64[n_fft // 2 + 1]: the energy field's lowest band edge, as ``bands.rs`` has it
+    (f₀ over √(f₁/f₀), rising as sin(π(x + 1)/4) across a quarter of the band on either side),
+    so that the wave pressure holds what the field's wave bands hold. Below it a closed room's
+    response to a volume source has its compliance term, which grows as 1/f² to DC (pressure
+    rises with the volume pushed in), and the deconvolution by the pulse, whose spectrum falls
+    as f to DC, would amplify it without bound."""
+    b = np.asarray(bands_hz, float)
+    ratio = b[1] / b[0] if b.size > 1 else 2.0
+    lo, width = b[0] / math.sqrt(ratio), 0.25 * math.log2(ratio)
+    f = sfft.rfftfreq(n_fft, 1.0 / fs)
+    with np.errstate(divide="ignore"):
+        x = np.clip(np.log2(np.maximum(f, 1e-300) / lo) / width, -1.0, 1.0)
+    return np.sin(0.25 * np.pi * (x + 1.0))
+
+
+def keep_wave_bands(tracer: np.ndarray, waves: np.ndarray, wave_bands: int) -> np.ndarray:
+    """float32[receiver, direction, band, time]: the wave bands from the waves, the rest from
+    the tracer."""
+    out = np.array(tracer, dtype=np.float32, order="C", copy=True)
+    out[:, :, :wave_bands, :] = waves[:, :, :wave_bands, :]
+    return out
+
+
+# --- what every consumer of the field uses ---------------------------------------------------
+def ray_bands(field: Any, energy_band_time: np.ndarray) -> np.ndarray:
+    """float64[band, time]: a histogram with the wave bands zeroed (what the synthesis gets in a
+    hybrid field, so that it makes 1 − H_L of the response); the histogram itself otherwise."""
+    e = np.asarray(energy_band_time, np.float64)
+    if field.waves is None:
+        return e
+    e = e.copy()
+    e[: int(field.waves["wave_bands"])] = 0.0
+    return e
+
+
+def joined_response(field: Any, receiver: int, direction: int | None,
+                    synthesized: np.ndarray) -> np.ndarray:
+    """The synthesis of the ray bands (from :func:`ray_bands`) plus the waves' pressure below the
+    crossover, resampled to the field's rate; for one direction the wave pressure is weighted by
+    √(the direction's share of the wave bands' energy in each time bin)."""
+    if field.waves is None:
+        return synthesized
+    w = field.waves
+    fs, fw = float(field.sample_rate_hz), float(w["sample_rate_hz"])
+    p = np.asarray(w["pressure"][receiver], np.float64)
+    n_out = int(round(p.size * fs / fw))
+    low = ssignal.resample(p, n_out) if n_out != p.size else p
+    if direction is not None:
+        k = int(w["wave_bands"])
+        e = field.energy[receiver, :, :k, :].sum(axis=1, dtype=np.float64)  # [direction, time]
+        total = e.sum(axis=0)
+        # One-sample bins are finer than the wave rate: an empty bin takes the share of the
+        # last bin that holds energy (the first one's before it).
+        held = np.flatnonzero(total > 0)
+        if held.size == 0:
+            return synthesized
+        source_bin = held[np.clip(np.searchsorted(held, np.arange(total.size), side="right") - 1,
+                                  0, None)]
+        share = e[direction, source_bin] / total[source_bin]
+        ends = np.asarray(field.bin_start_s) + np.asarray(field.bin_width_s)
+        bins = np.minimum(np.searchsorted(ends, np.arange(n_out) / fs, side="right"), share.size - 1)
+        low = low * np.sqrt(share[bins])
+    n = max(low.size, synthesized.size)
+    out = np.zeros(n)
+    out[: synthesized.size] += synthesized
+    out[: low.size] += low
+    return out
+
+
+def memory_limit(given: int | None) -> int:
+    return int(given) if given else budget_bytes()
