@@ -143,6 +143,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     early, arrivals = None, None
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
+    if early is not None and first == 0:
+        # The arrivals are deterministic and belong to the bake, not to a ray range: the range
+        # that starts at ray 0 computes and stores them once (docs/early-sound.md).
         found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
                                       settings)
         arrivals = early_sound.arrival_table(found)
