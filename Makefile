@@ -77,6 +77,7 @@ bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomaco
 	$(PY) benchmarks/radiance.py
 	$(PY) benchmarks/auralize.py
 	$(PY) benchmarks/dask_bake.py
+	$(PY) benchmarks/early.py
 	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
 
 validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md
