@@ -21,11 +21,10 @@ from __future__ import annotations
 
 import argparse
 import time
-import tomllib
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import tomllib
 from common import machine_and_load, other_cpu_use, write_json
 
 import sonolux
