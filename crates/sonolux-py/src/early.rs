@@ -144,6 +144,7 @@ pub(crate) fn early_arrivals<'py>(
     s.set_item("paths_checked", st.paths_checked)?;
     s.set_item("specular_arrivals", st.specular_arrivals)?;
     s.set_item("diffracted_arrivals", st.diffracted_arrivals)?;
+    s.set_item("integrand_calls", st.integrand_calls)?;
     out.set_item("stats", s)?;
     Ok(out)
 }

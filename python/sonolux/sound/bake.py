@@ -36,8 +36,8 @@ from sonolux.scene.schema import Scene
 from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
-from sonolux.sound.compact import CompactArray
 from sonolux.sound import waves as wave_sound
+from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
@@ -156,6 +156,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     early, arrivals = None, None
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
+    if early is not None and first == 0:
+        # The arrivals are deterministic and belong to the bake, not to a ray range: the range
+        # that starts at ray 0 computes and stores them once (docs/early-sound.md).
         found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
                                       settings)
         arrivals = early_sound.arrival_table(found)

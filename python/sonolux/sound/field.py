@@ -90,7 +90,8 @@ class SoundField:
     path: str | None = None
     theory: dict[str, Any] | None = None
     #: The exact early arrivals of a hybrid bake (:mod:`sonolux.sound.early`), already added to
-    #: ``energy``; None for particles only.
+    #: ``energy``; None for particles only, and in a ray range that does not start at ray 0 (the
+    #: arrivals are computed once a bake, by that range, and join the others when they merge).
     early: dict[str, np.ndarray] | None = field(default=None, repr=False)
     #: The wave part of a hybrid bake (:mod:`sonolux.sound.waves`): ``pressure``
     #: float32[receiver, time] below the crossover at ``sample_rate_hz``, ``crossover_hz``,
@@ -234,6 +235,11 @@ class SoundField:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
         counts = add_counts(self.counts, other.counts)
         energy = energy_of(counts, self.quantum)
+        # A hybrid bake's arrivals live in the range that starts at ray 0 only (computed once).
+        early = self.early if self.early is not None else other.early
+        if self.early is not None and other.early is not None:
+            raise SonoluxError("both fields hold the bake's early arrivals (each starts at ray 0): "
+                               "merging them would count those rays twice")
         mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
         theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
         for a0, a1 in mine:
@@ -245,6 +251,8 @@ class SoundField:
         summed = ("rays", "segments", "surface_hits", "escaped_rays", "deposits")
         stats = {k: (np.add(v, other.stats[k]) if k.startswith("energy_") or k in summed else v)
                  for k, v in self.stats.items()}
+        if "early" not in stats and "early" in other.stats:
+            stats["early"] = other.stats["early"]
         settings = dict(self.settings, ray_range=[ranges[0][0], max(r[1] for r in ranges)],
                         ray_ranges=ranges)
         covered = 0
@@ -252,7 +260,8 @@ class SoundField:
             covered = b if a <= covered else covered
         if covered >= int(self.settings["rays"]):  # complete: as the bake done at once
             energy = reduced(energy, self.settings)
-        if self.early is not None:
-            energy = add_arrivals(energy, self.early)
+        if early is not None:
+            energy = add_arrivals(energy, early)
         return SoundField(**{**self.__dict__, "energy": energy,
-                             "counts": counts, "stats": stats, "settings": settings, "path": None})
+                             "counts": counts, "stats": stats, "settings": settings, "path": None,
+                             "early": early})

@@ -282,12 +282,7 @@ def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Ac
         "accuracy_jnd": accuracy.fraction_of_jnd, "groups": n_groups, "nominal_rays": ceiling,
         "max_rays": accuracy.max_rays, "max_seconds": accuracy.max_seconds, "stopped": stop,
         "rounds": rounds, "errors": errors.summary(), "jnd": {k: v[0] for k, v in JND.items()}})
-    out = replace(field, settings=record)
-    if out.early is not None:
-        from sonolux.sound.early import add_arrivals
-
-        out = replace(out, energy=add_arrivals(out.energy, out.early))
-    return out
+    return replace(field, settings=record)  # (field_of_sum added a hybrid's arrivals)
 
 
 def _where_it_stopped(side: Path, start: int, target: int) -> tuple[int, int, list[Any]]:

@@ -26,6 +26,7 @@ from sonolux.scene.schema import Scene
 from sonolux.sound.bake import add_waves, auto_rays, band_arrays
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
+from sonolux.sound.early import add_arrivals
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.version import __version__
@@ -58,6 +59,11 @@ class SoundSum:
         t, o = self.template, other.template
         if t.quantum != o.quantum or self.counts.shape != other.counts.shape:
             raise SonoluxError("these ranges come from different bakes and cannot be summed")
+        if o.early is not None:  # a hybrid's arrivals: only the range from ray 0 holds them
+            if t.early is not None:
+                raise SonoluxError("both ranges hold the bake's early arrivals (each starts at "
+                                   "ray 0): summing them would count those rays twice")
+            self.template = replace(t, early=o.early)
         self.counts = add_counts(self.counts, other.counts)
         self.stats = combine_stats(self.stats, other.stats)
         return self
@@ -76,6 +82,8 @@ def combine_stats(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
     for k in ("mean_free_path_m", "free_path_relative_variance"):
         if k in a and k in b and wa + wb > 0:
             out[k] = (a[k] * wa + b[k] * wb) / (wa + wb)
+    if "early" not in out and "early" in b:
+        out["early"] = b["early"]
     out["escapes"] = (list(a.get("escapes", [])) + list(b.get("escapes", [])))[:20]
     out["saturated"] = bool(a.get("saturated")) or bool(b.get("saturated"))
     out["cancelled"] = bool(a.get("cancelled")) or bool(b.get("cancelled"))
@@ -161,6 +169,8 @@ def encode_sum(total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     arrays = {**counts_arrays(total.counts), **{k: getattr(t, k) for k in SMALL_ARRAYS}}
     if t.grid_index is not None:
         arrays["grid_index"] = np.asarray(t.grid_index)
+    for k, v in (t.early or {}).items():
+        arrays[f"early_{k}"] = np.asarray(v)
     return _jsonable(meta), arrays
 
 
@@ -171,7 +181,9 @@ def decode_sum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
         radius_m=meta["radius_m"], grid_index=arrays.get("grid_index"),
         grid_spacing_m=meta["grid_spacing_m"], settings=meta["settings"], stats={},
         scene_name=meta["scene_name"], scene_origin=meta["scene_origin"],
-        quantum=meta["quantum"], theory=meta["theory"])
+        quantum=meta["quantum"], theory=meta["theory"],
+        early={k[len("early_"):]: np.asarray(v) for k, v in arrays.items()
+               if k.startswith("early_")} or None)
     return SoundSum(counts_of_arrays(arrays), meta["stats"], template)
 
 
@@ -214,6 +226,8 @@ def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
     energy = energy_of(total.counts, t.quantum)
     if whole:
         energy = reduced(energy, t.settings)
+        if t.early is not None:  # the exact early arrivals of a hybrid, as a whole bake has
+            energy = add_arrivals(energy, t.early)
     return replace(t, energy=energy,
                    counts=None if whole else total.counts, settings=settings, stats=stats)
 

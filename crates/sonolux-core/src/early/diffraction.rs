@@ -8,20 +8,8 @@
 //! impulse response, so it gives every band at once and a sample-exact onset, and its finite
 //! edges let visibility cut an edge into pieces with the right end effects.
 //!
-//! The diffracted impulse response of an edge (free field 1/r):
-//!
-//!   h(τ) = −ν/(4π) ∫ δ(τ − (m + l)/c) β(z) / (m l) dz,   ν = π / θ_w,
-//!   β = Σ±± sin(ν(π ± θ_S ± θ_R)) / (cosh(νη) − cos(ν(π ± θ_S ± θ_R))),
-//!   η = cosh⁻¹((m l + (z − z_S)(z − z_R)) / (r_S r_R)),
-//!
-//! m and l the distances from the source and the receiver to the edge point z, (r, θ, z) the
-//! cylindrical coordinates about the edge with θ measured from one face through the air. It is
-//! integrated as Torres, Svensson and Kleiner do ("Computation of edge diffraction for more
-//! accurate room acoustics auralization", JASA 109(2), 2001): per time sample, over the part of
-//! the edge whose path falls in that sample, each side of the apex (the point of the shortest
-//! path) apart. Near a shadow or reflection boundary β has a sharp peak at the apex; an adaptive
-//! Gauss–Kronrod rule resolves it, and cosh(νη) − cos(νφ) is evaluated as
-//! 2 sinh²(νη/2) + 2 sin²(νφ/2) so that the peak keeps its precision.
+//! The edge integral itself, binned in time with bounded work near zone boundaries, is
+//! [`super::btm`].
 //!
 //! Per band the energy is the mean of |H(f)|² over the band (the DFT of the binned response,
 //! divided by the bins' sinc), as a source of white power spectrum would give. Across a shadow
@@ -33,200 +21,16 @@
 //! negative (the lit side of a boundary, where D subtracts), the deficit is taken from the
 //! largest geometric arrival of the group, so no arrival has a negative energy.
 
-// The quadrature tables are QUADPACK's, digit for digit.
-#![allow(clippy::excessive_precision)]
-
 use std::f64::consts::PI;
 
 use glam::DVec3;
 use num_complex::Complex64;
 
+pub use super::btm::{band_frequencies, binned_response, internal_rate_hz, spectrum, stand_in_spectrum, BinnedResponse, WedgeGeometry, FREQUENCIES_PER_BAND};
 use super::edges::Wedge;
 use super::image_sources::ImageTree;
 use super::{directivity_gain, Arrival, ArrivalKind, Context, PairArrivals};
 use crate::geometry::Ray;
-
-/// Frequencies per band at which |H|² is averaged.
-pub const FREQUENCIES_PER_BAND: usize = 24;
-
-/// Source and receiver about one wedge, in its cylindrical coordinates.
-#[derive(Clone, Copy, Debug)]
-pub struct WedgeGeometry {
-    pub nu: f64,
-    pub r_s: f64,
-    pub theta_s: f64,
-    pub z_s: f64,
-    pub r_r: f64,
-    pub theta_r: f64,
-    pub z_r: f64,
-}
-
-impl WedgeGeometry {
-    pub fn new(open_angle_rad: f64, (r_s, theta_s, z_s): (f64, f64, f64), (r_r, theta_r, z_r): (f64, f64, f64)) -> WedgeGeometry {
-        WedgeGeometry { nu: PI / open_angle_rad, r_s, theta_s, z_s, r_r, theta_r, z_r }
-    }
-
-    /// Path length via edge point z.
-    #[inline]
-    pub fn path(&self, z: f64) -> f64 {
-        (self.r_s * self.r_s + (z - self.z_s).powi(2)).sqrt() + (self.r_r * self.r_r + (z - self.z_r).powi(2)).sqrt()
-    }
-
-    /// The edge point of the shortest path (on the infinite edge).
-    pub fn apex(&self) -> f64 {
-        self.z_s + (self.z_r - self.z_s) * self.r_s / (self.r_s + self.r_r)
-    }
-
-    /// −ν/(4π) β / (m l) at edge point z.
-    pub fn integrand(&self, z: f64) -> f64 {
-        let (ds, dr) = (z - self.z_s, z - self.z_r);
-        let m = (self.r_s * self.r_s + ds * ds).sqrt();
-        let l = (self.r_r * self.r_r + dr * dr).sqrt();
-        let x = (m * l + ds * dr) / (self.r_s * self.r_r);
-        let eta = x.max(1.0).acosh();
-        let sh = (0.5 * self.nu * eta).sinh();
-        let mut beta = 0.0;
-        for phi in [
-            PI + self.theta_s + self.theta_r,
-            PI + self.theta_s - self.theta_r,
-            PI - self.theta_s + self.theta_r,
-            PI - self.theta_s - self.theta_r,
-        ] {
-            let sn = (0.5 * self.nu * phi).sin();
-            let den = 2.0 * (sh * sh + sn * sn);
-            if den > 0.0 {
-                beta += (self.nu * phi).sin() / den;
-            }
-        }
-        -self.nu / (4.0 * PI) * beta / (m * l)
-    }
-}
-
-/// Kronrod 15-point nodes and weights, and the embedded 7-point Gauss weights (QUADPACK).
-const XGK: [f64; 8] = [
-    0.991455371120812639206854697526329,
-    0.949107912342758524526189684047851,
-    0.864864423359769072789712788640926,
-    0.741531185599394439863864773280788,
-    0.586087235467691130294144845693013,
-    0.405845151377397166906606412076961,
-    0.207784955007898467600689403773245,
-    0.0,
-];
-const WGK: [f64; 8] = [
-    0.022935322010529224963732008058970,
-    0.063092092629978553290700663189204,
-    0.104790010322250183839876322541518,
-    0.140653259715525918745189590510238,
-    0.169004726639267902826583426598550,
-    0.190350578064785409913256402421014,
-    0.204432940075298892414161999234649,
-    0.209482141084727828012999174891714,
-];
-const WG: [f64; 4] = [0.129484966168869693270611432679082, 0.279705391489276667901467771423780, 0.381830050505118944950369775488975, 0.417959183673469387755102040816327];
-
-/// ∫ f over [a, b] by adaptive Gauss–Kronrod 7–15, to `tol` absolute.
-pub fn integrate(f: &impl Fn(f64) -> f64, a: f64, b: f64, tol: f64, depth: u32) -> f64 {
-    let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
-    let fc = f(c);
-    let (mut k, mut g) = (WGK[7] * fc, WG[3] * fc);
-    for j in 0..7 {
-        let x = h * XGK[j];
-        let s = f(c - x) + f(c + x);
-        k += WGK[j] * s;
-        if j % 2 == 1 {
-            g += WG[j / 2] * s;
-        }
-    }
-    let (k, g) = (k * h, g * h);
-    // A relative floor: below it the estimate is as good as double precision allows, and a
-    // non-finite estimate is not refined (neither would ever meet an absolute tolerance).
-    if depth == 0 || !(k - g).is_finite() || (k - g).abs() <= tol.max(1e-13 * k.abs()) {
-        return k;
-    }
-    integrate(f, a, c, 0.5 * tol, depth - 1) + integrate(f, c, b, 0.5 * tol, depth - 1)
-}
-
-/// The edge point on [from, to] (where the path length is monotone) at which it equals `target`.
-fn invert_path(g: &WedgeGeometry, from: f64, to: f64, target: f64) -> f64 {
-    let (mut lo, mut hi) = (from, to);
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if g.path(mid) < target {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-        if (hi - lo).abs() < 1e-13 * (1.0 + mid.abs()) {
-            break;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// The diffracted impulse response of the edge part [z1, z2], binned at `sample_rate_hz`: the
-/// onset time (the shortest path over the part, / c) and the integral of h over each bin
-/// [onset + n/fs, onset + (n + 1)/fs).
-pub fn binned_response(g: &WedgeGeometry, z1: f64, z2: f64, speed_m_s: f64, sample_rate_hz: f64) -> (f64, Vec<f64>) {
-    let z_min = g.apex().clamp(z1, z2);
-    let l0 = g.path(z_min);
-    let step = speed_m_s / sample_rate_hz;
-    let l_end = g.path(z1).max(g.path(z2));
-    let n_bins = ((l_end - l0) / step).ceil().max(1.0) as usize;
-    let mut bins = vec![0.0; n_bins];
-    let scale = g.nu / (4.0 * PI) / (g.r_s * g.r_r).max(1e-12);
-    let f = |z: f64| g.integrand(z);
-    for (end, sign) in [(z2, 1.0), (z1, -1.0)] {
-        if (end - z_min) * sign <= 0.0 {
-            continue;
-        }
-        let l_side = g.path(end);
-        let mut z_prev = z_min;
-        for (n, bin) in bins.iter_mut().enumerate() {
-            let target = l0 + (n + 1) as f64 * step;
-            let z_next = if target >= l_side { end } else { invert_path(g, z_prev, end, target) };
-            let (a, b) = if sign > 0.0 { (z_prev, z_next) } else { (z_next, z_prev) };
-            let tol = 1e-10 * scale * (b - a).max(1e-6);
-            *bin += integrate(&f, a, b, tol, 30);
-            z_prev = z_next;
-            if z_next == end {
-                break;
-            }
-        }
-    }
-    (l0 / speed_m_s, bins)
-}
-
-/// H(f) of a binned response at each of `freqs_hz`: Σ bin · e^(−j2πf t_n) over the bins'
-/// centres, divided by sinc(f / fs) (a bin is the response smoothed by a one-sample box).
-pub fn spectrum(onset_s: f64, bins: &[f64], sample_rate_hz: f64, freqs_hz: &[f64]) -> Vec<Complex64> {
-    freqs_hz
-        .iter()
-        .map(|&f| {
-            let w = Complex64::from_polar(1.0, -2.0 * PI * f / sample_rate_hz);
-            let mut phase = Complex64::from_polar(1.0, -2.0 * PI * f * (onset_s + 0.5 / sample_rate_hz));
-            let mut sum = Complex64::new(0.0, 0.0);
-            for &b in bins {
-                sum += phase * b;
-                phase *= w;
-            }
-            let x = PI * f / sample_rate_hz;
-            sum / (x.sin() / x)
-        })
-        .collect()
-}
-
-/// The frequencies of each band at which energies are averaged: midpoints of equal parts.
-pub fn band_frequencies(ctx_edges: &[(f64, f64)]) -> Vec<f64> {
-    let n = FREQUENCIES_PER_BAND;
-    ctx_edges.iter().flat_map(|&(lo, hi)| (0..n).map(move |k| lo + (k as f64 + 0.5) * (hi - lo) / n as f64)).collect()
-}
-
-/// The internal sample rate of the binned responses: 16 samples a period of the highest band's
-/// top edge, at least 48 kHz.
-pub fn internal_rate_hz(band_edges: &[(f64, f64)]) -> f64 {
-    band_edges.iter().map(|e| e.1).fold(0.0, f64::max).mul_add(16.0, 0.0).max(48_000.0)
-}
 
 /// Whether the segment from `p` to `q` is free.
 fn free(ctx: &Context, p: DVec3, q: DVec3) -> bool {
@@ -285,7 +89,18 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
             if !inside(cs) || !inside(cr) {
                 continue;
             }
-            let g = WedgeGeometry::new(w.open_angle_rad, cs, cr);
+            let mut g = WedgeGeometry::new(w.open_angle_rad, cs, cr);
+            // The geometric arrivals this edge bounds: the emitter's own and its images in the
+            // edge's faces; their presence settles a receiver that lies on a zone boundary.
+            let group: Vec<usize> = (0..n_specular)
+                .filter(|&i| {
+                    let a = &out.arrivals[i];
+                    a.image == e || w.planes.iter().any(|&p| tree.nodes[a.image as usize].parent == e && tree.nodes[a.image as usize].plane == p && a.image != 0)
+                })
+                .collect();
+            let heard = |plane: u32| group.iter().any(|&i| out.arrivals[i].image != e && tree.nodes[out.arrivals[i].image as usize].plane == plane);
+            let direct = group.iter().any(|&i| out.arrivals[i].image == e);
+            g.settle_on_side(ctx.epsilon_m / cr.0, direct, [heard(w.planes[0]), heard(w.planes[1])]);
             if g.path(g.apex().clamp(0.0, w.length_m())) > max_path {
                 continue;
             }
@@ -314,11 +129,19 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
             }
             // The response of the visible parts, and its onset point.
             let mut h = vec![Complex64::new(0.0, 0.0); freqs.len()];
+            let mut stand_in = vec![vec![Complex64::new(0.0, 0.0); freqs.len()]; 3];
             let (mut onset, mut apex_z) = (f64::INFINITY, 0.0);
             for &(z1, z2) in &runs {
-                let (t0, bins) = binned_response(&g, z1, z2, c, fs);
-                for (acc, x) in h.iter_mut().zip(spectrum(t0, &bins, fs, &freqs)) {
+                let response = binned_response(&g, z1, z2, c, fs);
+                out.integrand_calls += response.integrand_calls;
+                let t0 = response.onset_s;
+                for (acc, x) in h.iter_mut().zip(spectrum(&response, fs, &freqs)) {
                     *acc += x;
+                }
+                for (wave, acc) in stand_in.iter_mut().enumerate() {
+                    for (a, x) in acc.iter_mut().zip(stand_in_spectrum(&response, wave, &freqs)) {
+                        *a += x;
+                    }
                 }
                 if t0 < onset {
                     onset = t0;
@@ -350,15 +173,19 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
                 amp2[b] *= (-set.air_attenuation_per_m[b] * apex_path).exp();
             }
             // Band energies and cross terms with the geometric arrivals this edge bounds.
-            let group: Vec<usize> = (0..n_specular)
-                .filter(|&i| {
-                    let a = &out.arrivals[i];
-                    a.image == e || w.planes.iter().any(|&p| tree.nodes[a.image as usize].parent == e && tree.nodes[a.image as usize].plane == p && a.image != 0)
-                })
-                .collect();
             let n = FREQUENCIES_PER_BAND;
             let mut energy = vec![0.0; nb];
             let mut cross = vec![vec![0.0; nb]; group.len()];
+            // Each geometric wave crosses the whole diffracted wave less the closed-form parts
+            // that stand in for the other waves of the group near their boundaries (see
+            // `crossed_waves`).
+            let crossed: Vec<Vec<Complex64>> = group
+                .iter()
+                .map(|&i| {
+                    let own = crossed_waves(out.arrivals[i].image == e, tree.nodes[out.arrivals[i].image as usize].plane, w.planes);
+                    (0..freqs.len()).map(|k| h[k] - (0..3).filter(|&v| !own[v]).map(|v| stand_in[v][k]).sum::<Complex64>()).collect()
+                })
+                .collect();
             for b in 0..nb {
                 let hb = &h[b * n..(b + 1) * n];
                 energy[b] = amp2[b] * hb.iter().map(|x| x.norm_sqr()).sum::<f64>() / n as f64;
@@ -366,7 +193,7 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
                     let eg = out.energy[i * nb + b];
                     let tg = out.arrivals[i].time_s;
                     let mut sum = 0.0;
-                    for (k, x) in hb.iter().enumerate() {
+                    for (k, x) in crossed[gi][b * n..(b + 1) * n].iter().enumerate() {
                         let geo = Complex64::from_polar(eg.sqrt(), -2.0 * PI * freqs[b * n + k] * tg);
                         sum += 2.0 * (geo * (x * amp2[b].sqrt()).conj()).re;
                     }
@@ -394,6 +221,25 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
             };
             out.push(a, &energy);
         }
+    }
+}
+
+/// Which of the edge's three geometric waves (the emitter's own, its images in the reference
+/// and in the other face) a group member is: its own or its image in `plane`.
+///
+/// Why the cross terms leave out the other waves' stand-ins: at the boundary of wave r the
+/// diffracted wave jumps by r's amplitude (a half of it either way, carried by the closed-form
+/// near-apex part of r's β term), which keeps |G_r + D|² continuous when G_r crosses the whole
+/// of D. A second wave G_d crossing that jump would jump by 2 Re(G_d G_r*): in the exact field
+/// that is cancelled by the interference of the two geometric waves, which an energy model of
+/// arrivals does not carry. So G_d crosses D less r's stand-in, which is continuous across r's
+/// boundary; what is lost is half the interference of G_d and G_r near that boundary, the same
+/// kind of term the energy model drops everywhere else.
+fn crossed_waves(own: bool, plane: u32, planes: [u32; 2]) -> [bool; 3] {
+    if own {
+        [true, false, false]
+    } else {
+        [false, plane == planes[0], plane == planes[1]]
     }
 }
 

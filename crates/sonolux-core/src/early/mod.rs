@@ -19,6 +19,7 @@
 //! `power_w / (4π d²)` per unit area (or its mean over the receiver's sphere when
 //! `receiver_radius_m > 0`, so that early arrivals and particles measure the same thing).
 
+pub mod btm;
 pub mod diffraction;
 pub mod edges;
 pub mod image_sources;
@@ -161,6 +162,8 @@ pub struct EarlyStats {
     pub paths_checked: usize,
     pub specular_arrivals: usize,
     pub diffracted_arrivals: usize,
+    /// Calls of the edge-diffraction integrand (bounded per edge part, see [`btm`]).
+    pub integrand_calls: u64,
 }
 
 /// The early arrivals of every (source, receiver), sorted by source, receiver, then time.
@@ -262,7 +265,7 @@ pub fn early_arrivals(
     let pairs: Vec<(usize, usize)> = (0..sources.len()).flat_map(|s| (0..receivers.len()).map(move |r| (s, r))).collect();
     // Each (source, receiver) is computed alone and the results are concatenated in order: the
     // same bits for any thread count.
-    let per_pair: Vec<(Vec<Arrival>, Vec<f64>, usize)> = pool.install(|| {
+    let per_pair: Vec<(Vec<Arrival>, Vec<f64>, usize, u64)> = pool.install(|| {
         pairs
             .par_iter()
             .with_min_len(1)
@@ -272,9 +275,9 @@ pub fn early_arrivals(
                     diffraction::add_arrivals(&ctx, &trees[s], &wedges, s, r, receivers[r], &mut out);
                 }
                 out.sort();
-                let checked = out.checked;
+                let (checked, calls) = (out.checked, out.integrand_calls);
                 let (arrivals, energy) = out.into_parts();
-                (arrivals, energy, checked)
+                (arrivals, energy, checked, calls)
             })
             .collect()
     });
@@ -282,8 +285,9 @@ pub fn early_arrivals(
     result.stats.planes = planes.planes.len();
     result.stats.wedges = wedges.len();
     result.stats.image_sources = trees.iter().map(|t| t.nodes.len()).sum();
-    for (a, e, checked) in per_pair {
+    for (a, e, checked, calls) in per_pair {
         result.stats.paths_checked += checked;
+        result.stats.integrand_calls += calls;
         for x in &a {
             match x.kind {
                 ArrivalKind::Specular { .. } => result.stats.specular_arrivals += 1,
@@ -303,11 +307,12 @@ pub(crate) struct PairArrivals {
     pub energy: Vec<f64>,
     /// Paths checked against the BVH.
     pub checked: usize,
+    pub integrand_calls: u64,
 }
 
 impl PairArrivals {
     pub fn new(n_bands: usize) -> PairArrivals {
-        PairArrivals { n_bands, arrivals: Vec::new(), energy: Vec::new(), checked: 0 }
+        PairArrivals { n_bands, arrivals: Vec::new(), energy: Vec::new(), checked: 0, integrand_calls: 0 }
     }
 
     pub fn push(&mut self, a: Arrival, energy: &[f64]) {
