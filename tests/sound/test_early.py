@@ -179,6 +179,53 @@ def test_hybrid_ranges_merge_to_the_same_bits_and_survive_the_file(tmp_path):
     assert np.all(whole.omni_energy(0)[:, k] >= whole.early["energy"][0] * (1 - 1e-6))
 
 
+class Stop(Exception):
+    """Stands for a kill."""
+
+
+def test_a_checkpointed_hybrid_resumed_after_a_kill_has_the_bits_and_arrivals_of_one_bake(
+        tmp_path):
+    """The command line's default path (ranges with a checkpoint): the arrivals that the range
+    from ray 0 computes are kept by the checkpoint and added once to the whole sum."""
+    from sonolux.range_bake import bake_ranges
+    from sonolux.sound.ranges import SoundRanges
+
+    sc = scene(scattering=(0.3, 0.3), early={"max_order": 2, "transition_ms": 30}, radius=0.3)
+    options = sonolux.SoundOptions(rays=4000, air_absorption=False, max_time_s=0.2)
+    whole = bake(sc, options)
+    side = tmp_path / "h.h5.checkpoint"
+
+    def kill_after_two_ranges(done, total, elapsed):
+        if done >= 2000:
+            raise Stop
+        return True
+
+    with pytest.raises(Stop):
+        bake_ranges(SoundRanges(sc, options), checkpoint=side, checkpoint_every_s=0,
+                    range_rays=1000, progress=kill_after_two_ranges)
+    again, _ = bake_ranges(SoundRanges(sc, options), checkpoint=side, resume=True,
+                           checkpoint_every_s=0, range_rays=1000)
+    np.testing.assert_array_equal(np.asarray(again.energy), np.asarray(whole.energy))
+    for k, v in whole.early.items():
+        np.testing.assert_array_equal(again.early[k], v)
+
+
+def test_a_progressive_hybrid_holds_its_arrivals():
+    from sonolux.sound import progressive
+
+    sc = scene(scattering=(0.3, 0.3), early={"max_order": 2, "transition_ms": 30}, radius=0.3)
+    field, _ = progressive.bake(sc, sonolux.SoundOptions(air_absorption=False, max_time_s=0.2),
+                                progressive.Accuracy(5.0))
+    n = field.settings["rays"]
+    plain = bake(sc, rays=n, air_absorption=False, max_time_s=0.2)
+    for k, v in plain.early.items():
+        np.testing.assert_array_equal(field.early[k], v)
+    fs = field.sample_rate_hz
+    direct = float(np.linalg.norm(np.subtract(RECEIVER, SOURCE))) / sc.settings.speed_of_sound_m_s
+    k = int(direct * fs)
+    assert np.all(field.omni_energy(0)[:, k] >= field.early["energy"][0] * (1 - 1e-6))
+
+
 def test_hybrid_is_the_same_on_one_and_two_threads():
     # Same seed, same bits, whatever the thread count: particles, arrivals and their sum.
     fields = []
