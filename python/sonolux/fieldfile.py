@@ -164,6 +164,7 @@ def _write_array(g: Any, name: str, a: Any) -> None:
         c.attrs["early_bins"] = a.early_bins
         c.attrs["late_split"] = a.late_split
         c.attrs["envelope_split"] = a.envelope_split
+        c.attrs["reduced"] = a.envelope is not None
         if a.onset is not None:
             c.create_dataset("onset", data=a.onset, compression="gzip", shuffle=True)
         if a.envelope is not None:
@@ -192,7 +193,8 @@ def _read_array(c: Checker, g: Any, name: str) -> Any:
         return c.dataset(g, name)
     h = g[name]
     early_bins = int(h.attrs["early_bins"])
-    offset, cell = c.dataset(h, "offset"), c.dataset(h, "cell")
+    offset = c.array(f"{name}/offset", c.dataset(h, "offset"), 1, lo=0, kind="iu")
+    cell = c.array(f"{name}/cell", c.dataset(h, "cell"), 1, lo=0, kind="iu")
     early, late = c.dataset(h, "early"), c.dataset(h, "late")
     if late.ndim != 4 or offset.ndim != 1 or offset.size != late.shape[0] + 1:
         raise c.fail(name, f"has {offset.size} offsets for {late.shape[0] if late.ndim else 0} "
@@ -203,7 +205,9 @@ def _read_array(c: Checker, g: Any, name: str) -> Any:
     per = late.shape[1] * late.shape[2] * early_bins
     if cell.size and int(np.max(cell)) >= per:
         raise c.fail(name, f"has a cell index ≥ {per}, past a receiver's early cells")
-    envelope = c.dataset(h, "envelope") if "envelope" in h else None
+    reduced = bool(h.attrs.get("reduced", "envelope" in h))
+    envelope = c.array(f"{name}/envelope", c.dataset(h, "envelope"), 4, lo=0.0, kind="f") \
+        if reduced else None
     split = int(h.attrs.get("envelope_split", 1))
     if envelope is not None and (envelope.shape[:3] != late.shape[:3] or split < 1
                                  or envelope.shape[3] != -(-early_bins // split)):
@@ -212,7 +216,8 @@ def _read_array(c: Checker, g: Any, name: str) -> Any:
     late_split = int(h.attrs.get("late_split", 1))
     if late_split < 1:
         raise c.fail(name, f"has late_split = {late_split}, not a whole number ≥ 1")
-    onset = c.dataset(h, "onset") if "onset" in h else None
+    onset = c.array(f"{name}/onset", c.dataset(h, "onset"), 1, lo=0, kind="iu") \
+        if reduced else None
     if onset is not None and (onset.shape != (late.shape[0],) or onset.size
                               and (np.min(onset) < 0 or np.max(onset) >= max(early_bins, 1))):
         raise c.fail(f"{name}/onset", "is not one early sample per receiver")

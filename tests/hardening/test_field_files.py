@@ -17,7 +17,9 @@ from sonolux.fieldfile import open_field, open_light_field
 
 from .conftest import assert_usage_error, run
 
-SOUND = ["energy", "bin_start_s", "bin_width_s", "bands_hz", "receivers_m", "grid_index",
+#: The sound field is stored compact (docs/fieldfile.md, format 3): its energy is a group.
+SOUND = ["energy/late", "energy/early", "energy/cell", "energy/offset", "energy/envelope",
+         "energy/onset", "bin_start_s", "bin_width_s", "bands_hz", "receivers_m", "grid_index",
          "sources_m", "source_powers_w"]
 LIGHT = ["patch_resolution", "patch_offset", "patch_area_m2", "flux_w", "hits",
          "scene/vertices_m", "scene/triangles", "scene/material_index", "scene/rho",
@@ -27,6 +29,9 @@ DAMAGE = ["missing", "nan", "negative", "shape", "text"]
 
 def damage(path, name: str, how: str) -> None:
     with h5py.File(path, "r+") as f:
+        if isinstance(f[name], h5py.Group):  # only removed whole
+            del f[name]
+            return
         data = f[name][...]
         del f[name]
         if how == "missing":
@@ -54,6 +59,9 @@ VALID = {("sound", "receivers_m", "negative"), ("sound", "sources_m", "negative"
          ("sound", "grid_index", "missing")}
 CASES = [c for c in [("sound", n, h) for n in SOUND for h in DAMAGE]
          + [("light", n, h) for n in LIGHT for h in DAMAGE] if c not in VALID]
+
+
+CASES.append(("sound", "energy", "missing"))
 
 
 @pytest.mark.parametrize(("group", "name", "how"), CASES, ids=[f"{g}/{n}-{h}" for g, n, h in CASES])
