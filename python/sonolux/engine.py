@@ -63,7 +63,36 @@ def core() -> Any:
         raise CoreMissingError(
             f"the compiled core sonolux._core is not available ({exc}); build it with `make build`"
         ) from None
+    if not _NUMPY_API_READY:
+        _load_numpy_api(_core)
     return _core
+
+
+_NUMPY_API_READY = False
+
+
+def _load_numpy_api(module: Any) -> None:
+    """Makes the binding load numpy's C API now, with Ctrl-C and SIGTERM held back meanwhile.
+
+    The binding loads it on its first array argument, by running a little Python (numpy's
+    version check); a signal handler that raised there (the command line's does) would make
+    the binding panic instead of stopping cleanly. Held back here, a signal arrives just after,
+    in plain Python, and ends the command as any other."""
+    import signal
+    import threading
+
+    global _NUMPY_API_READY
+    held = {signal.SIGINT, signal.SIGTERM}
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held) if main else None
+    try:
+        module.partition(np.zeros((1, 4), np.float32), 4, 8, 1)
+    except Exception:  # noqa: BLE001  (only the array's conversion matters here)
+        pass
+    finally:
+        _NUMPY_API_READY = True
+        if before is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def core_available() -> bool:

@@ -97,7 +97,7 @@ def test_decay_is_continuous_across_the_crossover(both):
     hybrid, rays = both
 
     def mean_times(field):
-        e = field.energy.sum(axis=1, dtype=np.float64)
+        e = np.asarray(field.energy).sum(axis=1, dtype=np.float64)
         d = decay_times(e, field.bin_start_s, field.bin_width_s)
         return {k: np.nanmean(d[k], axis=0) for k in ("t30_s", "edt_s")}
 

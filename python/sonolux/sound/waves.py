@@ -286,11 +286,15 @@ def low_edge_gain(n_fft: int, fs: float, bands_hz: np.ndarray) -> np.ndarray:
     return np.sin(0.25 * np.pi * (x + 1.0))
 
 
-def keep_wave_bands(tracer: np.ndarray, waves: np.ndarray, wave_bands: int) -> np.ndarray:
+def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int) -> np.ndarray:
     """float32[receiver, direction, band, time]: the wave bands from the waves, the rest from
-    the tracer."""
+    the tracer (dense: a hybrid field is stored full)."""
     out = np.array(tracer, dtype=np.float32, order="C", copy=True)
-    out[:, :, :wave_bands, :] = waves[:, :, :wave_bands, :]
+    # A compact tracer field shows its late part in whole coarse bins, so its time axis may run
+    # a few bins past the waves' (past max_time_s): nothing of the waves arrives there.
+    n = min(out.shape[-1], waves.shape[-1])
+    out[:, :, :wave_bands, :n] = waves[:, :, :wave_bands, :n]
+    out[:, :, :wave_bands, n:] = 0.0
     return out
 
 
