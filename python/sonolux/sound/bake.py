@@ -29,7 +29,9 @@ from sonolux.acoustics.theory import air_energy_attenuation_per_m, sabine_t60
 from sonolux.errors import SonoluxError
 from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
+from sonolux.scene.directivity import builtin_gains
 from sonolux.scene.schema import Scene
+from sonolux.scene.sofa_directivity import sofa_gains
 from sonolux.scene.summary import theory
 from sonolux.sound import early as early_sound
 from sonolux.sound.field import SoundField
@@ -136,7 +138,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"])
-    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s)) for s in src]
+    bands_hz = np.asarray(scene.settings.bands_hz, float)
+    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, bands_hz))
+               for s in src]
     receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
                                  scene.receivers.radius_m)
     started = time.perf_counter()
@@ -190,9 +194,14 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         early=arrivals)
 
 
-def _directivity(source: Any) -> Any:
-    """The engine's directivity of a scene's source."""
+def _directivity(source: Any, bands_hz: np.ndarray) -> Any:
+    """The engine's directivity of a scene's source, tabulated for the bake's bands."""
     if source.directivity == "cone":
         return engine.Directivity.cone(tuple(float(v) for v in source.axis),
                                        float(source.cone_half_angle_deg))
-    return engine.Directivity.omni()
+    if source.directivity == "omni":
+        return engine.Directivity.omni()
+    gains = (sofa_gains(source.sofa, bands_hz) if source.directivity == "sofa"
+             else builtin_gains(source.directivity, bands_hz))
+    return engine.Directivity.pattern(np.ascontiguousarray(gains, float),
+                                      tuple(source.forward), tuple(source.up))
