@@ -40,8 +40,8 @@ import numpy as np
 from sonolux.errors import SonoluxError, close_matches
 from sonolux.light.ies import read_ies
 from sonolux.light.photometry import LUMINANCE_RGB, channel_flux_from_lumens
-from sonolux.scene.inside import IN_AIR, IN_OBSTACLE, OUTSIDE, RoomSpace
 from sonolux.scene.directivity import BUILTIN
+from sonolux.scene.inside import IN_AIR, IN_OBSTACLE, OUTSIDE, RoomSpace
 from sonolux.scene.schema import Light, Material, SoundSource, Table
 from sonolux.scene.sofa_directivity import read_sofa_directivity
 

@@ -201,6 +201,9 @@ pub fn directivity_gain(d: &Directivity, dir: DVec3) -> f64 {
     }
 }
 
+/// [`SourceGains`] that may borrow (the sources' patterns wrapped around the caller's hook).
+pub(crate) type ScopedGains<'a> = dyn Fn(usize, DVec3, &mut [f64]) + Sync + 'a;
+
 /// Everything the per-receiver work reads.
 pub(crate) struct Context<'a> {
     pub mesh: &'a Mesh,
@@ -208,7 +211,7 @@ pub(crate) struct Context<'a> {
     pub planes: &'a Planes,
     pub acoustics: &'a Acoustics,
     pub sources: &'a [SoundSource],
-    pub gains: Option<&'a (dyn Fn(usize, DVec3, &mut [f64]) + Sync + 'a)>,
+    pub gains: Option<&'a ScopedGains<'a>>,
     pub settings: &'a EarlySettings,
     /// Offset (m) that keeps a visibility ray from finding the surface it starts on.
     pub epsilon_m: f64,
@@ -254,7 +257,7 @@ pub fn early_arrivals(
         }
     };
     let patterned = sources.iter().any(|s| matches!(s.directivity, Directivity::Pattern(_)));
-    let gains: Option<&(dyn Fn(usize, DVec3, &mut [f64]) + Sync)> = if patterned { Some(&with_patterns) } else { gains };
+    let gains: Option<&ScopedGains<'_>> = if patterned { Some(&with_patterns) } else { gains };
     if let Some(i) = receivers.iter().position(|r| !r.is_finite()) {
         return Err(CoreError::invalid("receivers", format!("receiver {i} has a non-finite position {:?}", receivers[i])));
     }
