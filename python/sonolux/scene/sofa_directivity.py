@@ -101,6 +101,10 @@ def read_sofa_directivity(path: Path) -> SofaDirectivity:
     left = np.cross(up, forward)
     local = np.stack([xyz @ forward, xyz @ left, xyz @ up], axis=1)
     power = np.mean(np.abs(h) ** 2, axis=0)
+    try:  # the directions must surround the source: checked here, once, at the edge
+        sphere_interpolate(local, np.ones((len(local), 1)), local[:1])
+    except SonoluxError as exc:
+        raise bad(str(exc)) from None
     return SofaDirectivity(path, local, freqs, power)
 
 
@@ -133,8 +137,10 @@ def sphere_interpolate(directions: np.ndarray, values: np.ndarray,
     merged /= count[:, None]
     try:
         hull = ConvexHull(keys)
-    except QhullError as exc:
-        raise SonoluxError(f"the measured directions do not span the sphere ({exc})") from None
+    except QhullError:
+        raise SonoluxError("the measured directions do not surround the source (they lie on "
+                           "one plane or one side): a directivity needs directions all "
+                           "around it") from None
     if np.any(hull.equations[:, 3] > -1e-6):
         raise SonoluxError("the measured directions do not surround the source: a directivity "
                            "needs directions all around it")
