@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet "maturin>=1.9,<2" "numpy>=1.24" "scipy>=1.10" "h5py>=3.8" "trimesh>=4.0" \
-	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "dask>=2024.1" "distributed>=2024.1" "av>=12" "pytest>=8" "ruff>=0.6" \
+	    "soundfile>=0.12" "matplotlib>=3.7" "sofar>=1.1" "netCDF4>=1.6,<1.7.4" "dask>=2024.1" "distributed>=2024.1" "av>=12" "pytest>=8" "ruff>=0.6" \
 	    "mypy>=1.10" "hypothesis>=6.100"
 	touch $(STAMP)
 
@@ -78,6 +78,8 @@ bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomaco
 	$(PY) benchmarks/auralize.py
 	$(PY) benchmarks/dask_bake.py
 	$(PY) benchmarks/converge.py
+	$(PY) benchmarks/web_bundle.py
+	$(PY) benchmarks/compact_field.py
 	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
 
 validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md

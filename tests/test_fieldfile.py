@@ -53,3 +53,16 @@ def test_a_foreign_or_missing_file_is_named(tmp_path):
     (tmp_path / "x.h5").write_bytes(b"not hdf5")
     with pytest.raises(FieldFileError, match="x.h5: not an HDF5 file"):
         open_field(tmp_path / "x.h5")
+
+
+def test_the_band_kind_is_kept_and_an_octave_file_without_it_reads_as_octaves(tmp_path):
+    f = open_field(V1)  # written before third-octaves: no settings.bands
+    assert f.band_set is not None and f.band_set.kind == "octave"
+    np.testing.assert_allclose(f.synthesis_bands_hz[3], 1000.0)
+    f.settings["bands"] = "octave"
+    g = open_field(save_fields(tmp_path / "octave.h5", sound=f))
+    assert g.settings["bands"] == "octave" and g.band_set.nominal_hz == f.band_set.nominal_hz
+    f.settings["bands"] = "third-octave"  # 125, 250, ... are not neighbouring thirds
+    bad = save_fields(tmp_path / "bad.h5", sound=f)
+    with pytest.raises(FieldFileError, match="settings.bands"):
+        open_field(bad)

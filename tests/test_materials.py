@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from sonolux.acoustics.bands import band_set_of
 from sonolux.errors import SceneError
 from sonolux.scene import materials
 from tests.conftest import DATA
@@ -52,3 +53,28 @@ def test_bad_library_files(tmp_path):
     with pytest.raises(SceneError) as info:
         materials.load_library(tmp_path / "c.json")
     assert info.value.line == 3
+
+
+def test_a_library_entry_may_give_its_own_third_octave_bands(tmp_path):
+    thirds = [100, 125, 160, 200, 250, 315]
+    data = {"schema": "sonolux-materials/1",
+            "bands_hz": [63, 125, 250, 500, 1000, 2000, 4000, 8000],
+            "materials": {"panel": {"bands_hz": thirds,
+                                    "absorption": [0.1, 0.2, 0.6, 0.3, 0.3, 0.9],
+                                    "scattering": 0.2, "diffuse_rgb": [0.5, 0.5, 0.5]}}}
+    path = tmp_path / "lib.json"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    panel = materials.load_library(path).get("panel")
+    assert panel.absorption_bands.kind == "third-octave" and panel.absorption.shape == (6,)
+    np.testing.assert_allclose(panel.absorption_in(band_set_of([125, 250])), [0.3, 0.5],
+                               rtol=1e-15)
+    data["materials"]["panel"]["absorption"] = [0.1] * 5
+    path.write_text(json.dumps(data), encoding="utf-8")
+    with pytest.raises(SceneError, match=r"materials\.panel\.absorption .*list of 6"):
+        materials.load_library(path)
+
+
+def test_every_library_entry_says_how_it_becomes_thirds():
+    shipped = json.loads(materials.DEFAULT_PATH.read_text(encoding="utf-8"))["materials"]
+    for name, entry in shipped.items():
+        assert "third_octaves" in entry["source"], name

@@ -126,6 +126,7 @@ class SoundSettings:
         elevation_bands: int,
         max_field_bytes: int,
         keep_counts: bool = False,
+        first_receiver: int = 0,
     ) -> SoundSettings: ...
 
 def trace_sound(

@@ -16,8 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.acoustics.bands import KINDS, is_contiguous_run
 from sonolux.errors import FieldFileError, MemoryLimitError
 from sonolux.memory import check_memory
+from sonolux.sound.compact import CompactArray
 
 
 class Checker:
@@ -90,12 +92,18 @@ def check_sound(path: str, a: dict[str, Any]) -> None:
         if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
             raise c.fail(f"settings.{key}", f"= {v!r} is not a whole number ≥ 1")
     n_dir = s["azimuth_bands"] * s["elevation_bands"]
-    e = c.array("energy", a["energy"], 4, lo=0.0, kind="f")
+    e = _field_array(c, "energy", a["energy"], "f")
     n_r, _, n_b, n_t = e.shape
-    c.array("energy", e, 4, shape=(None, n_dir, None, None))
+    if e.shape[1] != n_dir:
+        raise c.fail("energy", f"has shape {e.shape}: axis 1 should be {n_dir}")
     c.array("bin_start_s", a["bin_start_s"], 1, lo=0.0, shape=(n_t,))
     c.array("bin_width_s", a["bin_width_s"], 1, positive=True, shape=(n_t,))
-    c.array("bands_hz", a["bands_hz"], 1, positive=True, shape=(n_b,))
+    bands = c.array("bands_hz", a["bands_hz"], 1, positive=True, shape=(n_b,))
+    kind = s.get("bands")
+    if kind is not None and not (kind in KINDS and is_contiguous_run(bands.tolist(), kind)):
+        raise c.fail("settings.bands", f"= {kind!r} does not describe bands_hz "
+                     f"{bands.tolist()}: \"octave\" or \"third-octave\" with a contiguous run "
+                     "of that kind's centres")
     c.array("receivers_m", a["positions_m"], 2, shape=(n_r, 3))
     c.number("radius_m", a["radius_m"], positive=True)
     if a["grid_index"] is not None:
@@ -105,8 +113,20 @@ def check_sound(path: str, a: dict[str, Any]) -> None:
     src = c.array("sources_m", a["source_positions_m"], 2, shape=(None, 3))
     c.array("source_powers_w", a["source_powers_w"], 1, lo=0.0, shape=(src.shape[0],))
     if a["counts"] is not None:
-        c.array("counts", a["counts"], 4, lo=0, shape=e.shape)
+        counts = _field_array(c, "counts", a["counts"], "iu")
+        if counts.shape != e.shape:
+            raise c.fail("counts", f"has shape {counts.shape}, not the energy's {e.shape}")
     c.number("quantum", a["quantum"], nan_ok=False)
+
+
+def _field_array(c: Checker, name: str, a: Any, kind: str) -> Any:
+    """A [receiver, direction, band, time] array, dense or compact (its stored parts checked,
+    never made dense): numbers of ``kind``, finite, ≥ 0."""
+    if isinstance(a, CompactArray):
+        c.array(f"{name}/late", a.late, 4, lo=0, kind=kind)
+        c.array(f"{name}/early", a.value, 1, lo=0, kind=kind)
+        return a
+    return c.array(name, a, 4, lo=0, kind=kind)
 
 
 def check_light(path: str, a: dict[str, Any], n_lights: int) -> None:

@@ -63,11 +63,12 @@ from sonolux.fieldcheck import Checker, check_light, check_sound
 from sonolux.light.field import LightField
 from sonolux.light.workplane import WorkplaneResult
 from sonolux.outputs import atomic_output
+from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField
 
-SCHEMA = "sonolux-field/2"
-#: Schemas this version reads: the current one and the one before it.
-READABLE = (SCHEMA, "sonolux-field/1")
+SCHEMA = "sonolux-field/3"
+#: Schemas this version reads: the current one and the two before it.
+READABLE = (SCHEMA, "sonolux-field/2", "sonolux-field/1")
 LIGHT_SCENE_ARRAYS = ("vertices_m", "triangles", "material_index", "rho", "specular",
                       "roughness", "emitted_radiance")
 
@@ -123,10 +124,7 @@ def _write_sound(f: Any, field: SoundField) -> None:
     g.attrs["radius_m"] = field.radius_m
     g.attrs["grid_spacing_m"] = field.grid_spacing_m if field.grid_spacing_m else np.nan
     g.attrs["quantum"] = field.quantum
-    e = field.energy
-    per_receiver = (1, *e.shape[1:]) if e.shape[0] and e.size else None
-    g.create_dataset("energy", data=e, compression="gzip", compression_opts=4, shuffle=True,
-                     chunks=per_receiver)
+    _write_array(g, "energy", field.energy)
     g["bin_start_s"] = field.bin_start_s
     g["bin_width_s"] = field.bin_width_s
     g["bands_hz"] = field.bands_hz
@@ -137,12 +135,76 @@ def _write_sound(f: Any, field: SoundField) -> None:
     g["sources_m"] = field.source_positions_m
     g["source_powers_w"] = field.source_powers_w
     if field.counts is not None:
-        g.create_dataset("counts", data=field.counts, compression="gzip", shuffle=True,
-                         chunks=per_receiver)
+        _write_array(g, "counts", field.counts)
     if field.early is not None:
         early = g.create_group("early")
         for name, values in field.early.items():
             early.create_dataset(name, data=values, compression="gzip", shuffle=True)
+
+
+def _write_array(g: Any, name: str, a: Any) -> None:
+    """A [receiver, direction, band, time] array: a dataset when dense; a group when compact
+    (``early_bins`` attr; ``offset``, ``cell``, ``early``, ``late``: docs/fieldfile.md)."""
+    if isinstance(a, CompactArray):
+        c = g.create_group(name)
+        c.attrs["early_bins"] = a.early_bins
+        c.attrs["late_split"] = a.late_split
+        c.attrs["envelope_split"] = a.envelope_split
+        if a.onset is not None:
+            c.create_dataset("onset", data=a.onset, compression="gzip", shuffle=True)
+        if a.envelope is not None:
+            env = a.envelope
+            c.create_dataset("envelope", data=env, compression="gzip", compression_opts=4,
+                             shuffle=True, chunks=(1, *env.shape[1:]) if env.size else None)
+        c.create_dataset("offset", data=a.offset, compression="gzip", shuffle=True)
+        for key, data in (("cell", a.cell), ("early", a.value)):
+            c.create_dataset(key, data=data, compression="gzip", compression_opts=4,
+                             shuffle=True, chunks=(min(max(data.size, 1), 65536),))
+        late = a.late
+        chunks = (1, *late.shape[1:]) if late.shape[0] and late.size else None
+        c.create_dataset("late", data=late, compression="gzip", compression_opts=4,
+                         shuffle=True, chunks=chunks)
+        return
+    per_receiver = (1, *a.shape[1:]) if a.shape[0] and a.size else None
+    g.create_dataset(name, data=a, compression="gzip", compression_opts=4, shuffle=True,
+                     chunks=per_receiver)
+
+
+def _read_array(c: Checker, g: Any, name: str) -> Any:
+    """What :func:`_write_array` wrote, checked for consistency."""
+    import h5py
+
+    if not isinstance(g.get(name), h5py.Group):
+        return c.dataset(g, name)
+    h = g[name]
+    early_bins = int(h.attrs["early_bins"])
+    offset, cell = c.dataset(h, "offset"), c.dataset(h, "cell")
+    early, late = c.dataset(h, "early"), c.dataset(h, "late")
+    if late.ndim != 4 or offset.ndim != 1 or offset.size != late.shape[0] + 1:
+        raise c.fail(name, f"has {offset.size} offsets for {late.shape[0] if late.ndim else 0} "
+                           "receivers (one more than receivers expected)")
+    if offset[0] != 0 or np.any(np.diff(offset) < 0) or offset[-1] != cell.size \
+            or cell.size != early.size:
+        raise c.fail(name, "has offsets that do not match its cells")
+    per = late.shape[1] * late.shape[2] * early_bins
+    if cell.size and int(np.max(cell)) >= per:
+        raise c.fail(name, f"has a cell index ≥ {per}, past a receiver's early cells")
+    envelope = c.dataset(h, "envelope") if "envelope" in h else None
+    split = int(h.attrs.get("envelope_split", 1))
+    if envelope is not None and (envelope.shape[:3] != late.shape[:3] or split < 1
+                                 or envelope.shape[3] != -(-early_bins // split)):
+        raise c.fail(f"{name}/envelope", f"has shape {envelope.shape}, not that of "
+                                         f"{early_bins} early bins in bins of {split}")
+    late_split = int(h.attrs.get("late_split", 1))
+    if late_split < 1:
+        raise c.fail(name, f"has late_split = {late_split}, not a whole number ≥ 1")
+    onset = c.dataset(h, "onset") if "onset" in h else None
+    if onset is not None and (onset.shape != (late.shape[0],) or onset.size
+                              and (np.min(onset) < 0 or np.max(onset) >= max(early_bins, 1))):
+        raise c.fail(f"{name}/onset", "is not one early sample per receiver")
+    return CompactArray(early_bins, offset.astype(np.int64), cell.astype(np.uint32), early, late,
+                        late_split, envelope, split,
+                        None if onset is None else onset.astype(np.int64))
 
 
 def _write_light(f: Any, field: LightField) -> None:
@@ -245,12 +307,12 @@ def _read_sound(f: Any, path: str) -> SoundField:
     c = Checker(path, "sound")
     try:
         spacing = float(g.attrs["grid_spacing_m"])
-        counts = c.dataset(g, "counts") if "counts" in g else None
+        counts = _read_array(c, g, "counts") if "counts" in g else None
         if counts is not None and f.attrs["schema"] == "sonolux-field/1":
             counts = np.ascontiguousarray(counts.transpose(1, 2, 3, 0))  # was [time, r, d, b]
         theory = g.attrs.get("theory")
         arrays = dict(
-            energy=c.dataset(g, "energy"), bin_start_s=c.dataset(g, "bin_start_s"),
+            energy=_read_array(c, g, "energy"), bin_start_s=c.dataset(g, "bin_start_s"),
             bin_width_s=c.dataset(g, "bin_width_s"), bands_hz=c.dataset(g, "bands_hz"),
             positions_m=c.dataset(g, "receivers_m"), radius_m=float(g.attrs["radius_m"]),
             grid_index=c.dataset(g, "grid_index") if "grid_index" in g else None,

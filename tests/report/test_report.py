@@ -165,3 +165,18 @@ def test_undefined_values_show_their_reason_on_hover(tmp_path):
     assert areas and all("undefined at #" in a[-1] for a in areas)
     assert all(int(x0) < int(x1) and int(y0) < int(y1) for x0, y0, x1, y1, _ in areas)
     check_self_contained(index)
+
+
+def test_a_third_octave_field_reports_thirds_octaves_summed_from_them_and_sti(tmp_path):
+    # 21 thirds, 100 Hz … 10 kHz: the table has a column per third, a second table the octaves
+    # 125 Hz … 8 kHz summed from them, and STI (which needs those octaves) is reported.
+    thirds = (100, 125, 160, 200, 250, 315, 400, 500, 630, 800, 1000, 1250, 1600, 2000, 2500,
+              3150, 4000, 5000, 6300, 8000, 10000)
+    field, _, _ = decaying_grid((0.6, 1.3, 2.0), duration_s=2.5, bands=len(thirds))
+    field.bands_hz = np.asarray(thirds, float)
+    field.settings["bands"] = "third-octave"
+    path = save_fields(tmp_path / "thirds.h5", sound=field)
+    page = build_report([path], tmp_path / "report").read_text(encoding="utf-8")
+    assert "<th>10000 Hz</th>" in page and "<th>6300 Hz</th>" in page
+    assert "The same in octaves, summed from the thirds" in page
+    assert "STI over the receivers: mean" in page

@@ -252,3 +252,30 @@ def test_missing_scene_file(tmp_path):
 def test_not_a_scene():
     with pytest.raises(SceneError, match="a scene is a path"):
         load_scene(42)
+
+
+@pytest.mark.parametrize(("settings", "key", "allowed"), [
+    ({"bands": "thirds"}, "settings.bands", 'one of "octave", "third-octave"'),
+    ({"bands": [125, 200]}, "settings.bands", "contiguous run of the octave centres"),
+    ({"bands": "octave", "bands_hz": [100, 125]}, "settings.bands_hz",
+     "contiguous run of the octave centres"),
+    ({"bands": [125, 250], "bands_hz": [125, 250]}, "settings.bands_hz", "nothing when bands"),
+    ({"bands": "third-octave", "band_range_hz": [100, 90]}, "settings.band_range_hz",
+     "two third-octave centres"),
+    ({"bands": "third-octave", "band_range_hz": [100, 20000], "sample_rate_hz": 32000},
+     "settings.band_range_hz", "below the Nyquist frequency 16000 Hz"),
+])
+def test_band_settings_are_validated(library, settings, key, allowed):
+    err = error_of({"settings": settings, "geometry": []}, library)
+    assert err.key == key and allowed in err.allowed, str(err)
+
+
+def test_material_bands_are_validated(library):
+    scene = {"materials": {"m": {"bands_hz": [100, 125, 150], "absorption": 0.5}},
+             "geometry": []}
+    err = error_of(scene, library)
+    assert err.key == "materials.m.bands_hz" and "third-octave centres" in err.allowed
+    scene = {"materials": {"m": {"bands_hz": [100, 125, 160], "absorption": [0.5, 0.5]}},
+             "geometry": []}
+    err = error_of(scene, library)
+    assert err.key == "materials.m.absorption" and "list of 3 such numbers" in err.allowed

@@ -138,13 +138,15 @@ def test_shoebox_face_materials_walls_and_default(library):
 def test_settings_defaults_and_derived_values(library):
     scene = load_scene(tomllib.loads(ROOM), library=library)
     s = scene.settings
-    assert s.bands_hz == (125, 250, 500, 1000, 2000, 4000) and s.band_indices == (1, 2, 3, 4, 5, 6)
+    assert s.bands_hz == (125, 250, 500, 1000, 2000, 4000) and s.bands == "octave"
+    assert s.band_set.n_bands == 6
     assert s.sample_rate_hz == 48000 and s.energy_drop_db == 60 and s.seed == 1
     assert s.speed_of_sound_m_s == pytest.approx(343.21, abs=0.01)
     data = tomllib.loads(ROOM)
     data["settings"] = {"bands_hz": [63, 125], "air": {"temperature_c": 0}}
     s = load_scene(data, library=library).settings
-    assert s.band_indices == (0, 1) and s.speed_of_sound_m_s == pytest.approx(331.3)
+    assert s.bands_hz == (63, 125) and s.bands == "octave"
+    assert s.speed_of_sound_m_s == pytest.approx(331.3)
 
 
 def test_material_override_base_and_new(library):
@@ -342,3 +344,34 @@ def test_a_geometry_beyond_the_coordinate_limit_is_named(size_m, library):
         load_scene({"geometry": [{"type": "shoebox", "size_m": size_m,
                                   "materials": {"default": "concrete-painted"}}]},
                    library=library)
+
+
+def test_band_settings_choose_octaves_or_thirds(library):
+    data = tomllib.loads(ROOM)
+    data["settings"] = {"bands": "third-octave"}
+    s = load_scene(data, library=library).settings
+    assert s.bands == "third-octave" and s.bands_hz[0] == 100 and s.bands_hz[-1] == 5000
+    data["settings"] = {"bands": "third-octave", "band_range_hz": [25, 20000]}
+    assert load_scene(data, library=library).settings.band_set.n_bands == 30
+    data["settings"] = {"band_range_hz": [31.5, 16000]}
+    assert load_scene(data, library=library).settings.bands_hz[0] == 31.5
+    data["settings"] = {"bands": [1000, 1250, 1600]}
+    assert load_scene(data, library=library).settings.bands == "third-octave"
+    data["settings"] = {"bands": "octave"}
+    assert load_scene(data, library=library).settings.bands_hz == (125, 250, 500, 1000, 2000,
+                                                                    4000)
+
+
+def test_materials_in_thirds_convert_to_the_scene_bands(library):
+    data = tomllib.loads(ROOM)
+    thirds = [100, 125, 160, 200, 250, 315]
+    data["materials"] = {"panel": {"bands_hz": thirds,
+                                   "absorption": [0.1, 0.2, 0.6, 0.3, 0.3, 0.9]}}
+    data["geometry"][0]["materials"] = {"default": "panel"}
+    data["settings"] = {"bands_hz": [125, 250]}
+    scene = load_scene(data, library=library)
+    (panel,) = scene.materials
+    np.testing.assert_allclose(panel.absorption_in(scene.settings.band_set), [0.3, 0.5],
+                               rtol=1e-15)
+    # Its scattering (not given) is the new-material default on the same thirds.
+    np.testing.assert_array_equal(panel.scattering_in(scene.settings.band_set), 0.1)

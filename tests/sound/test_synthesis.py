@@ -10,6 +10,7 @@ import pytest
 from scipy import fft as sfft
 from scipy import stats
 
+from sonolux.acoustics.bands import NOMINAL_HZ, THIRD_OCTAVE, BandSet
 from sonolux.errors import SonoluxError
 from sonolux.sound.synthesis import (
     band_split_weights,
@@ -133,6 +134,26 @@ def test_equal_bands_give_the_histograms_bin_energies():
     energy, start, width = decay(np.ones(6))
     p = pressure_ir(energy, start, width, OCTAVES, FS, 200.0, C, seed=1)
     assert p.size == round((start[-1] + width[-1]) * FS)
+    np.testing.assert_allclose(bin_energy(p, start, width), energy[0], rtol=1e-9, atol=1e-30)
+
+
+def test_third_octave_bank_sums_to_flat_and_crosses_at_the_iec_edges():
+    # All 30 IEC 61260-1 thirds (25 Hz … 20 kHz) on their exact mid-band frequencies, as a
+    # third-octave field synthesises: the bank telescopes to one (rounding only: 1e-12), and
+    # each crossover (both neighbours at 1/2) is the geometric mean of the two exact centres,
+    # the IEC band edge f_m · 10^(0.05), within the 1 Hz grid.
+    thirds = BandSet(THIRD_OCTAVE, NOMINAL_HZ[THIRD_OCTAVE])
+    w = band_split_weights(FS, FS, thirds.exact_hz)
+    assert np.max(np.abs(w.sum(axis=0) - 1.0)) <= 1e-12
+    f = np.arange(w.shape[1], dtype=float)
+    for b in range(8, thirds.n_bands - 1):  # above 160 Hz a third spans > 35 grid points
+        lo, hi = thirds.exact_hz[b], thirds.exact_hz[b + 1]
+        inside = (f > lo) & (f < hi)
+        cross = f[inside][np.argmin(np.abs(w[b, inside] - w[b + 1, inside]))]
+        assert abs(cross - thirds.edges_hz[b, 1]) <= 1.0
+    # A histogram equal in every third comes out with its bin energies, as for octaves.
+    energy, start, width = decay(np.ones(thirds.n_bands))
+    p = pressure_ir(energy, start, width, thirds.exact_hz, FS, 200.0, C, seed=1)
     np.testing.assert_allclose(bin_energy(p, start, width), energy[0], rtol=1e-9, atol=1e-30)
 
 

@@ -15,7 +15,7 @@ from sonolux.errors import SonoluxError
 from sonolux.web import WebExportOptions, export_web
 from sonolux.web.bundle import direction_table
 from sonolux.web.geometry import from_gltf, plan_segments, to_gltf
-from sonolux.web.responses import cell_responses, direct_bins, pack
+from sonolux.web.responses import cell_responses, decay_end, direct_bins, pack
 
 SHORT = WebExportOptions(max_length_s=0.1)  # where the reverberation's length does not matter
 
@@ -26,13 +26,24 @@ def read(bundle):
     return index, data
 
 
+def block(index, data, cell):
+    """A cell's block as stored, inflated when the bundle is compressed (as the viewer does)."""
+    c = index["cells"][cell]
+    stored = data[c["byte_offset"]:c["byte_offset"] + c["byte_length"]]
+    assert zlib.crc32(stored) == c["crc32"]
+    if index["encoding"] == "none":
+        return stored
+    raw = zlib.decompress(stored)
+    assert len(raw) == c["raw_length"] and len(raw) % 8 == 0
+    return raw
+
+
 def response(index, data, cell, kind, d):
     """One response as float64 with its leading zeros, decoded as the viewer does."""
-    c = index["cells"][cell]
-    delay, length, offset, scale = c[kind][d]
+    delay, length, offset, scale = index["cells"][cell][kind][d]
     dtype = np.int16 if index["sample_format"] == "int16" else np.float32
-    block = np.frombuffer(data[c["byte_offset"]:c["byte_offset"] + c["byte_length"]], dtype)
-    return np.concatenate([np.zeros(delay), block[offset:offset + length] * scale])
+    words = np.frombuffer(block(index, data, cell), dtype)
+    return np.concatenate([np.zeros(delay), words[offset:offset + length] * scale])
 
 
 def test_bundle_files_and_index(sound_field, tmp_path):
@@ -40,7 +51,8 @@ def test_bundle_files_and_index(sound_field, tmp_path):
     index, data = read(tmp_path / "b")
     field = sonolux.open(sound_field)
     assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["field.json", "responses.bin", "scene.glb"]
-    assert index["format"] == "sonolux-web/1" and index["sample_rate_hz"] == 48000
+    assert index["format"] == "sonolux-web/2" and index["sample_rate_hz"] == 48000
+    assert index["encoding"] == "deflate" and index["tail_db"] == 60
     assert len(index["cells"]) == field.n_receivers == summary.cells == 15
     assert [d["name"] for d in index["directions"]] == field.direction_names
     assert index["directions"][2] == {"name": "left", "azimuth_deg": 90.0, "elevation_deg": 0.0}
@@ -51,16 +63,23 @@ def test_bundle_files_and_index(sound_field, tmp_path):
     end = 0
     for k, c in enumerate(index["cells"]):
         assert c["position_m"] == list(field.positions_m[k]) and c["grid_index"] == list(field.grid_index[k])
-        assert c["byte_offset"] == end and c["byte_offset"] % 8 == 0  # blocks follow each other
+        assert c["byte_offset"] == end  # blocks follow each other
         end += c["byte_length"]
         assert zlib.crc32(data[c["byte_offset"]:end]) == c["crc32"]
+        assert len(block(index, data, k)) == c["raw_length"] > c["byte_length"]
     assert end == len(data)
+    raw = WebExportOptions(compress=False)
+    export_web(sound_field, tmp_path / "raw", raw)
+    index_raw, data_raw = read(tmp_path / "raw")
+    assert index_raw["encoding"] == "none" and "raw_length" not in index_raw["cells"][0]
+    for k in (0, 14):  # the same blocks, compressed or not
+        assert block(index_raw, data_raw, k) == block(index, data, k)
 
 
 def test_responses_are_the_fields_impulse_responses(sound_field, tmp_path):
     """Full responses are SoundField.impulse_response with seed + cell × 8 + direction, to the
     int16 quantization (a step of peak / 32767)."""
-    export_web(sound_field, tmp_path / "b", WebExportOptions(seed=5))
+    export_web(sound_field, tmp_path / "b", WebExportOptions(seed=5, tail_db=None))
     index, data = read(tmp_path / "b")
     field = sonolux.open(sound_field)
     for cell, d in [(0, 0), (7, 3), (14, 6)]:
@@ -71,6 +90,35 @@ def test_responses_are_the_fields_impulse_responses(sound_field, tmp_path):
         assert np.max(np.abs(got - ir)) <= 0.5 * np.max(np.abs(ir)) / 32767 * 1.0001
     assert index["response_length_samples"] == max(
         field.impulse_response(r, d, seed=5 + r * 8 + d).size for r in range(15) for d in range(8))
+
+
+def test_responses_end_where_the_decay_has_died_away(sound_field, tmp_path):
+    """With tail_db, a cell's responses are the field's up to the fade, and end together where
+    the energy still to come over all directions is tail_db below the cell's whole energy."""
+    field = sonolux.open(sound_field)
+    fs = field.sample_rate_hz
+    for tail_db in (30.0, 60.0):
+        export_web(sound_field, tmp_path / "b", WebExportOptions(tail_db=tail_db, seed=2))
+        index, data = read(tmp_path / "b")
+        for cell in (0, 9):
+            whole = [field.impulse_response(cell, d, seed=2 + cell * 8 + d) for d in range(8)]
+            n = decay_end(whole, tail_db)
+            total = sum(float(np.sum(x * x)) for x in whole)
+            left = sum(float(np.sum(x[n:] ** 2)) for x in whole)
+            last = sum(float(np.sum(x[n - 1:n] ** 2)) for x in whole)  # the cell's sample n - 1
+            assert left <= total * 10 ** (-tail_db / 10) < left + last  # n is the first such sample
+            fade = int(round(0.010 * fs))
+            for d in (0, 4):
+                got = response(index, data, cell, "full", d)
+                assert got.size <= n
+                m = min(got.size, n - fade)  # before the fade: the field's response
+                peak = np.max(np.abs(whole[d]))
+                assert np.max(np.abs(got[:m] - whole[d][:m])) <= 0.5 * peak / 32767 * 1.0001
+    # Shorter for 30 dB than for the full field; the option is checked.
+    assert index["response_length_samples"] < max(x.size for x in whole)
+    for bad in (10, 500, float("nan"), "60"):
+        with pytest.raises(SonoluxError, match="tail_db"):
+            WebExportOptions(tail_db=bad).validate()
 
 
 def test_direct_only_is_the_direct_sound(sound_field, tmp_path):
@@ -199,9 +247,14 @@ def test_direction_table_with_elevation_bands():
 
 
 def test_cli_export_web(sound_field, tmp_path, capsys):
-    code = cli.main(["export", str(sound_field), "--web", str(tmp_path / "b"), "--max-length-s", "0.3"])
+    code = cli.main(["export", str(sound_field), "--web", str(tmp_path / "b"), "--max-length-s", "0.3",
+                     "--tail-db", "none", "--no-compress"])
     out, err = capsys.readouterr()
     assert code == 0, err
+    index = read(tmp_path / "b")[0]
+    assert (index["tail_db"], index["encoding"]) == (None, "none")
+    code = cli.main(["export", str(sound_field), "--web", str(tmp_path / "b"), "--tail-db", "5"])
+    assert code == 2 and "--tail-db" in capsys.readouterr().err
     assert "15 cells × 8 directions" in out and "sonolux serve" in out
     assert (tmp_path / "b" / "field.json").exists()
     with pytest.raises(SystemExit):

@@ -7,7 +7,7 @@ import { SoundEngine } from './audio/engine';
 import { DryPlayer } from './audio/player';
 import { SIGNALS, makeSignal, mono, type SignalName } from './audio/signals';
 import type { Rendering } from './audio/spatializer';
-import type { BundleIndex } from './bundle';
+import { type BundleIndex, bandsLabel } from './bundle';
 import { CellGrid } from './cells';
 import { sectionAt, sectionCaster, slide, type CastRay, type Room } from './collide';
 import { headingOf } from './coords';
@@ -86,7 +86,8 @@ export class WalkThrough {
     this.keys = new KeyboardMouse(view.canvas);
     this.touch = new TouchControls(view.container);
     this.plan = new PlanView(document.getElementById('plan') as HTMLCanvasElement, index);
-    this.panel = new Panel(document.getElementById('panel')!, `sonolux · ${index.sceneName || 'scene'}`, {
+    const bands = bandsLabel(index.bands);
+    this.panel = new Panel(document.getElementById('panel')!, `sonolux · ${index.sceneName || 'scene'}${bands ? ` · ${bands}` : ''}`, {
       toggleSound: () => void (this.audio?.player.playing ? this.stopSound() : this.startSound()),
       signal: (name) => this.playSignal(name),
       file: (f) => void this.playFile(f),

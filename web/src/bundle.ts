@@ -1,11 +1,15 @@
 /**
  * The bundle's index, field.json (written by `sonolux export FIELD --web DIR`, format
- * sonolux-web/1), read and checked: anything missing or out of range is a BundleError that
+ * sonolux-web/2; sonolux-web/1, the same without compression, still reads), read and checked: anything missing or out of range is a BundleError that
  * names the file and the field, which the page shows.
  */
 import type { Vec3 } from './coords';
 
-export const FORMAT = 'sonolux-web/1';
+export const FORMAT = 'sonolux-web/2';
+const FORMATS = ['sonolux-web/1', FORMAT];
+
+/** How a cell's block is stored in responses.bin: as is, or zlib-compressed (RFC 1950). */
+export type Encoding = 'none' | 'deflate';
 
 /** `delay` zeros, then `length` samples from `offset` (samples into the cell's block), × `scale`. */
 export interface ResponseRef {
@@ -26,7 +30,10 @@ export interface Cell {
   position: Vec3;
   gridIndex: [number, number] | null;
   byteOffset: number;
+  /** Bytes of the block as stored (what a range request fetches; the CRC-32 is of these). */
   byteLength: number;
+  /** Bytes of the block once inflated (byteLength when not compressed). */
+  rawLength: number;
   crc32: number;
   full: ResponseRef[];
   direct: ResponseRef[];
@@ -46,6 +53,7 @@ export interface BundleIndex {
   sampleRateHz: number;
   responseLengthSamples: number;
   sampleFormat: 'int16' | 'float32';
+  encoding: Encoding;
   responsesFile: string;
   responsesBytes: number;
   playbackGain: number;
@@ -58,6 +66,27 @@ export interface BundleIndex {
   boundsMax: Vec3;
   planSegments: [number, number, number, number][];
   cells: Cell[];
+  /** The field's frequency bands, as the bundle names them (none in bundles without them). */
+  bands: Bands | null;
+}
+
+/** Frequency bands of the field: their kind and nominal centres, read from field.json. */
+export interface Bands {
+  kind: 'octave' | 'third-octave';
+  centresHz: number[];
+}
+
+function hz(f: number): string {
+  return f >= 1000 ? `${+(f / 1000).toPrecision(3)} kHz` : `${+f.toPrecision(3)} Hz`;
+}
+
+/** '6 octaves, 125 Hz – 4 kHz', '18 third-octaves, 100 Hz – 5 kHz'. */
+export function bandsLabel(b: Bands | null): string {
+  if (!b || b.centresHz.length === 0) return '';
+  const n = b.centresHz.length;
+  const kind = b.kind === 'octave' ? (n === 1 ? 'octave' : 'octaves') : n === 1 ? 'third-octave' : 'third-octaves';
+  const span = n === 1 ? hz(b.centresHz[0]) : `${hz(b.centresHz[0])} – ${hz(b.centresHz[n - 1])}`;
+  return `${n} ${kind}, ${span}`;
 }
 
 export class BundleError extends Error {
@@ -118,7 +147,9 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
   const r = new Reader(file);
   const j = r.obj(raw, 'the index');
   const format = r.str(j.format, 'format');
-  if (format !== FORMAT) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMAT}`);
+  if (!FORMATS.includes(format)) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMATS.join(' and ')}`);
+  const encoding = j.encoding === undefined ? 'none' : r.str(j.encoding, 'encoding');
+  if (encoding !== 'none' && encoding !== 'deflate') r.fail('encoding', `is ${JSON.stringify(encoding)}, not "none" or "deflate"`);
   const scene = r.obj(j.scene, 'scene');
   const sampleFormat = r.str(j.sample_format, 'sample_format');
   if (sampleFormat !== 'int16' && sampleFormat !== 'float32') r.fail('sample_format', `is ${sampleFormat}`);
@@ -150,6 +181,7 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
     const byteOffset = r.int(o.byte_offset, `cells[${i}].byte_offset`);
     const byteLength = r.int(o.byte_length, `cells[${i}].byte_length`);
     if (byteOffset + byteLength > responsesBytes) r.fail(`cells[${i}]`, 'reaches past the end of responses_bytes');
+    const rawLength = encoding === 'deflate' ? r.int(o.raw_length, `cells[${i}].raw_length`) : byteLength;
     const gi = o.grid_index === null ? null : r.arr(o.grid_index, `cells[${i}].grid_index`, 2);
     return {
       index: i,
@@ -157,9 +189,10 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
       gridIndex: gi === null ? null : [r.num(gi[0], 'grid_index'), r.num(gi[1], 'grid_index')],
       byteOffset,
       byteLength,
+      rawLength,
       crc32: r.int(o.crc32, `cells[${i}].crc32`, 0, 0xffffffff),
-      full: refs(o.full, `cells[${i}].full`, byteLength),
-      direct: refs(o.direct, `cells[${i}].direct`, byteLength),
+      full: refs(o.full, `cells[${i}].full`, rawLength),
+      direct: refs(o.direct, `cells[${i}].direct`, rawLength),
     };
   });
   if (cells.length === 0) r.fail('cells', 'is empty');
@@ -174,6 +207,7 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
     sampleRateHz: r.int(j.sample_rate_hz, 'sample_rate_hz', 3000, 768000),
     responseLengthSamples: r.int(j.response_length_samples, 'response_length_samples'),
     sampleFormat: sampleFormat as 'int16' | 'float32',
+    encoding: encoding as Encoding,
     responsesFile: r.str(j.responses_file, 'responses_file'),
     responsesBytes,
     playbackGain: r.num(j.playback_gain, 'playback_gain', 0),
@@ -192,7 +226,22 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
       return [a[0], a[1], a[2], a[3]];
     }),
     cells,
+    bands: readBands(r, j.field),
   };
+}
+
+/** field.bands_hz and field.bands (the kind; octaves in bundles written before thirds). */
+function readBands(r: Reader, field: unknown): Bands | null {
+  if (field === undefined || field === null) return null;
+  const f = r.obj(field, 'field');
+  if (f.bands_hz === undefined) return null;
+  const centresHz = r.arr(f.bands_hz, 'field.bands_hz').map((v, k) => r.num(v, `field.bands_hz[${k}]`, 0));
+  for (let k = 1; k < centresHz.length; k++) {
+    if (!(centresHz[k] > centresHz[k - 1])) r.fail('field.bands_hz', 'is not increasing');
+  }
+  const kind = f.bands === undefined || f.bands === null ? 'octave' : r.str(f.bands, 'field.bands');
+  if (kind !== 'octave' && kind !== 'third-octave') r.fail('field.bands', `= ${kind} is not "octave" or "third-octave"`);
+  return { kind, centresHz };
 }
 
 /** The bundle's folder URL, always ending in '/'. */

@@ -1,7 +1,9 @@
 /**
- * The cells' responses from responses.bin: fetched one cell's block at a time (an HTTP range
- * request; a server that answers with the whole file is fine too, the file is then kept),
- * checked against the block's CRC-32, decoded to float32 and kept in a cache of bounded size.
+ * The cells' responses from responses.bin: fetched one cell's block at a time, only for the
+ * cells around the listener (an HTTP range request; a server that answers with the whole file
+ * is fine too: the file is then fetched once and kept), checked against the block's CRC-32,
+ * inflated when the bundle is compressed, decoded to float32 and kept in a cache of bounded
+ * size (least recently used cells go first).
  */
 import { BundleError, type BundleIndex, type Cell, type ResponseRef } from './bundle';
 import { crc32 } from './crc32';
@@ -26,14 +28,32 @@ export function responsesOf(c: CellResponses, mode: Mode): ImpulseResponse[] {
   return mode === 'full' ? c.full : c.direct;
 }
 
-/** Decodes one cell's block (exactly its byte_length bytes). */
-export function decodeCell(index: BundleIndex, cell: Cell, block: ArrayBuffer): CellResponses {
+/** Inflates a zlib stream (RFC 1950) with the browser's own DecompressionStream. */
+async function inflate(stored: ArrayBuffer): Promise<ArrayBuffer> {
+  const stream = new Blob([stored]).stream().pipeThrough(new DecompressionStream('deflate'));
+  return new Response(stream).arrayBuffer();
+}
+
+/** Decodes one cell's block as stored (exactly its byte_length bytes): checked, inflated when
+ * the bundle is compressed, then split into its responses. */
+export async function decodeCell(index: BundleIndex, cell: Cell, stored: ArrayBuffer): Promise<CellResponses> {
   const file = index.responsesFile;
-  if (block.byteLength !== cell.byteLength) {
-    throw new BundleError(file, `cell ${cell.index}: got ${block.byteLength} bytes, expected ${cell.byteLength}`);
+  if (stored.byteLength !== cell.byteLength) {
+    throw new BundleError(file, `cell ${cell.index}: got ${stored.byteLength} bytes, expected ${cell.byteLength}`);
   }
-  if (crc32(new Uint8Array(block)) !== cell.crc32) {
+  if (crc32(new Uint8Array(stored)) !== cell.crc32) {
     throw new BundleError(file, `cell ${cell.index}: the data is corrupt (CRC-32 does not match field.json)`);
+  }
+  let block = stored;
+  if (index.encoding === 'deflate') {
+    try {
+      block = await inflate(stored);
+    } catch (e) {
+      throw new BundleError(file, `cell ${cell.index}: could not be inflated (${(e as Error).message})`);
+    }
+    if (block.byteLength !== cell.rawLength) {
+      throw new BundleError(file, `cell ${cell.index}: inflates to ${block.byteLength} bytes, field.json says ${cell.rawLength}`);
+    }
   }
   const words = index.sampleFormat === 'int16' ? new Int16Array(block, 0, block.byteLength >> 1) : new Float32Array(block, 0, block.byteLength >> 2);
   const decode = (ref: ResponseRef): ImpulseResponse => {
@@ -51,7 +71,10 @@ export function decodeCell(index: BundleIndex, cell: Cell, block: ArrayBuffer): 
 export class ResponseStore {
   private readonly cache = new Map<number, Promise<CellResponses>>();
   private readonly done = new Map<number, CellResponses>();
-  private whole: ArrayBuffer | null = null;
+  /** The whole file, once a server has sent it instead of a range (fetched once, then kept). */
+  private whole: Promise<ArrayBuffer> | null = null;
+  /** Every range this store asked for, [first, last] bytes, in order (the tests read it). */
+  readonly requested: [number, number][] = [];
   private readonly url: string;
   /** Bytes of decoded responses kept; the least recently used cells go first. */
   budgetBytes = 256e6;
@@ -84,8 +107,8 @@ export class ResponseStore {
   load(cell: number): Promise<CellResponses> {
     let p = this.cache.get(cell);
     if (!p) {
-      p = this.fetchBlock(this.index.cells[cell]).then((block) => {
-        const c = decodeCell(this.index, this.index.cells[cell], block);
+      p = this.fetchBlock(this.index.cells[cell]).then(async (block) => {
+        const c = await decodeCell(this.index, this.index.cells[cell], block);
         this.done.set(cell, c);
         this.trim();
         return c;
@@ -106,21 +129,26 @@ export class ResponseStore {
     const first = cell.byteOffset;
     const last = cell.byteOffset + cell.byteLength - 1;
     if (cell.byteLength === 0) return new ArrayBuffer(0);
-    if (this.whole) return this.whole.slice(first, last + 1);
+    if (this.whole) return (await this.whole).slice(first, last + 1);
     let res: Response;
     try {
+      this.requested.push([first, last]);
       res = await this.fetchFn(this.url, { headers: { Range: `bytes=${first}-${last}` } });
     } catch (e) {
       throw new BundleError(file, `could not be fetched (${(e as Error).message})`);
     }
     if (res.status === 206) return res.arrayBuffer();
     if (res.status === 200) {
-      const all = await res.arrayBuffer();
-      if (all.byteLength !== this.index.responsesBytes) {
-        throw new BundleError(file, `is ${all.byteLength} bytes long, field.json says ${this.index.responsesBytes}: re-export the bundle`);
-      }
-      this.whole = all;
-      return all.slice(first, last + 1);
+      // No ranges here: keep this answer as the whole file, and let every other cell's
+      // request (those already under way too) take its slice of it.
+      this.whole ??= res.arrayBuffer().then((all) => {
+        if (all.byteLength !== this.index.responsesBytes) {
+          this.whole = null; // asked again after the pause, in case the file was being replaced
+          throw new BundleError(file, `is ${all.byteLength} bytes long, field.json says ${this.index.responsesBytes}: re-export the bundle`);
+        }
+        return all;
+      });
+      return (await this.whole).slice(first, last + 1);
     }
     if (res.status === 416) throw new BundleError(file, 'is shorter than field.json says: re-export the bundle');
     throw new BundleError(file, `could not be fetched (HTTP ${res.status})`);

@@ -15,6 +15,16 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// A uniform number in [0, 1) that depends on five keys only: the stochastic rounding of one
+/// deposit, keyed by (seed, source, ray, receiver, event of the ray). A deposit's rounding then
+/// does not depend on which other receivers a run holds, so a bake traced in tiles of receivers
+/// gives every receiver the bits of the bake of all of them at once.
+#[inline]
+pub fn keyed_uniform(seed: u64, source: u64, ray: u64, receiver: u64, event: u64) -> f64 {
+    let k = mix(mix(mix(mix(seed ^ 0x0de9_0517_u64) ^ source.wrapping_mul(0x9e37_79b9_7f4a_7c15)) ^ ray) ^ receiver.wrapping_mul(0xd1b5_4a32_d192_ed03));
+    (mix(k ^ event) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
 /// The random stream of one ray.
 #[derive(Clone, Debug)]
 pub struct Stream(Xoshiro256PlusPlus);

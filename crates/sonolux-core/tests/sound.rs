@@ -31,6 +31,7 @@ fn settings(rays: u64, estimator: Estimator, max_time_s: f64) -> SoundSettings {
     SoundSettings {
         rays,
         first_ray: 0,
+        first_receiver: 0,
         end_ray: rays,
         seed: 7,
         threads: 2,

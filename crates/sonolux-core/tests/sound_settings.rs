@@ -30,6 +30,7 @@ fn settings(bands: usize, air: &[f64], estimator: Estimator) -> SoundSettings {
     SoundSettings {
         rays: 3_000,
         first_ray: 0,
+        first_receiver: 0,
         end_ray: 3_000,
         seed: 11,
         threads: 2,

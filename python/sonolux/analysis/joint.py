@@ -162,15 +162,11 @@ def single_numbers(params: Any) -> tuple[dict[str, np.ndarray], str]:
 
 
 def _sti(sound: Any, params: Any) -> tuple[np.ndarray, str]:
-    from sonolux.analysis.sti import OCTAVES_HZ, field_sti
+    """STI at the receivers of ``params``; octaves from thirds where the field has thirds."""
+    from sonolux.analysis.sti import field_sti, speech_settings_of
 
-    bands = [float(b) for b in params.bands_hz]
-    missing = [f"{b:g}" for b in OCTAVES_HZ if b not in bands]
-    if missing:
-        return np.array([]), (f"STI left out: it needs the octaves 125 Hz to 8 kHz and the field "
-                              f"lacks {', '.join(missing)} Hz (set bands_hz in the scene)")
-    g = np.asarray(params.values["g_db"], float)[:, [bands.index(b) for b in OCTAVES_HZ]]
-    return field_sti(sound, params.receivers, g)
+    sti, why = field_sti(sound, params.receivers, settings=speech_settings_of(sound))
+    return (np.array([]), f"STI left out: {why} (set bands in the scene)") if why else (sti, "")
 
 
 def nearest_cells(points_m: np.ndarray, workplane: Any) -> np.ndarray:
@@ -200,17 +196,33 @@ def joint_map(sound: Any = None, params: Any = None, light: Any = None,
         positions = np.asarray(params.positions_m, float)
         grid = None if sound.grid_index is None else np.asarray(sound.grid_index)[params.receivers]
         spacing = sound.grid_spacing_m if grid is not None else None
+        band_set = getattr(sound, "band_set", None)
+        if band_set is not None and band_set.kind == "third-octave":
+            # Annex A.1's single numbers are octave means: octaves summed from the thirds.
+            from sonolux.analysis.octaves import octave_field
+            from sonolux.analysis.params import room_parameters
+            from sonolux.analysis.sti import SpeechSettings
+
+            speech = getattr(params, "speech", None) or {}
+            params = room_parameters(
+                octave_field(sound), params.receivers, theory=False,
+                speech=SpeechSettings(**speech).validate() if speech else None)
+            notes.append("sound: octaves summed from the field's third-octaves (energy adds)")
         values, how = single_numbers(params)
         notes.append(f"sound: single numbers are the {how} (ISO 3382-1 A.1) at the receivers' "
                      f"height {np.mean(positions[:, 2]):.2g} m")
-        if "sti" not in values:
+        if "sti" not in values and getattr(params, "sti", None) is not None:
+            values["sti"] = np.asarray(params.sti, float)
+            notes.append("STI: " + params.sti_method)
+        elif "sti" not in values:
             sti, why = _sti(sound, params)
             if why:
                 notes.append(why)
             else:
                 values["sti"] = sti
-                notes.append("STI: IEC 60268-16:2020 indirect method, a male talker at 60 dB(A) "
-                             "at 1 m, masking and reception threshold, no background noise")
+                from sonolux.analysis.sti import describe, speech_settings_of
+
+                notes.append("STI: " + describe(speech_settings_of(sound)))
         if workplane is not None:
             k = nearest_cells(positions, workplane)
             for name in LIGHT_VALUES:

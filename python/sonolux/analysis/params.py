@@ -90,6 +90,12 @@ class RoomParameters:
     direction_names: list[str] = field(default_factory=list)
     theory: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    #: float[receiver]: STI (IEC 60268-16, :mod:`sonolux.analysis.sti`), None when the field
+    #: lacks its octaves (the reason is in ``notes``); ``sti_method`` says with what talker
+    #: and noise, ``speech`` holds them (speech_dba, noise_db).
+    sti: np.ndarray | None = None
+    sti_method: str = ""
+    speech: dict[str, Any] = field(default_factory=dict)
 
     @property
     def columns(self) -> list[str]:
@@ -234,7 +240,8 @@ def slowest_decay_s(field_: SoundField) -> np.ndarray | None:
 
 
 def room_parameters(field_: SoundField, receivers=None, *, directional: bool = False,
-                    theory: bool = True, compensation: str = "none") -> RoomParameters:
+                    theory: bool = True, compensation: str = "none", sti: bool = True,
+                    speech: Any = None) -> RoomParameters:
     """ISO 3382-1 parameters of the field's receivers (all, or the given indices).
 
     ``directional=True`` adds every parameter but JLF per direction bin (energy arriving from
@@ -245,6 +252,9 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
     synthesised with noise); see :mod:`sonolux.analysis.decay`. Every decay time is checked
     (undefined with its reason in ``reasons``), and receivers that stand out from their
     neighbours are listed in ``outliers`` (:mod:`sonolux.analysis.consistency`).
+    ``sti=True`` adds the speech transmission index per receiver, with the talker and noise of
+    ``speech`` (a :class:`sonolux.analysis.sti.SpeechSettings`; default: what the scene gave,
+    recorded in the field). A third-octave field's STI uses octaves summed from its thirds.
     """
     if compensation not in COMPENSATIONS:
         raise AnalysisError(f"compensation must be one of {sorted(COMPENSATIONS)}, "
@@ -301,11 +311,27 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
     if field_.source_positions_m.shape[0] > 1:
         result.notes.append("several sources: energies are summed; JLF uses the first source's "
                             "direction and G the sum of the powers")
+    if sti:
+        _add_sti(result, field_, idx, speech)
     if theory:
         result.theory, note = theory_of(field_)
         if note:
             result.notes.append(note)
     return result
+
+
+def _add_sti(result: RoomParameters, field_: SoundField, idx: np.ndarray, speech: Any) -> None:
+    from sonolux.analysis.sti import describe, field_sti, speech_settings_of
+
+    settings = speech if speech is not None else speech_settings_of(field_)
+    values, why = field_sti(field_, idx, settings=settings)
+    result.speech = {"speech_dba": settings.speech_dba,
+                     "noise_db": None if settings.noise_db is None else list(settings.noise_db)}
+    if why:
+        result.notes.append(f"STI left out: {why}")
+    else:
+        result.sti = values
+        result.sti_method = describe(settings)
 
 
 def scene_of(field_: SoundField):

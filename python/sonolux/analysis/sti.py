@@ -76,6 +76,30 @@ class SpeechSettings:
         return self
 
 
+def speech_settings_of(field, speech_dba: float | None = None,
+                       noise_db=None) -> SpeechSettings:
+    """The talker and noise the scene gave (``[speech]``, recorded by the bake in the field's
+    settings), with ``speech_dba`` / ``noise_db`` (seven levels or one) overriding them; the
+    defaults (normal vocal effort, no noise) for fields baked without."""
+    recorded = (getattr(field, "settings", None) or {}).get("speech") or {}
+    level = recorded.get("speech_dba", NORMAL_SPEECH_DBA) if speech_dba is None else speech_dba
+    noise = recorded.get("noise_db") if noise_db is None else noise_db
+    if noise is not None:
+        noise = tuple(float(x) for x in np.broadcast_to(np.asarray(noise, float), (7,)))
+    return SpeechSettings(float(level), noise).validate()
+
+
+def describe(settings: SpeechSettings) -> str:
+    """One line saying what an STI was computed with."""
+    noise = ("no background noise" if settings.noise_db is None else
+             "background noise " + "/".join(f"{n:g}" for n in settings.noise_db)
+             + " dB SPL (125 Hz … 8 kHz)")
+    corrections = ("masking and reception threshold" if settings.level_corrections
+                   else "no level corrections")
+    return (f"IEC 60268-16:2020 indirect method, a male talker at {settings.speech_dba:g} dB(A) "
+            f"at 1 m, {corrections}, {noise}")
+
+
 def masking_slope_db(level_db: np.ndarray) -> np.ndarray:
     """amdB of IEC 60268-16:2020 A.2.3 for an octave band level (dB)."""
     L = np.asarray(level_db, float)
@@ -124,25 +148,58 @@ def speech_levels_db(g_db: np.ndarray, speech_dba: float = NORMAL_SPEECH_DBA) ->
     return speech_dba + np.asarray(MALE_SPECTRUM_DB) - 20.0 + np.asarray(g_db, float)
 
 
-def field_sti(field, receivers: np.ndarray, g_db: np.ndarray,
-              settings: SpeechSettings | None = None) -> tuple[np.ndarray, str]:
-    """(STI float[receiver], '' or why it is undefined) of the field's receivers, with G
-    float[receiver, 7] of the octaves 125 Hz ... 8 kHz. The energy of all directions counts
-    (an omnidirectional listener, as the indirect method measures)."""
-    s = (settings or SpeechSettings()).validate()
+def octave_columns(field) -> tuple[list[list[int]], str]:
+    """For each STI octave 125 Hz … 8 kHz, the field's band indices whose energies add up to
+    it: the octave itself, or its three thirds in a third-octave field (energy adds,
+    docs/bands.md); ([], why not) when the field lacks some."""
     bands = [float(b) for b in field.bands_hz]
+    band_set = getattr(field, "band_set", None)
+    if band_set is not None and band_set.kind == "third-octave":
+        from sonolux.acoustics.bands import octave_grouping
+
+        try:
+            octaves, groups = octave_grouping(band_set)
+        except ValueError:
+            octaves, groups = None, []
+        have = {float(f): g.tolist() for f, g in zip(octaves.nominal_hz, groups)} if octaves else {}
+        missing = [f"{b:g}" for b in OCTAVES_HZ if b not in have]
+        if missing:
+            return [], (f"STI needs the octaves 125 Hz to 8 kHz (the thirds 100 Hz to 10 kHz); "
+                        f"this field's thirds do not make whole {', '.join(missing)} Hz")
+        return [have[b] for b in OCTAVES_HZ], ""
     missing = [f"{b:g}" for b in OCTAVES_HZ if b not in bands]
     if missing:
-        return np.full(len(receivers), np.nan), (
-            f"STI needs the octaves 125 Hz to 8 kHz; this field lacks {', '.join(missing)} Hz")
-    cols = [bands.index(b) for b in OCTAVES_HZ]
+        return [], (f"STI needs the octaves 125 Hz to 8 kHz; this field lacks "
+                    f"{', '.join(missing)} Hz")
+    return [[bands.index(b)] for b in OCTAVES_HZ], ""
+
+
+def field_sti(field, receivers: np.ndarray, g_db: np.ndarray | None = None,
+              settings: SpeechSettings | None = None) -> tuple[np.ndarray, str]:
+    """(STI float[receiver], '' or why it is undefined) of the field's receivers. The octave
+    histograms are the field's octaves 125 Hz … 8 kHz, or the sums of their thirds in a
+    third-octave field. ``g_db`` float[receiver, 7]: the strength G per octave; None computes
+    it from the same histograms. The energy of all directions counts (an omnidirectional
+    listener, as the indirect method measures)."""
+    from sonolux.analysis.decay import strength_g_db
+
+    s = (settings or SpeechSettings()).validate()
+    receivers = np.asarray(receivers, dtype=np.int64)
+    cols, why = octave_columns(field)
+    if why:
+        return np.full(len(receivers), np.nan), why
+    power_w = float(np.sum(field.source_powers_w))
     out = np.empty(len(receivers))
     for lo in range(0, len(receivers), 32):
-        sel = np.asarray(receivers[lo:lo + 32])
-        omni = field.energy[sel][:, :, cols].sum(axis=1, dtype=np.float64)  # [r, 7, T]
+        sel = receivers[lo:lo + 32]
+        energy = field.energy[sel]  # [r, dir, band, T]
+        omni = np.stack([energy[:, :, c].sum(axis=(1, 2), dtype=np.float64) for c in cols],
+                        axis=1)  # [r, 7, T]
         m = modulation_transfer(omni, field.bin_start_s, field.bin_width_s)
         if s.level_corrections:
-            speech = speech_levels_db(g_db[lo:lo + 32], s.speech_dba)
+            g = (strength_g_db(omni.sum(axis=-1), power_w) if g_db is None
+                 else np.asarray(g_db, float)[lo:lo + 32])
+            speech = speech_levels_db(g, s.speech_dba)
             m = m * level_factors(speech, s.noise_db)[..., None]
         out[lo:lo + 32] = sti_from_mtf(m)
     return out, ""

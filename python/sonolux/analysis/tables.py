@@ -62,6 +62,11 @@ def format_grid(p: RoomParameters, title: str) -> str:
             lines.append(_row(f"{_label(name) if stat == 'mean' else '':<12}{stat:>6}",
                               s[name][stat], unit, scale))
     lines += _theory_rows(p)
+    if p.sti is not None:
+        ok = p.sti[np.isfinite(p.sti)]
+        stats = (f"mean {ok.mean():.2f}, min {ok.min():.2f}, max {ok.max():.2f}" if ok.size
+                 else "undefined")
+        lines.append(f"  {'STI':<18}{stats} ({p.sti_method})")
     return "\n".join(lines + _undefined_rows(p) + _outlier_rows(p) + _notes(p))
 
 
@@ -117,6 +122,8 @@ def format_cell(p: RoomParameters, title: str, direction_names: list[str] | None
     for name, (_, unit, scale, _) in PARAMETERS.items():
         lines.append(_row(_label(name), p.values[name][k], unit, scale))
     lines += _theory_rows(p)
+    if p.sti is not None:
+        lines.append(f"  {'STI':<18}{_cell(p.sti[k], '', 1.0, 8).strip()} ({p.sti_method})")
     if p.directional is not None:
         names = direction_names or p.direction_names
         lines.append("  per direction, broadband (energy arriving from that direction only):")
@@ -165,7 +172,12 @@ def to_json(p: RoomParameters, *, field_path: str | None = None, scene: str = ""
            "fit_failures": {n: [[r for r in row] for row in p.reasons[n].tolist()]
                             for n in p.reasons},
            "compensation": p.compensation, "outliers": p.outliers,
-           "theory": p.theory, "notes": p.notes}
+           "theory": p.theory, "notes": p.notes,
+           "sti": None if p.sti is None else {
+               "per_receiver": _json_array(p.sti), "mean": _json_array(np.nanmean(p.sti)),
+               "min": _json_array(np.nanmin(p.sti)), "max": _json_array(np.nanmax(p.sti)),
+               "method": p.sti_method, **p.speech},
+           "speech": p.speech}
     return out
 
 

@@ -86,7 +86,8 @@ def cell_responses(field, receiver: int, seed: int = 0) -> np.ndarray:
     for d in range(e.shape[0]):
         ss = np.random.SeedSequence([int(seed), int(receiver), d])
         out.append(pressure_ir(e[d].astype(np.float64), field.bin_start_s, field.bin_width_s,
-                               field.bands_hz, field.sample_rate_hz, field.settings["volume_m3"],
+                               field.synthesis_bands_hz, field.sample_rate_hz,
+                               field.settings["volume_m3"],
                                field.settings["speed_of_sound_m_s"], seed=ss))
     n = max(1, max(r.size for r in out))
     h = np.zeros((len(out), n), np.float32)

@@ -122,6 +122,26 @@ def rays(text: str) -> int | str:
     return value
 
 
+_SIZE_UNITS = {"": 1, "B": 1, "K": 10**3, "KB": 10**3, "M": 10**6, "MB": 10**6, "G": 10**9,
+               "GB": 10**9, "T": 10**12, "TB": 10**12}
+
+
+def memory_size(text: str) -> int:
+    """A memory budget: bytes, or a number with K, M, G or T (powers of 1000), e.g. 8G or 500MB;
+    from 1 MB to 1000 TB."""
+    t = text.strip().upper()
+    digits = t.rstrip("KMGTB")
+    unit = t[len(digits):]
+    value = _to_number(digits, integer=False) if digits else None
+    if value is None or unit not in _SIZE_UNITS or not math.isfinite(value):
+        value = -1.0
+    size = value * _SIZE_UNITS.get(unit, 0)
+    if not 1e6 <= size <= 1e18:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a memory size: bytes or a number with "
+                                         "K, M, G or T (e.g. 8G, 500M), from 1M to 1000T")
+    return int(size)
+
+
 def ray_range(text: str) -> tuple[int, int]:
     """FIRST:END, 0 <= FIRST < END."""
     try:
@@ -154,3 +174,28 @@ def port(text: str) -> int:
     if not 0 <= v <= 65535:
         raise argparse.ArgumentTypeError(f"{text!r} is not a port number in 0..65535 (0: any free)")
     return v
+
+
+def speech_dba(text: str) -> float:
+    """A talker's A-weighted speech level at 1 m, 0..130 dB(A)."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not 0.0 <= v <= 130.0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a speech level from 0 to 130 dB(A) at "
+                                         "1 m (60 normal, 66 raised, 72 loud; IEC 60268-16 J.3)")
+    return v
+
+
+def octave_levels_db(text: str) -> tuple[float, ...]:
+    """Background noise per octave 125 Hz … 8 kHz in dB SPL: one level for all, or seven."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) not in (1, 7) or not all(-50.0 <= v <= 150.0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a noise level: one level in dB SPL from -50 to 150 for every "
+            "octave 125 Hz … 8 kHz, or seven separated by commas (e.g. 45,40,35,30,25,20,15)")
+    return values * 7 if len(values) == 1 else values

@@ -4,7 +4,8 @@ lit geometry as glTF, and/or the walk-through viewer's web bundle).
     sonolux render FIELD -o view.png [--hdr view.exr|view.pfm] [--camera X,Y,Z]
                    [--look-at X,Y,Z | --yaw DEG --pitch DEG] [--fov DEG] [--size WxH]
                    [--exposure EV] [--tone-map aces|reinhard] [--samples N]
-    sonolux export FIELD [--gltf scene.glb] [--web DIR] [--max-length-s S] [--seed N] ...
+    sonolux export FIELD [--gltf scene.glb] [--web DIR] [--sofa OUT.sofa [--receiver N|all]]
+                   [--max-length-s S] [--seed N] ...
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import sys
 
 from sonolux.cli import args as parse
 from sonolux.light.image import TONE_MAPS
+from sonolux.web.options import TAIL_DB
 
 
 def log(message: str) -> None:
@@ -43,8 +45,12 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    if not args.web and not args.gltf:
-        args.parser.error("give --gltf PATH.glb, --web DIR, or both")
+    if not args.web and not args.gltf and not args.sofa:
+        args.parser.error("give --gltf PATH.glb, --web DIR, --sofa OUT.sofa, or several")
+    if args.sofa and not str(args.sofa).lower().endswith(".sofa"):
+        args.parser.error(f"--sofa {args.sofa}: a SOFA file must end in .sofa")
+    if args.receiver is not None and not args.sofa:
+        args.parser.error("--receiver chooses what --sofa exports: give --sofa OUT.sofa too")
     if args.gltf:
         from sonolux.fieldfile import open_light_field
         from sonolux.light.export import export_gltf
@@ -64,14 +70,33 @@ def cmd_export(args: argparse.Namespace) -> int:
         print(summary.describe())
         print(f"serve it with any static web server, or walk through it with `sonolux serve "
               f"{args.field}`")
+    if args.sofa:
+        from sonolux.sofa import export_sofa
+
+        done = export_sofa(args.field, args.sofa, receiver=args.receiver, seed=args.seed, log=log)
+        print(done.describe())
     return 0
+
+
+def _receiver(text: str) -> int | None:
+    """--receiver: a receiver's index (checked against the field when it is opened), or 'all'."""
+    if text.strip().lower() == "all":
+        return None
+    return int(parse.number(0, integer=True)(text))
 
 
 def web_options(args: argparse.Namespace):
     from sonolux.web.options import WebExportOptions
 
     return WebExportOptions(max_length_s=args.max_length_s, sample_format=args.sample_format,
-                            seed=args.seed)
+                            seed=args.seed, tail_db=args.tail_db, compress=not args.no_compress)
+
+
+def _tail_db(text: str) -> float | None:
+    """--tail-db: a decay from 20 to 200 dB, or 'none'."""
+    if text.strip().lower() == "none":
+        return None
+    return float(parse.number(20, 200, unit="dB")(text))
 
 
 def add_bundle_options(p: argparse.ArgumentParser) -> None:
@@ -82,6 +107,12 @@ def add_bundle_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sample-format", choices=("int16", "float32"), default="int16",
                    help="samples of the responses (default int16, half the size)")
     g.add_argument("--seed", type=parse.seed, default=0, help="seed of the responses' fine structure")
+    g.add_argument("--tail-db", type=_tail_db, default=TAIL_DB, metavar="DB",
+                   help=f"end each cell's responses where its decay has fallen DB below its "
+                        f"whole energy (default {TAIL_DB:g}, as the T60; 'none' keeps the "
+                        f"field's whole time axis)")
+    g.add_argument("--no-compress", action="store_true",
+                   help="store the responses uncompressed (default: deflated per cell, lossless)")
 
 
 def add_commands(sub) -> None:
@@ -124,7 +155,8 @@ def add_commands(sub) -> None:
                     "light as tone-mapped vertex colours and an unlit material, as binary glTF "
                     "(y up). With --web DIR: the walk-through viewer's bundle (the scene as "
                     "glTF, the sound field's responses per cell and direction, and their "
-                    "index), for `sonolux serve` or any static web server. Either or both.")
+                    "index), for `sonolux serve` or any static web server. With --sofa: "
+                    "the responses per receiver and direction as AES69 SOFA. Any of them.")
     e.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
     e.add_argument("--gltf", metavar="PATH.glb", help="the binary glTF file to write (needs light)")
     e.add_argument("--web", metavar="DIR",
@@ -135,5 +167,11 @@ def add_commands(sub) -> None:
     e.add_argument("--tone-map", choices=TONE_MAPS, default="aces", help="glTF: default aces")
     e.add_argument("--flat", action="store_true",
                    help="glTF: one colour per patch instead of colours smoothed across patches")
+    e.add_argument("--sofa", metavar="OUT.sofa",
+                   help="write the synthesised responses per receiver and direction as an "
+                        "AES69 SOFA file (SingleRoomSRIR; see docs/export.md)")
+    e.add_argument("--receiver", type=_receiver, default=None, metavar="N|all",
+                   help="SOFA: the receiver to export (its index, as `sonolux info` lists "
+                        "them), or all (default)")
     add_bundle_options(e)
     e.set_defaults(func=cmd_export, parser=e)

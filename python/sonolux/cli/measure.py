@@ -15,17 +15,25 @@ from sonolux.cli import args as parse
 
 def cmd_params(args: argparse.Namespace) -> int:
     from sonolux.analysis.params import room_parameters
+    from sonolux.analysis.sti import speech_settings_of
     from sonolux.analysis.tables import format_cell, format_grid, to_json
     from sonolux.fieldfile import open_field
 
     field = open_field(args.field)
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"
+    speech = speech_settings_of(field, args.speech_dba, args.noise_db)
+    if args.octaves:
+        from sonolux.analysis.octaves import octave_field
+
+        field = octave_field(field)
+        title += ", octaves summed from its third-octaves"
     if args.at is not None:
         r = field.cell_at(*args.at)
-        p = room_parameters(field, [r], directional=True, compensation=args.compensation)
+        p = room_parameters(field, [r], directional=True, compensation=args.compensation,
+                            speech=speech)
         text = format_cell(p, title)
     else:
-        p = room_parameters(field, compensation=args.compensation)
+        p = room_parameters(field, compensation=args.compensation, speech=speech)
         text = format_grid(p, title)
     if args.json:
         print(json.dumps(to_json(p, field_path=str(args.field), scene=field.scene_name),
@@ -57,7 +65,12 @@ def cmd_maps(args: argparse.Namespace) -> int:
     has = contents(args.field)
     sound = open_field(args.field) if has["sound"] else None
     light = open_light_field(args.field) if has["light"] else None
-    params = room_parameters(sound, theory=False) if sound is not None else None
+    params = None
+    if sound is not None:
+        from sonolux.analysis.sti import speech_settings_of
+
+        params = room_parameters(sound, theory=False,
+                                 speech=speech_settings_of(sound, args.speech_dba, args.noise_db))
     criteria = args.require if args.require else [Criterion.parse(t) for t in DEFAULT_CRITERIA]
     joint = joint_map(sound, params, light, [] if args.no_criteria else criteria)
     height = float(np.mean(joint.positions_m[:, 2]))
@@ -96,12 +109,22 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _speech_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--speech-dba", type=parse.speech_dba, default=None, metavar="DBA",
+                   help="for STI: the talker's speech level at 1 m in dB(A) (default: the "
+                        "scene's [speech], else 60, normal vocal effort)")
+    p.add_argument("--noise-db", type=parse.octave_levels_db, default=None, metavar="L[,L...]",
+                   help="for STI: background noise per octave 125 Hz … 8 kHz in dB SPL, one "
+                        "level or seven (default: the scene's [speech], else none)")
+
+
 def add_commands(sub) -> None:
     """Adds ``params``, ``maps`` and ``report`` to the subcommand table ``sub``."""
     params = sub.add_parser(
         "params", help="ISO 3382-1 room-acoustic parameters of a sound field",
         description="EDT, T20, T30, C50, C80, D50, Ts, G and the early lateral energy fraction "
-                    "(JLF, JLFC) per band and broadband, beside Sabine and Eyring: over the "
+                    "(JLF, JLFC) per band and broadband, beside Sabine and Eyring, and the "
+                    "speech transmission index (STI, IEC 60268-16) per receiver: over the "
                     "whole grid (mean, min, max), or for the cell at X,Y with its directions.")
     params.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
     params.add_argument("--at", type=parse.xy, default=None, metavar="X,Y",
@@ -112,6 +135,10 @@ def add_commands(sub) -> None:
                              "plain backward integral, right for simulated fields) or lundeby "
                              "(noise subtraction and truncation, for fields with a real noise "
                              "floor)")
+    params.add_argument("--octaves", action="store_true",
+                        help="of a third-octave field: the octaves its thirds make whole, each "
+                             "the sum of its three thirds' energies (never averaged times)")
+    _speech_options(params)
     params.set_defaults(func=cmd_params)
 
     maps = sub.add_parser(
@@ -131,6 +158,7 @@ def add_commands(sub) -> None:
                            "d50, g_db, edt_s, t30_s (default: " + ", ".join(DEFAULT_CRITERIA)
                            + ", where the field has them)")
     maps.add_argument("--no-criteria", action="store_true", help="flag nothing")
+    _speech_options(maps)
     maps.set_defaults(func=cmd_maps)
 
     report = sub.add_parser(

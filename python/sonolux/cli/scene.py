@@ -55,7 +55,10 @@ def cmd_bake(args: argparse.Namespace) -> int:
             sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
                                        azimuth_bands=args.azimuth_bands,
                                        elevation_bands=args.elevation_bands, ray_range=args.range,
-                                       air_absorption=not args.no_air),
+                                       air_absorption=not args.no_air, storage=args.storage,
+                                       memory_bytes=args.memory,
+                                       **({} if args.late_bin_ms is None
+                                          else {"late_bin_s": args.late_bin_ms / 1e3})),
             light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
             progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
             sound_baker=sound_baker, light_baker=light_baker)
@@ -189,6 +192,15 @@ def add_commands(sub) -> None:
                       default=8, help="azimuth sectors (default 8)")
     bake.add_argument("--elevation-bands", type=parse.number(1, 90, integer=True), default=1,
                       help="elevation bands of equal solid angle (1, or 3 = below/level/above)")
+    bake.add_argument("--storage", choices=("compact", "full"), default="compact",
+                      help="compact (default): the early part's non-zero one-sample cells and "
+                           "the late part at the late bin width; full: every cell dense")
+    bake.add_argument("--late-bin-ms", type=parse.number(0.01, 100, unit="ms"), default=None,
+                      metavar="MS", help="width of the late time bins in ms (default "
+                                         "SoundOptions.late_bin_s; 1 for the full resolution)")
+    bake.add_argument("--memory", type=parse.memory_size, default=None, metavar="SIZE",
+                      help="the sound bake's memory budget, e.g. 8G: receivers are traced in "
+                           "tiles to stay within it (default: 80%% of the memory available)")
     bake.add_argument("--range", type=parse.ray_range, default=None, metavar="FIRST:END",
                       help="trace only rays FIRST..END of the bake (ranges merge exactly)")
     bake.add_argument("--sound", action=argparse.BooleanOptionalAction, default=None,

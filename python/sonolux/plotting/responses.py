@@ -111,14 +111,18 @@ def plot_decay_curves(field: SoundField, receiver: int, path: str | Path) -> Pat
     with np.errstate(invalid="ignore", divide="ignore"):
         d = decay_times(e, field.bin_start_s, field.bin_width_s, onset_s=onsets_s(e[-1], edges),
                         max_decay_time_s=slowest_decay_s(field))
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    many = len(field.bands_hz) > len(_BAND_COLOURS)  # thirds: a spectrum of colours, legend beside
+    fig, ax = plt.subplots(figsize=(10.5 if many else 8, 5.5 if many else 4.5))
     t = field.bin_start_s
     labels = [f"{b:g} Hz" for b in field.bands_hz] + ["broadband"]
+    spectrum = plt.get_cmap("viridis")
     for k, label in enumerate(labels):
         t30 = d["t30_s"][k]
         broadband = k == len(labels) - 1
-        ax.plot(t, d["edc_db"][k], lw=2.2 if broadband else 1.1,
-                color="black" if broadband else _BAND_COLOURS[k % len(_BAND_COLOURS)],
+        colour = ("black" if broadband else
+                  spectrum(k / max(1, len(labels) - 2)) if many else
+                  _BAND_COLOURS[k % len(_BAND_COLOURS)])
+        ax.plot(t, d["edc_db"][k], lw=2.2 if broadband else 1.1, color=colour,
                 label=f"{label}: T30 {t30:.2f} s" if np.isfinite(t30) else
                 f"{label}: T30 undefined ({d['t30_reason'][k].split(': ')[0]})")
     ax.axhspan(-35, -5, color="#dddddd", alpha=0.5, lw=0, label="T30 range (-5 to -35 dB)")
@@ -129,7 +133,10 @@ def plot_decay_curves(field: SoundField, receiver: int, path: str | Path) -> Pat
     pos = ", ".join(f"{v:g}" for v in np.round(field.positions_m[receiver], 2))
     ax.set_title(f"{field.scene_name}: energy decay curves at ({pos}) m")
     ax.grid(alpha=0.3, lw=0.5)
-    ax.legend(fontsize=8, loc="upper right")
+    if many:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    else:
+        ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     path = Path(path)
     write_atomically(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))

@@ -150,8 +150,22 @@ def _field_section(k: int, f: SoundField, path: Path, tmp: Path, options: Report
                "below each. Broadband is the mean of the bands' energies (a flat-spectrum "
                "source). Sabine and Eyring include air absorption.</p>")
     out.append(_parameter_table(grid, summary=True))
+    if grid.sti is not None:
+        ok = grid.sti[np.isfinite(grid.sti)]
+        out.append(f"<p>STI over the receivers: mean {ok.mean():.2f}, range {ok.min():.2f}–"
+                   f"{ok.max():.2f} ({h.esc(grid.sti_method)}).</p>" if ok.size else
+                   h.note("STI is undefined at every receiver."))
     out += [h.note(n) for n in grid.notes]
     out.append(_outlier_list(grid))
+    if f.band_set is not None and f.band_set.kind == "third-octave":
+        from sonolux.analysis.octaves import octave_field
+
+        octaves = room_parameters(octave_field(f), sti=False)
+        out.append("<h3>The same in octaves, summed from the thirds</h3>")
+        out.append("<p>Each octave's histogram is the sum of its three thirds' energies; the "
+                   "parameters are computed from that sum, never averaged over thirds "
+                   "(docs/bands.md).</p>")
+        out.append(_parameter_table(octaves, summary=True))
 
     out.append(f"<h3>At the cell ({xy[0]:g}, {xy[1]:g}) m</h3>")
     out.append(_parameter_table(one, summary=False))

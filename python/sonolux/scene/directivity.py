@@ -120,21 +120,12 @@ def dodecahedron(band_edges_hz: np.ndarray, radius_m: float = DODECAHEDRON_RADIU
     return out.reshape(len(theta_nodes_rad()), -1, len(band_edges_hz))
 
 
-def band_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
-    """Lower and upper edge of every band, fc · 2^(∓1/(2n)): octaves (n = 1) when the
-    centres are at least 1.9× apart (a run or a subset of octave bands), else third-octaves
-    (n = 3), base-2 as IEC 61260-1: float64[band, 2]."""
-    c = np.asarray(bands_hz, float)
-    fraction = 1 if len(c) == 1 or np.all(c[1:] / c[:-1] > 1.9) else 3
-    half = 2.0 ** (1.0 / (2 * fraction))
-    return np.stack([c / half, c * half], axis=1)
-
-
-def builtin_gains(name: str, bands_hz: np.ndarray) -> np.ndarray:
-    """The tabulated gains of a built-in pattern (not omni or cone): float64[theta, phi, band]."""
+def builtin_gains(name: str, edges_hz: np.ndarray) -> np.ndarray:
+    """The tabulated gains of a built-in pattern (not omni or cone) for the bands with edges
+    ``edges_hz`` float64[band, 2] (``Settings.band_set.edges_hz``): float64[theta, phi, band]."""
     if name in FIRST_ORDER:
-        return first_order(FIRST_ORDER[name], len(bands_hz))
+        return first_order(FIRST_ORDER[name], len(edges_hz))
     if name == "dodecahedron":
-        return dodecahedron(band_edges_hz(bands_hz))
+        return dodecahedron(np.asarray(edges_hz, float))
     raise SonoluxError(f"directivity {name!r}: not a tabulated pattern; allowed: "
                        + ", ".join(BUILTIN[2:]))

@@ -26,6 +26,7 @@ from sonolux.engine import Geometry
 from sonolux.errors import CoreMissingError, SceneError, SonoluxError, close_matches
 from sonolux.limits import MAX_COORDINATE_M, MAX_SEED, MAX_THREADS, MAX_TIME_S
 from sonolux.scene import builtin
+from sonolux.scene.band_settings import held_band_warnings, read_bands
 from sonolux.scene.early import read_early
 from sonolux.scene.emitters import place_sources, read_lights, read_sources, resolve_lights
 from sonolux.scene.inside import RoomSpace
@@ -35,7 +36,6 @@ from sonolux.scene.materials import Library
 from sonolux.scene.meshes import build_mesh
 from sonolux.scene.receivers import place_receivers, read_receivers
 from sonolux.scene.schema import (
-    LIBRARY_BANDS_HZ,
     Air,
     Context,
     GeometryPart,
@@ -45,6 +45,7 @@ from sonolux.scene.schema import (
     Table,
 )
 from sonolux.scene.shoebox import build_shoebox
+from sonolux.scene.speech import read_speech
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -52,9 +53,9 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers",
-             "daylight", "workplane", "early")
-SETTINGS_KEYS = ("sample_rate_hz", "bands_hz", "energy_drop_db", "max_time_s", "seed",
-                 "threads", "air")
+             "daylight", "workplane", "early", "speech")
+SETTINGS_KEYS = ("sample_rate_hz", "bands", "bands_hz", "band_range_hz", "energy_drop_db",
+                 "max_time_s", "seed", "threads", "air")
 AIR_KEYS = ("temperature_c", "humidity_percent", "pressure_kpa")
 GEOMETRY_TYPES = ("shoebox", "mesh")
 #: Vertices closer than this are joined.
@@ -120,17 +121,8 @@ def read_settings(t: Table | None) -> Settings:
         return Settings()
     t.check_keys(SETTINGS_KEYS)
     d = Settings()
-    bands = t.data.get("bands_hz", list(d.bands_hz))
-    allowed = ("a contiguous run of the octave bands " + ", ".join(map(str, LIBRARY_BANDS_HZ))
-               + " Hz, e.g. [125, 250, 500, 1000, 2000, 4000]")
-    ok = (isinstance(bands, list) and bands and all(
-        isinstance(b, (int, float)) and not isinstance(b, bool) and b in LIBRARY_BANDS_HZ
-        for b in bands))
-    if ok:
-        idx = [LIBRARY_BANDS_HZ.index(b) for b in bands]
-        ok = idx == list(range(idx[0], idx[0] + len(idx)))
-    if not ok:
-        raise t.ctx.error(t.path("bands_hz"), bands, allowed)
+    sample_rate_hz = t.integer("sample_rate_hz", d.sample_rate_hz, lo=8000, hi=192000)
+    bands = read_bands(t, sample_rate_hz)
     air_t = t.table("air")
     air = Air()
     if air_t is not None:
@@ -139,8 +131,9 @@ def read_settings(t: Table | None) -> Settings:
                   air_t.number("humidity_percent", air.humidity_percent, lo=0.0, hi=100.0),
                   air_t.number("pressure_kpa", air.pressure_kpa, lo=50.0, hi=120.0))
     return Settings(
-        sample_rate_hz=t.integer("sample_rate_hz", d.sample_rate_hz, lo=8000, hi=192000),
-        bands_hz=tuple(int(b) for b in bands),
+        sample_rate_hz=sample_rate_hz,
+        bands_hz=bands.nominal_hz,
+        bands=bands.kind,
         energy_drop_db=t.number("energy_drop_db", d.energy_drop_db, lo=0.0, lo_open=True,
                                 hi=200.0),
         max_time_s=t.number("max_time_s", d.max_time_s, lo=0.0, hi=MAX_TIME_S),
@@ -229,6 +222,7 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     receiver_spec = read_receivers(root.table("receivers"))
     daylight = read_daylight(root.table("daylight"))
     early = read_early(root.table("early"))
+    speech = read_speech(root.table("speech"))
 
     entries = root.tables("geometry")
     if not entries:
@@ -262,6 +256,7 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
             f"the geometry encloses no volume (signed volume {report['signed_volume_m3']:.3g} "
             "m³): a room must be a closed surface around its air"))
     warnings += mesh_warnings(report, tags)
+    warnings += held_band_warnings(materials, settings.band_set)
 
     space = RoomSpace(geometry, vertices_m, triangles)
     place_sources(sources, source_tables, space, warnings)
@@ -277,4 +272,4 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
                  material_index=material_index, materials=materials, surface_tag=tags,
                  sources=sources, lights=lights, receivers=receivers, settings=settings,
                  mesh_report=report, warnings=warnings, geometry=geometry, daylight=daylight,
-                 workplane=workplane, early=early)
+                 workplane=workplane, early=early, speech=speech)

@@ -20,10 +20,10 @@ import numpy as np
 from sonolux.errors import SceneError, close_matches
 from sonolux.scene.materials import Library
 from sonolux.scene.materials import library as shipped_library
-from sonolux.scene.schema import REQUIRED, Context, Material, Table
+from sonolux.scene.schema import LIBRARY_BAND_SET, REQUIRED, Context, Material, Table
 
-MATERIAL_KEYS = ("base", "description", "absorption", "scattering", "diffuse_rgb", "specular",
-                 "roughness", "transmittance")
+MATERIAL_KEYS = ("base", "description", "bands_hz", "absorption", "scattering", "diffuse_rgb",
+                 "specular", "roughness", "transmittance")
 
 #: Defaults of a new material's optional fields.
 NEW_MATERIAL_DEFAULTS = {"scattering": 0.1, "diffuse_rgb": (0.8, 0.8, 0.8), "specular": 0.0,
@@ -90,17 +90,22 @@ class MaterialNames:
         else:
             lib = self.library(required=False)
             start = lib.find(name) if lib is not None else None
+        # The bands the table's absorption and scattering lists are given in (octaves or
+        # thirds, docs/bands.md); values not given keep their own bands.
+        grid = t.band_grid("bands_hz", LIBRARY_BAND_SET)
         if start is None:
             if not t.has("absorption"):
                 raise self.ctx.error(
                     t.path("absorption"),
-                    allowed="a new material needs its absorption (a number in [0, 1] or 8 of "
-                            "them), or base = NAME to start from a library material")
+                    allowed="a new material needs its absorption (a number in [0, 1] or one "
+                            "per band of bands_hz), or base = NAME to start from a library "
+                            "material")
             d = NEW_MATERIAL_DEFAULTS
             return Material(
                 name=name,
-                absorption=t.bands("absorption", REQUIRED),
-                scattering=t.bands("scattering", np.full(8, d["scattering"])),
+                absorption=t.bands("absorption", REQUIRED, grid),
+                scattering=t.bands("scattering", np.full(grid.n_bands, d["scattering"]), grid),
+                absorption_bands=grid, scattering_bands=grid,
                 diffuse_rgb=t.vector("diffuse_rgb", 3, d["diffuse_rgb"], lo=0.0, hi=1.0),
                 specular=t.number("specular", d["specular"], lo=0.0, hi=1.0),
                 roughness=t.number("roughness", d["roughness"], lo=0.0, hi=1.0),
@@ -109,8 +114,12 @@ class MaterialNames:
             )
         return Material(
             name=name,
-            absorption=t.bands("absorption", start.absorption.copy()),
-            scattering=t.bands("scattering", start.scattering.copy()),
+            absorption=t.bands("absorption", start.absorption.copy(), grid)
+            if t.has("absorption") else start.absorption.copy(),
+            scattering=t.bands("scattering", start.scattering.copy(), grid)
+            if t.has("scattering") else start.scattering.copy(),
+            absorption_bands=grid if t.has("absorption") else start.absorption_bands,
+            scattering_bands=grid if t.has("scattering") else start.scattering_bands,
             diffuse_rgb=t.vector("diffuse_rgb", 3, start.diffuse_rgb, lo=0.0, hi=1.0),
             specular=t.number("specular", start.specular, lo=0.0, hi=1.0),
             roughness=t.number("roughness", start.roughness, lo=0.0, hi=1.0),

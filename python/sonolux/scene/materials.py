@@ -6,6 +6,8 @@ The shipped library is ``sonolux/data/materials.json`` (schema ``"sonolux-materi
      "bands_hz": [63, 125, 250, 500, 1000, 2000, 4000, 8000],
      "materials": {"plaster": {"description": "...", "absorption": [8 numbers],
                                "scattering": [8 numbers], "diffuse_rgb": [3 numbers],
+                               "bands_hz": [...] (optional: the entry's own octave or
+                               third-octave centres, for data measured in thirds),
                                "specular": 0.0, "roughness": 0.5, "source": {...}}, ...},
      "references": {...}}
 
@@ -22,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sonolux.errors import SceneError, close_matches
-from sonolux.scene.schema import LIBRARY_BANDS_HZ, Context, Material, Table
+from sonolux.scene.schema import LIBRARY_BAND_SET, LIBRARY_BANDS_HZ, Context, Material, Table
 
 SCHEMA = "sonolux-materials/1"
 
@@ -32,7 +34,8 @@ DEFAULT_PATH = Path(__file__).resolve().parent.parent / "data" / "materials.json
 
 @dataclass(frozen=True, eq=False)
 class Library:
-    """Materials by name, all on the 8 library bands (``LIBRARY_BANDS_HZ``)."""
+    """Materials by name, on the 8 library octaves (``LIBRARY_BANDS_HZ``) unless an entry gives
+    its own ``bands_hz`` (a contiguous run of octaves or third-octaves)."""
 
     path: str
     materials: dict[str, Material]
@@ -93,10 +96,14 @@ def _entry(entries: Table, name: str) -> Material:
     assert t is not None
     # Keys beyond these (source, notes, ...) are documentation for people; they are kept in
     # the file and not read here.
+    # An entry's values are on the library's octaves unless it names its own bands (thirds
+    # where its source gives them; docs/bands.md).
+    grid = t.band_grid("bands_hz", LIBRARY_BAND_SET)
     return Material(
         name=name,
-        absorption=t.bands("absorption"),
-        scattering=t.bands("scattering"),
+        absorption=t.bands("absorption", grid=grid),
+        scattering=t.bands("scattering", grid=grid),
+        absorption_bands=grid, scattering_bands=grid,
         diffuse_rgb=t.vector("diffuse_rgb", 3, lo=0.0, hi=1.0),
         specular=t.number("specular", 0.0, lo=0.0, hi=1.0),
         roughness=t.number("roughness", 0.5, lo=0.0, hi=1.0),

@@ -20,6 +20,14 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.acoustics.bands import (
+    DEFAULT_OCTAVES_HZ,
+    OCTAVE,
+    BandSet,
+    allowed_text,
+    band_set_of,
+    convert_coefficients,
+)
 from sonolux.errors import (  # noqa: F401  (interval_text: re-exported)
     _MISSING,
     SceneError,
@@ -32,6 +40,7 @@ from sonolux.scene.toml_lines import find_line
 
 #: Octave-band centres of the material library, in Hz. Every material carries one value per band.
 LIBRARY_BANDS_HZ: tuple[int, ...] = (63, 125, 250, 500, 1000, 2000, 4000, 8000)
+LIBRARY_BAND_SET = BandSet(OCTAVE, LIBRARY_BANDS_HZ)
 
 REQUIRED = _MISSING  # marks a getter's default as "the key must be present"
 
@@ -41,10 +50,13 @@ REQUIRED = _MISSING  # marks a getter's default as "the key must be present"
 
 @dataclass(frozen=True, eq=False)
 class Material:
-    """Surface properties, one value per library band (63..8000 Hz) for sound.
+    """Surface properties: for sound, values per band on the bands the data was given in.
 
-    absorption: float64[8], energy absorption coefficient per band, in [0, 1].
-    scattering: float64[8], share of reflected sound energy scattered diffusely, in [0, 1].
+    absorption: float64[n], energy absorption coefficient per band of ``absorption_bands``
+        (by default the library's 8 octaves, 63..8000 Hz), in [0, 1].
+    scattering: float64[k], share of reflected sound energy scattered diffusely, per band of
+        ``scattering_bands``, in [0, 1]. A scene's bands take them through
+        :meth:`absorption_in` and :meth:`scattering_in`.
     diffuse_rgb: float64[3], reflectance of light per linear RGB channel, in [0, 1]: the total,
         of which the share ``specular`` is reflected specularly and the rest diffusely.
     specular: share of reflected light that is specular, in [0, 1].
@@ -62,6 +74,16 @@ class Material:
     roughness: float = 0.5
     description: str = ""
     transmittance: float = 0.0
+    absorption_bands: BandSet = LIBRARY_BAND_SET
+    scattering_bands: BandSet = LIBRARY_BAND_SET
+
+    def absorption_in(self, bands: BandSet) -> np.ndarray:
+        """float64[band]: the absorption on ``bands``, converted as docs/bands.md says."""
+        return convert_coefficients(self.absorption, self.absorption_bands, bands)
+
+    def scattering_in(self, bands: BandSet) -> np.ndarray:
+        """float64[band]: the scattering on ``bands``, converted as docs/bands.md says."""
+        return convert_coefficients(self.scattering, self.scattering_bands, bands)
 
 
 @dataclass(frozen=True)
@@ -80,20 +102,25 @@ class Air:
 
 @dataclass(frozen=True)
 class Settings:
-    """How a scene is to be simulated. ``bands_hz`` is a contiguous run of library bands."""
+    """How a scene is to be simulated.
+
+    ``bands`` is the kind of band, "octave" or "third-octave"; ``bands_hz`` the nominal centres
+    of a contiguous run of that kind (IEC 61260-1; see :mod:`sonolux.acoustics.bands`).
+    """
 
     sample_rate_hz: int = 48000
-    bands_hz: tuple[int, ...] = (125, 250, 500, 1000, 2000, 4000)
+    bands_hz: tuple[float, ...] = DEFAULT_OCTAVES_HZ
     energy_drop_db: float = 60.0
     max_time_s: float = 0.0  # 0 = until the energy has dropped by energy_drop_db
     seed: int = 1
     threads: int = 0  # 0 = all cores
     air: Air = field(default_factory=Air)
+    bands: str = OCTAVE
 
     @property
-    def band_indices(self) -> tuple[int, ...]:
-        """Index of each simulated band into the 8 library bands (``LIBRARY_BANDS_HZ``)."""
-        return tuple(LIBRARY_BANDS_HZ.index(f) for f in self.bands_hz)
+    def band_set(self) -> BandSet:
+        """The simulated bands: nominal centres, exact mid-band frequencies and edges."""
+        return BandSet(self.bands, tuple(self.bands_hz))
 
     @property
     def speed_of_sound_m_s(self) -> float:
@@ -202,6 +229,8 @@ class Scene:
     workplane: Any = None
     #: ``[early]`` (a :class:`sonolux.scene.early.EarlySpec`), or None: particles only.
     early: Any = None
+    #: ``[speech]`` (a :class:`sonolux.scene.speech.SpeechSpec`): talker and noise for STI.
+    speech: Any = None
     #: The core's mesh and BVH, built once when the scene was loaded and shared by the tracers.
     geometry: Any = field(default=None, repr=False)
 
@@ -328,17 +357,30 @@ class Table:
         return check_vector(self.ctx, self.path(name), v, n, allowed, lo=lo, hi=hi,
                             lo_open=lo_open, nonzero=nonzero)
 
-    def bands(self, name: str, default: Any = REQUIRED) -> Any:
-        """One number in [0, 1] for every library band, or a list of 8 (63..8000 Hz): float64[8]."""
-        allowed = "a number in [0, 1], or a list of 8 such numbers (63..8000 Hz)"
+    def bands(self, name: str, default: Any = REQUIRED,
+              grid: BandSet = LIBRARY_BAND_SET) -> Any:
+        """One number in [0, 1] for every band of ``grid``, or a list of one per band:
+        float64[grid.n_bands]."""
+        span = f"{grid.nominal_hz[0]:g}..{grid.nominal_hz[-1]:g} Hz"
+        allowed = (f"a number in [0, 1], or a list of {grid.n_bands} such numbers "
+                   f"({grid.kind} bands {span})")
         v = self._get(name, default, allowed)
         if v is _MISSING:
             return default
         if _is_number(v):
             check_number(self.ctx, self.path(name), v, 0.0, 1.0, False, False, False)
-            return np.full(len(LIBRARY_BANDS_HZ), float(v))
-        return check_vector(self.ctx, self.path(name), v, len(LIBRARY_BANDS_HZ), allowed,
-                            lo=0.0, hi=1.0)
+            return np.full(grid.n_bands, float(v))
+        return check_vector(self.ctx, self.path(name), v, grid.n_bands, allowed, lo=0.0, hi=1.0)
+
+    def band_grid(self, name: str, default: BandSet) -> BandSet:
+        """A list of nominal band centres: a contiguous run of octaves or of thirds."""
+        if name not in self.data:
+            return default
+        v = self.data[name]
+        try:
+            return band_set_of(v) if isinstance(v, list) else _no_bands()
+        except (ValueError, TypeError):
+            raise self.ctx.error(self.path(name), v, allowed_text()) from None
 
     def table(self, name: str) -> Table | None:
         if name not in self.data:
@@ -351,6 +393,10 @@ class Table:
         if not isinstance(v, list):
             raise self.ctx.error(self.path(name), v, f"an array of tables ([[{name}]])")
         return [Table(item, f"{self.path(name)}[{i}]", self.ctx) for i, item in enumerate(v)]
+
+
+def _no_bands() -> BandSet:
+    raise ValueError("not a list")
 
 
 def check_number(ctx: Context, key: str, v: Any, lo: float | None, hi: float | None,

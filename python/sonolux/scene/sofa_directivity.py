@@ -12,8 +12,7 @@ Conversion, in this order:
 
 1. Per direction and band, the energy is the integral of |H(f)|² over the band,
    with |H|² linear between the file's frequencies; a band the file does not cover is an error.
-   The edges are the bands' exact base-2 edges (octave or third-octave, see
-   :func:`~sonolux.scene.directivity.band_edges_hz`).
+   The edges are the bands' exact IEC 61260-1 edges (``Settings.band_set.edges_hz``).
 2. On the sphere, the per-band energies are interpolated linearly on the triangulation of
    the measured directions (their convex hull, which for points on a sphere is the spherical
    Delaunay triangulation): a grid direction takes the barycentric mix of the three corners
@@ -30,7 +29,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from sonolux.errors import SonoluxError
-from sonolux.scene.directivity import band_edges_hz, node_directions
+from sonolux.scene.directivity import node_directions
 
 CONVENTIONS = ("FreeFieldDirectivityTF", "GeneralTF")
 
@@ -108,14 +107,15 @@ def read_sofa_directivity(path: Path) -> SofaDirectivity:
     return SofaDirectivity(path, local, freqs, power)
 
 
-def band_energy(sofa: SofaDirectivity, bands_hz: np.ndarray) -> np.ndarray:
-    """The integral of |H|² over each band per direction: float64[direction, band]."""
-    edges = band_edges_hz(bands_hz)
+def band_energy(sofa: SofaDirectivity, edges_hz: np.ndarray) -> np.ndarray:
+    """The integral of |H|² over each band (edges float64[band, 2]) per direction:
+    float64[direction, band]."""
+    edges = np.asarray(edges_hz, float)
     f = sofa.frequencies_hz
     out = np.empty((len(sofa.directions), len(edges)))
     for b, (lo, hi) in enumerate(edges):
         if lo < f[0] or hi > f[-1]:
-            raise SonoluxError(f"{sofa.path}: the band {bands_hz[b]:g} Hz ({lo:.1f}–{hi:.1f} Hz) "
+            raise SonoluxError(f"{sofa.path}: the band {np.sqrt(lo * hi):.0f} Hz ({lo:.1f}–{hi:.1f} Hz) "
                                f"is outside the file's frequencies ({f[0]:g}–{f[-1]:g} Hz)")
         grid = np.concatenate([[lo], f[(f > lo) & (f < hi)], [hi]])
         values = np.stack([np.interp(grid, f, p) for p in sofa.power])
@@ -158,10 +158,10 @@ def sphere_interpolate(directions: np.ndarray, values: np.ndarray,
     return out
 
 
-def sofa_gains(sofa: SofaDirectivity, bands_hz: np.ndarray) -> np.ndarray:
-    """The engine's grid of per-band energy gains from a SOFA directivity:
-    float64[theta, phi, band]."""
-    energy = band_energy(sofa, bands_hz)
+def sofa_gains(sofa: SofaDirectivity, edges_hz: np.ndarray) -> np.ndarray:
+    """The engine's grid of per-band energy gains from a SOFA directivity, for the bands
+    with edges ``edges_hz`` float64[band, 2]: float64[theta, phi, band]."""
+    energy = band_energy(sofa, edges_hz)
     grid = node_directions()
     flat = sphere_interpolate(sofa.directions, energy, grid.reshape(-1, 3))
     if np.any(flat.sum(axis=0) <= 0):

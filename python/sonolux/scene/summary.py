@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.acoustics.bands import BandSet
 from sonolux.acoustics.theory import air_energy_attenuation_per_m, eyring_t60, sabine_t60
-from sonolux.scene.schema import Scene
+from sonolux.scene.schema import Air, Scene
 
 
 def _finite_or_none(values: np.ndarray) -> list[float | None]:
@@ -27,6 +28,18 @@ def _round(v: np.ndarray | float, digits: int = 9) -> Any:
     if isinstance(v, np.ndarray):
         return [round(float(x), digits) for x in v]
     return round(float(v), digits)
+
+
+def band_air_attenuation_per_m(bands: BandSet, air: Air) -> np.ndarray:
+    """float64[band]: the air's energy attenuation m (1/m) of each band, the pure-tone value at
+    the band's exact mid-band frequency, as ISO 9613-1:1993, clause 8, computes the attenuation
+    of a fractional-octave band of wideband sound. Within a band the pure-tone value grows about
+    as f² (from 0.5 to 2 times the centre's across an octave); one band keeps one exponential,
+    and a third-octave bake summed into octaves (``acoustics.bands.octave_energies``) integrates
+    the spectrum over the octave in three steps instead (docs/bands.md)."""
+    return np.asarray(air_energy_attenuation_per_m(bands.exact_hz, air.temperature_c,
+                                                   air.humidity_percent, air.pressure_kpa),
+                      dtype=np.float64)
 
 
 def theory(scene: Scene) -> dict[str, Any]:
@@ -40,26 +53,26 @@ def theory(scene: Scene) -> dict[str, Any]:
     settings, air = scene.settings, scene.settings.air
     volume_m3, area_m2 = scene.volume_m3, scene.area_m2
     by_material = scene.area_by_material_m2()
-    bands = np.asarray(settings.band_indices, dtype=np.int64)
-    freq_hz = np.asarray(settings.bands_hz, dtype=np.float64)
+    bands = settings.band_set
     # Absorption area per band: sum over materials of area x absorption coefficient.
-    absorption_area = np.zeros(bands.shape[0])
-    min_absorption = np.ones(bands.shape[0])
+    absorption_area = np.zeros(bands.n_bands)
+    min_absorption = np.ones(bands.n_bands)
     for m in scene.materials:
-        absorption_area += by_material[m.name] * m.absorption[bands]
+        alpha = m.absorption_in(bands)
+        absorption_area += by_material[m.name] * alpha
         if by_material[m.name] > 0:
-            min_absorption = np.minimum(min_absorption, m.absorption[bands])
+            min_absorption = np.minimum(min_absorption, alpha)
     corners = (scene.vertices_m.min(axis=0), scene.vertices_m.max(axis=0)) \
         if scene.vertices_m.size else (np.zeros(3), np.zeros(3))
     mean_absorption = absorption_area / area_m2 if area_m2 > 0 else np.zeros_like(absorption_area)
-    m_air = np.asarray(air_energy_attenuation_per_m(freq_hz, air.temperature_c,
-                                                    air.humidity_percent, air.pressure_kpa))
+    m_air = band_air_attenuation_per_m(bands, air)
     c = settings.speed_of_sound_m_s
     return {
         "volume_m3": volume_m3,
         "area_m2": area_m2,
         "mean_free_path_m": 4.0 * volume_m3 / area_m2 if area_m2 > 0 else None,
         "bands_hz": list(settings.bands_hz),
+        "bands": bands.kind,
         "mean_absorption": _round(mean_absorption),
         "air_attenuation_per_m": _round(m_air, 12),
         "min_absorption": _round(min_absorption),
@@ -87,6 +100,7 @@ def summarize(scene: Scene) -> dict[str, Any]:
         "bbox_min_m": report["bbox_min"].tolist(),
         "bbox_max_m": report["bbox_max"].tolist(),
         "bands_hz": expected["bands_hz"],
+        "bands": expected["bands"],
         "mean_absorption": expected["mean_absorption"],
         "sabine_t60_s": expected["sabine_t60_s"],
         "eyring_t60_s": expected["eyring_t60_s"],

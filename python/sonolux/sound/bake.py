@@ -25,18 +25,25 @@ from typing import Any
 import numpy as np
 
 from sonolux import engine
-from sonolux.acoustics.theory import air_energy_attenuation_per_m, sabine_t60
+from sonolux.acoustics.theory import sabine_t60
 from sonolux.errors import SonoluxError
 from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
 from sonolux.scene.directivity import builtin_gains
 from sonolux.scene.schema import Scene
 from sonolux.scene.sofa_directivity import sofa_gains
-from sonolux.scene.summary import theory
+from sonolux.scene.summary import band_air_attenuation_per_m, theory
+from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
+from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 
+#: A compact field's stored late bins: the shortest T60 over this many (0.6 dB of decay a bin),
+#: at most MAX_COMPACT_LATE_BIN_S. Measured to keep EDT, T20 and T30 within 0.5 % of the full
+#: field's on the paper rooms and the mesh room (tests/sound/test_compact.py).
+LATE_BINS_PER_T60 = 100
+MAX_COMPACT_LATE_BIN_S = 0.05
 #: Sphere crossings wanted per receiver in each late time bin, for the automatic ray count.
 HITS_PER_LATE_BIN = 20
 #: The paper's budget, 3 million rays for the 6 m room and 48 million for the 24 m room, is
@@ -45,16 +52,16 @@ PAPER_RULE_CONSTANT = 3e6 / (65 * 6.0**2)
 
 
 def band_arrays(scene: Scene) -> dict[str, np.ndarray]:
-    """Absorption and scattering float64[materials, bands] and the air's energy attenuation
-    float64[bands] (1/m) for the scene's simulated bands."""
-    idx = np.asarray(scene.settings.band_indices)
-    air = scene.settings.air
+    """Absorption and scattering float64[materials, bands] on the scene's bands (converted from
+    each material's own octaves or thirds, docs/bands.md) and the air's energy attenuation
+    float64[bands] (1/m) at each band's exact mid-band frequency (ISO 9613-1, clause 8)."""
+    bands = scene.settings.band_set
     return {
-        "absorption": np.ascontiguousarray([m.absorption[idx] for m in scene.materials], float),
-        "scattering": np.ascontiguousarray([m.scattering[idx] for m in scene.materials], float),
-        "air": np.asarray(air_energy_attenuation_per_m(np.asarray(scene.settings.bands_hz, float),
-                                                       air.temperature_c, air.humidity_percent,
-                                                       air.pressure_kpa), float),
+        "absorption": np.ascontiguousarray([m.absorption_in(bands) for m in scene.materials],
+                                           float),
+        "scattering": np.ascontiguousarray([m.scattering_in(bands) for m in scene.materials],
+                                           float),
+        "air": band_air_attenuation_per_m(bands, scene.settings.air),
     }
 
 
@@ -125,21 +132,23 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if end > rays:
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
+    early_s, stored_late_s, split = stored_axis(scene, options, arrays)
     src = scene.sources
     callback = ProgressLine(f"sound {scene.name}") if progress is True else (progress or None)
-    settings = engine.SoundSettings(
+    base = dict(
         rays=rays, first_ray=first, end_ray=end, seed=scene.settings.seed,
         threads=scene.settings.threads, estimator=options.estimator,
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s,
         air_attenuation_per_m=arrays["air"].tolist(), energy_drop_db=scene.settings.energy_drop_db,
         max_time_s=max_time_s, sample_rate_hz=float(scene.settings.sample_rate_hz),
-        early_s=options.early_s, late_bin_s=options.late_bin_s,
+        early_s=early_s, late_bin_s=stored_late_s,
         azimuth_bands=options.azimuth_bands, elevation_bands=options.elevation_bands,
         max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
+    settings = engine.SoundSettings(**base)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"])
-    bands_hz = np.asarray(scene.settings.bands_hz, float)
-    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, bands_hz))
+    edges_hz = scene.settings.band_set.edges_hz
+    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, edges_hz))
                for s in src]
     receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
                                  scene.receivers.radius_m)
@@ -151,14 +160,21 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                                       settings)
         arrivals = early_sound.arrival_table(found)
         early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
-    out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings, callback,
-                             early)
+    memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s))
+    if log:
+        log(memory.describe())
+    out = _trace_tiles(scene, geometry_args=(acoustics, sources), base=base, memory=memory,
+                       early=early, callback=callback, split=split,
+                       keep_counts=options.ray_range is not None,
+                       reduce=reduction(options, scene.settings.sample_rate_hz))
     seconds = time.perf_counter() - started
     stats = dict(out["stats"])
     stats.update(seconds=seconds, rays_per_second=stats["rays"] / seconds if seconds > 0 else None,
                  segments_per_second=stats["segments"] / seconds if seconds > 0 else None,
                  mean_free_path_theory_m=4 * scene.volume_m3 / scene.area_m2,
-                 saturated=bool(out["saturated"]), cancelled=bool(out["cancelled"]))
+                 saturated=bool(out["saturated"]), cancelled=bool(out["cancelled"]),
+                 tiles=memory.tiles, memory_budget_bytes=memory.budget_bytes,
+                 memory_estimate_bytes=memory.total_bytes)
     energy = out["energy"]
     if arrivals is not None:
         stats["early"] = early_stats
@@ -171,8 +187,13 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "seed": scene.settings.seed, "speed_of_sound_m_s": scene.settings.speed_of_sound_m_s,
         "sample_rate_hz": scene.settings.sample_rate_hz, "energy_drop_db": scene.settings.energy_drop_db,
         "max_time_s": max_time_s, "early_bins": int(out["early_bins"]),
-        "late_bin_s": options.late_bin_s, "azimuth_bands": options.azimuth_bands,
+        "late_bin_s": options.late_bin_s, "storage": options.storage,
+        "compact_arrivals": options.compact_arrivals,
+        "compact_envelope_s": options.compact_envelope_s,
+        "stored_late_bin_s": stored_late_s, "early_s": early_s, "azimuth_bands": options.azimuth_bands,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
+        "bands": scene.settings.bands,
+        "speech": None if scene.speech is None else scene.speech.as_dict(),
         "volume_m3": scene.volume_m3, "area_m2": scene.area_m2,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,
@@ -194,14 +215,144 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         early=arrivals)
 
 
-def _directivity(source: Any, bands_hz: np.ndarray) -> Any:
+def _directivity(source: Any, edges_hz: np.ndarray) -> Any:
     """The engine's directivity of a scene's source, tabulated for the bake's bands."""
     if source.directivity == "cone":
         return engine.Directivity.cone(tuple(float(v) for v in source.axis),
                                        float(source.cone_half_angle_deg))
     if source.directivity == "omni":
         return engine.Directivity.omni()
-    gains = (sofa_gains(source.sofa, bands_hz) if source.directivity == "sofa"
-             else builtin_gains(source.directivity, bands_hz))
+    gains = (sofa_gains(source.sofa, edges_hz) if source.directivity == "sofa"
+             else builtin_gains(source.directivity, edges_hz))
     return engine.Directivity.pattern(np.ascontiguousarray(gains, float),
                                       tuple(source.forward), tuple(source.up))
+
+
+def stored_axis(scene: Scene, options: SoundOptions,
+                arrays: dict[str, np.ndarray]) -> tuple[float, float, int]:
+    """(early_s, stored late bin width, view bins per stored late bin) of the bake.
+
+    Full storage: ``options.early_s`` and ``late_bin_s`` as given. Compact storage: the
+    one-sample part reaches the later of ``early_s`` and the mixing time (20 V/S + 12 ms,
+    Lindau, Kosanke and Weinzierl, JAES 60(11), 2012) *after the direct sound of the farthest
+    receiver*, so that C50, C80, D50 and JLF, counted from each receiver's onset, fall on
+    one-sample bins; the late part is stored at ``compact_late_bin_s`` and shown at
+    ``late_bin_s`` (:func:`sonolux.sound.compact.spread_late`)."""
+    if options.storage == "full":
+        return options.early_s, options.late_bin_s, 1
+    mixing_s = (20.0 * scene.volume_m3 / scene.area_m2 + 12.0) * 1e-3
+    positions = np.asarray(scene.receivers.positions_m, float).reshape(-1, 3)
+    sources = np.array([s.position_m for s in scene.sources], float).reshape(-1, 3)
+    farthest_m = float(np.max(np.linalg.norm(positions[:, None] - sources[None], axis=2))) \
+        if positions.size and sources.size else 0.0
+    early_s = max(options.early_s, mixing_s) + farthest_m / scene.settings.speed_of_sound_m_s
+    early_s = math.ceil(early_s * 1e3) / 1e3
+    if options.compact_late_bin_s == "auto":
+        t60 = sabine_t60(scene.volume_m3, _absorption_area(scene, arrays["absorption"]),
+                         arrays["air"], scene.settings.speed_of_sound_m_s)
+        shortest = float(np.min(t60)) if np.all(np.isfinite(t60)) else 1.0
+        width = min(shortest / LATE_BINS_PER_T60, MAX_COMPACT_LATE_BIN_S)
+        split = max(1, math.floor(width / options.late_bin_s + 1e-9))
+    else:
+        split = round(float(options.compact_late_bin_s) / options.late_bin_s)
+    return early_s, split * options.late_bin_s, split
+
+
+def field_shape(scene: Scene, options: SoundOptions, max_time_s: float,
+                arrays: dict[str, np.ndarray]) -> sound_budget.FieldShape:
+    """The bake's field, as the core lays it out (``SoundSettings::layout``)."""
+    fs = float(scene.settings.sample_rate_hz)
+    early_s, late_bin_s, _ = stored_axis(scene, options, arrays)
+    early_bins = round(early_s * fs)
+    late_bins = math.ceil(max(max_time_s - early_bins / fs, 0.0) / late_bin_s)
+    return sound_budget.FieldShape(scene.receivers.count,
+                                   options.azimuth_bands * options.elevation_bands,
+                                   len(scene.settings.bands_hz), early_bins, late_bins)
+
+
+def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray], *,
+                settings_of: tuple[int, float]) -> sound_budget.MemoryPlan:
+    """How the bake fits its budget (``options.memory_bytes``, default
+    :func:`sonolux.memory.budget_bytes`) with ``settings_of`` = (rays traced, max_time_s);
+    refused up front with what would fit."""
+    traced, max_time_s = settings_of
+    shape = field_shape(scene, options, max_time_s, arrays)
+    compact = options.storage == "compact"
+    cells = sound_budget.early_cells_estimate(
+        shape, rays=traced, sources=len(scene.sources), estimator=options.estimator,
+        sample_rate_hz=float(scene.settings.sample_rate_hz),
+        speed_of_sound_m_s=scene.settings.speed_of_sound_m_s, volume_m3=scene.volume_m3,
+        area_m2=scene.area_m2, radius_m=scene.receivers.radius_m)
+    partial = options.ray_range is not None and tuple(options.ray_range) != (0, options.rays)
+    return sound_budget.plan(shape, options.memory_bytes or budget_bytes(), compact=compact,
+                             keep_counts=options.ray_range is not None, early_cells=cells,
+                             reduced=None if partial else
+                             reduction(options, scene.settings.sample_rate_hz))
+
+
+def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str, Any],
+                 memory: sound_budget.MemoryPlan, early: Any, callback: Any, split: int,
+                 keep_counts: bool, reduce: tuple[int, int]) -> dict[str, Any]:
+    """Traces the receivers tile by tile (each tile every ray: the same bits as all at once),
+    keeping each tile's field compact, its stored late bins shown ``split`` to a bin (or
+    dense for ``storage="full"``). The time axis returned is the one shown."""
+    compact = memory.compact
+    partial = (base["first_ray"], base["end_ray"]) != (0, base["rays"])
+    acoustics, sources = geometry_args
+    positions = np.ascontiguousarray(scene.receivers.positions_m, float)
+    n, size = positions.shape[0], memory.tile_receivers
+    tiles = memory.tiles
+    energies: list[Any] = []
+    counts: list[Any] = []
+    out: dict[str, Any] = {}
+    deposits = 0
+    t0 = time.perf_counter()
+    for k, lo in enumerate(range(0, n, size)):
+        hi = min(lo + size, n)
+        receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
+                                     scene.receivers.radius_m)
+        settings = engine.SoundSettings(**dict(base, first_receiver=lo))
+        progress = None if callback is None else _tile_progress(callback, k, tiles, t0)
+        out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings,
+                                 progress, early)
+        deposits += int(out["stats"]["deposits"])
+        early_bins = int(out["early_bins"])
+        energy = out.pop("energy")
+        if compact:
+            # A part of a bake keeps every early cell (parts add up exactly); a whole bake
+            # keeps its strongest early arrivals and an envelope of the rest.
+            energy = CompactArray.of(energy, early_bins, split)
+            energy = energy if partial else energy.reduce(*reduce)
+        energies.append(energy)
+        if keep_counts:
+            counts.append(CompactArray.of(out.pop("counts"), early_bins, split) if compact
+                          else out.pop("counts"))
+        if out["cancelled"] or out["saturated"]:
+            break
+    join = CompactArray.concatenate if compact else np.concatenate
+    out["energy"] = energies[0] if len(energies) == 1 else join(energies)
+    if keep_counts:
+        out["counts"] = counts[0] if len(counts) == 1 else join(counts)
+    out["stats"] = dict(out["stats"], deposits=deposits)
+    if split > 1:
+        eb = int(out["early_bins"])
+        start, width = np.asarray(out["bin_start_s"]), np.asarray(out["bin_width_s"])
+        n_late = (start.size - eb) * split
+        fine = float(width[-1]) / split if n_late else 0.0
+        late0 = float(start[eb]) if n_late else 0.0
+        out["bin_start_s"] = np.concatenate([start[:eb], late0 + fine * np.arange(n_late)])
+        out["bin_width_s"] = np.concatenate([width[:eb], np.full(n_late, fine)])
+    return out
+
+
+def reduction(options: SoundOptions, sample_rate_hz: float) -> tuple[int, int]:
+    """(arrivals kept, samples per envelope bin) of a compact field's early part."""
+    return options.compact_arrivals, max(1, round(options.compact_envelope_s * sample_rate_hz))
+
+
+def _tile_progress(callback: Callable[[int, int, float], bool], tile: int, tiles: int,
+                   t0: float) -> Callable[[int, int, float], bool]:
+    """The progress of one tile as the progress of the whole bake."""
+    def report(done: int, total: int, _elapsed: float) -> bool:
+        return callback(tile * total + done, tiles * total, time.perf_counter() - t0)
+    return report

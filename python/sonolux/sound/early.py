@@ -64,8 +64,10 @@ def early_settings(scene: Scene, spec: EarlySpec, air_per_m: np.ndarray,
         max_order=spec.max_order, max_time_s=t,
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s,
         air_attenuation_per_m=[float(a) for a in air_per_m],
-        band_centres_hz=[float(f) for f in scene.settings.bands_hz],
-        bands_per_octave=bands_per_octave(scene.settings.bands_hz),
+        band_centres_hz=[float(f) for f in scene.settings.band_set.exact_hz],
+        # The core puts a band's edges at centre · 2^(±1/(2 b)); this b gives IEC 61260-1's
+        # base-10 edges centre · G^(±1/(2 per_octave)), G = 10^(3/10).
+        bands_per_octave=scene.settings.band_set.per_octave / (0.3 * math.log2(10.0)),
         diffraction=spec.diffraction, level_of_detail=spec.level_of_detail,
         threads=scene.settings.threads, diffraction_piece_m=spec.diffraction_piece_m)
 

@@ -23,8 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from sonolux.acoustics.bands import BandSet, band_set_of
 from sonolux.errors import SonoluxError, check_number
 from sonolux.limits import MAX_SEED
+from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 
 EIGHT_NAMES = ("front", "front-left", "left", "back-left", "back", "back-right", "right",
                "front-right")
@@ -46,7 +48,12 @@ def add_arrivals(particles: np.ndarray, arrivals: dict[str, np.ndarray]) -> np.n
     """float32[receiver, direction, band, time]: the particles' field plus every arrival's
     energy in its (receiver, direction, time) bin. Each touched cell is summed in float64, the
     arrivals in their order, then rounded once (the same bits every time); the field is copied
-    once, never widened. Arrivals past the field's end (time_bin −1) are left out."""
+    once, never widened. Arrivals past the field's end (time_bin −1) are left out. A compact
+    field (:class:`CompactArray`) gets the same values in its own layout."""
+    if isinstance(particles, CompactArray):
+        keep = arrivals["time_bin"] >= 0
+        return particles.add_sparse(arrivals["receiver"][keep], arrivals["direction_bin"][keep],
+                                    arrivals["energy"][keep], arrivals["time_bin"][keep])
     out = np.array(particles, dtype=np.float32, order="C", copy=True)
     keep = arrivals["time_bin"] >= 0
     n_bands = out.shape[2]
@@ -96,6 +103,24 @@ class SoundField:
         return int(self.settings["sample_rate_hz"])
 
     @property
+    def band_set(self) -> BandSet | None:
+        """The bands as IEC 61260-1 octaves or thirds: the kind the bake recorded (files from
+        before third-octaves hold octaves), or None when ``bands_hz`` is no such run (a
+        synthetic field of arbitrary centres)."""
+        try:
+            return band_set_of(self.bands_hz, self.settings.get("bands"))
+        except ValueError:
+            return None
+
+    @property
+    def synthesis_bands_hz(self) -> np.ndarray:
+        """float64[band]: the centres the synthesis filter bank is built on, the exact mid-band
+        frequencies (so that its crossovers, at the geometric means of neighbouring centres,
+        are the IEC 61260-1 band edges), or ``bands_hz`` for arbitrary centres."""
+        bands = self.band_set
+        return np.asarray(self.bands_hz, float) if bands is None else bands.exact_hz
+
+    @property
     def azimuth_bands(self) -> int:
         return int(self.settings["azimuth_bands"])
 
@@ -112,8 +137,16 @@ class SoundField:
         return 360.0 * np.arange(self.azimuth_bands) / self.azimuth_bands
 
     @property
+    def compact(self) -> bool:
+        """Whether the energy is held compactly (:mod:`sonolux.sound.compact`)."""
+        return isinstance(self.energy, CompactArray)
+
+    @property
     def bytes_per_receiver(self) -> int:
-        return int(self.energy[0].nbytes) if self.n_receivers else 0
+        """Bytes of energy held per receiver (in memory; the file adds gzip)."""
+        if not self.n_receivers:
+            return 0
+        return int(self.energy.nbytes) // self.n_receivers
 
     # --- lookups -----------------------------------------------------------------------------
     def cell_at(self, x: float, y: float, z: float | None = None) -> int:
@@ -162,7 +195,7 @@ class SoundField:
         seed = check_number("seed", seed, 0, MAX_SEED, integer=True)
         e = (self.omni_energy(receiver) if direction is None
              else self.energy[receiver, self.direction_index(direction)].astype(np.float64))
-        return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.bands_hz,
+        return pressure_ir(e, self.bin_start_s, self.bin_width_s, self.synthesis_bands_hz,
                            self.sample_rate_hz, self.settings["volume_m3"],
                            self.settings["speed_of_sound_m_s"], seed=seed)
 
@@ -189,10 +222,8 @@ class SoundField:
         if self.quantum != other.quantum or any(self.settings.get(k) != other.settings.get(k) for k in same) \
                 or self.counts.shape != other.counts.shape:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")
-        counts = self.counts + other.counts
-        energy = (counts.astype(np.float64) * self.quantum).astype(np.float32)
-        if self.early is not None:
-            energy = add_arrivals(energy, self.early)
+        counts = add_counts(self.counts, other.counts)
+        energy = energy_of(counts, self.quantum)
         mine = self.settings.get("ray_ranges", [self.settings["ray_range"]])
         theirs = other.settings.get("ray_ranges", [other.settings["ray_range"]])
         for a0, a1 in mine:
@@ -206,5 +237,12 @@ class SoundField:
                  for k, v in self.stats.items()}
         settings = dict(self.settings, ray_range=[ranges[0][0], max(r[1] for r in ranges)],
                         ray_ranges=ranges)
-        return SoundField(**{**self.__dict__, "energy": np.ascontiguousarray(energy),
+        covered = 0
+        for a, b in ranges:
+            covered = b if a <= covered else covered
+        if covered >= int(self.settings["rays"]):  # complete: as the bake done at once
+            energy = reduced(energy, self.settings)
+        if self.early is not None:
+            energy = add_arrivals(energy, self.early)
+        return SoundField(**{**self.__dict__, "energy": energy,
                              "counts": counts, "stats": stats, "settings": settings, "path": None})

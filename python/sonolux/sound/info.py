@@ -23,9 +23,12 @@ def info(field: SoundField) -> dict[str, Any]:
         "scene": field.scene_name, "origin": field.scene_origin, "path": field.path,
         "receivers": field.n_receivers, "radius_m": field.radius_m,
         "directions": field.direction_names, "bands_hz": field.bands_hz.tolist(),
+        "bands": None if field.band_set is None else field.band_set.kind,
         "duration_s": float(field.bin_start_s[-1] + field.bin_width_s[-1]) if field.bin_start_s.size else 0.0,
         "time_bins": int(field.bin_start_s.size), "early_bins": se["early_bins"],
         "late_bin_s": se["late_bin_s"], "bytes_per_receiver": field.bytes_per_receiver,
+        "storage": "compact" if field.compact else "full",
+        "file_bytes_per_receiver": _file_bytes_per_receiver(field),
         "settings": se, "stats": {k: v for k, v in st.items() if not k.startswith("energy_")},
         "energy_balance_relative_error": balance.tolist(),
         "escaped_share": st["escaped_rays"] / max(st["rays"], 1),
@@ -44,10 +47,11 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
         f"sound field of {d['scene']}" + (f"  ({path})" if path else ""),
         f"  receivers   {d['receivers']}, spheres of radius {d['radius_m']:g} m",
         f"  directions  {len(d['directions'])}: {', '.join(d['directions'])}",
-        f"  bands       {', '.join(f'{b:g}' for b in d['bands_hz'])} Hz",
+        f"  bands       {', '.join(f'{b:g}' for b in d['bands_hz'])} Hz"
+        + (f" ({len(d['bands_hz'])} {d['bands']}s)" if d["bands"] else ""),
         f"  time        {d['duration_s']:.3f} s: {d['early_bins']} one-sample bins at "
         f"{se['sample_rate_hz']} Hz, then {d['late_bin_s'] * 1e3:g} ms bins",
-        f"  memory      {d['bytes_per_receiver'] / 1e6:.2f} MB per receiver (float32)",
+        f"  storage     {_storage_line(field, d)}",
         f"  bake        {se['estimator']} estimator, {se['rays']:,} rays per source"
         f" (range {first:,}..{end:,}), seed {se['seed']}",
         f"  traced      {st['segments']:,} segments, {st['surface_hits']:,} surface hits, "
@@ -80,6 +84,37 @@ def progressive_line(p: dict[str, Any]) -> str:
              "cancelled": "cancelled, not converged"}.get(p["stopped"], p["stopped"])
     return (f"  accuracy    {ended} in {len(p['rounds'])} rounds; standard error at the worst "
             f"receiver and band: {', '.join(errors)}")
+
+
+def _file_bytes_per_receiver(field: SoundField) -> int | None:
+    """Bytes per receiver of the sound field in its file (gzip included), if it has one."""
+    if not field.path or not field.n_receivers:
+        return None
+    try:
+        import h5py
+
+        with h5py.File(field.path, "r") as f:
+            sizes: list[int] = []
+            f["sound"].visititems(lambda _, obj: sizes.append(obj.id.get_storage_size())
+                                  if isinstance(obj, h5py.Dataset) else None)
+        return sum(sizes) // field.n_receivers
+    except (OSError, KeyError):
+        return None
+
+
+def _storage_line(field: SoundField, d: dict[str, Any]) -> str:
+    se = field.settings
+    if field.compact:
+        what = (f"compact: early arrivals exact ({se.get('compact_arrivals')} strongest) over a "
+                f"{float(se.get('compact_envelope_s', 0)) * 1e3:g} ms envelope to "
+                f"{float(se.get('early_s', 0)) * 1e3:g} ms, late bins of "
+                f"{float(se.get('stored_late_bin_s', 0)) * 1e3:g} ms")
+    else:
+        what = "full: every bin dense"
+    size = f"{d['bytes_per_receiver'] / 1e3:,.1f} KB per receiver in memory"
+    if d["file_bytes_per_receiver"] is not None:
+        size += f", {d['file_bytes_per_receiver'] / 1e3:,.1f} KB in the file"
+    return f"{what}; {size}"
 
 
 def listener_warnings(field: SoundField, receiver: int) -> list[str]:

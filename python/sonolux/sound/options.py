@@ -10,6 +10,7 @@ from sonolux.errors import SettingError, SonoluxError, check_number, format_valu
 from sonolux.limits import MAX_RAYS, MAX_TIME_S
 
 ESTIMATORS = ("paper", "rain")
+STORAGES = ("compact", "full")
 
 
 @dataclass(frozen=True)
@@ -34,8 +35,23 @@ class SoundOptions:
     ray_range: (first, end) to trace only part of the bake (it merges exactly with the rest).
     air_absorption: False turns the air's absorption off (for comparisons with theory that
         leaves it out); the scene's air still sets the speed of sound.
-    max_field_bytes: the most memory the field may take (the engine estimates it before it
-        allocates and refuses a larger one); None = half of this machine's memory.
+    max_field_bytes: the most memory the engine's accumulator may take at once (it estimates
+        it before it allocates and refuses a larger one); None = the memory budget.
+    storage: "compact" (the default: the early part's non-zero one-sample cells, up to the
+        later of ``early_s`` and the mixing time after the farthest receiver's direct sound,
+        and the late part stored at ``compact_late_bin_s``, shown at ``late_bin_s``:
+        :mod:`sonolux.sound.compact`) or "full" (every cell dense, as given).
+    compact_late_bin_s: the stored late bins of a compact field, a whole multiple of
+        ``late_bin_s``; "auto": the shortest Sabine T60 of the bands (air included) / 100,
+        rounded down to a multiple of ``late_bin_s`` (a decay of 0.6 dB a bin), at most 50 ms.
+        It keeps every ISO 3382-1 parameter within a tenth of its JND of the full field's
+        (measured: tests/sound/test_compact.py, docs/fieldfile.md).
+    compact_arrivals: the strongest early arrivals (direction, sample) a receiver of a compact
+        field keeps exact; the rest of its early part is an envelope of
+        ``compact_envelope_s`` bins.
+    memory_bytes: the bake's memory budget: receivers are traced in tiles small enough to keep
+        the whole bake within it (:mod:`sonolux.sound.budget`); None = 80% of the memory this
+        machine has available (:func:`sonolux.memory.budget_bytes`).
     """
 
     rays: int | str = "auto"
@@ -48,6 +64,11 @@ class SoundOptions:
     ray_range: tuple[int, int] | None = None
     air_absorption: bool = True
     max_field_bytes: int | None = None
+    storage: str = "compact"
+    compact_late_bin_s: float | str = "auto"
+    compact_arrivals: int = 128
+    compact_envelope_s: float = 0.001
+    memory_bytes: int | None = None
 
     def validate(self) -> SoundOptions:
         """Every option checked by :func:`sonolux.errors.check_number` (the test shared with
@@ -73,4 +94,19 @@ class SoundOptions:
                 raise bad("ray_range", self.ray_range, "(first, end) with 0 ≤ first < end")
         check_number("sound option max_field_bytes", self.max_field_bytes, 1, none_ok=True,
                      integer=True)
+        if self.storage not in STORAGES:
+            raise bad("storage", self.storage, " or ".join(STORAGES))
+        if self.compact_late_bin_s != "auto":
+            check_number("sound option compact_late_bin_s", self.compact_late_bin_s, 1e-5, 1.0,
+                         unit="s")
+            split = self.compact_late_bin_s / self.late_bin_s  # type: ignore[operator]
+            if abs(split - round(split)) > 1e-6 * split or round(split) < 1:
+                raise bad("compact_late_bin_s", self.compact_late_bin_s,
+                          f"'auto' or a whole multiple of late_bin_s = {self.late_bin_s:g} s")
+        check_number("sound option compact_arrivals", self.compact_arrivals, 0, 1_000_000,
+                     integer=True)
+        check_number("sound option compact_envelope_s", self.compact_envelope_s, 1e-6, 0.1,
+                     unit="s")
+        check_number("sound option memory_bytes", self.memory_bytes, 1, none_ok=True,
+                     integer=True, unit="bytes")
         return self

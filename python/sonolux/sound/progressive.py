@@ -52,7 +52,7 @@ from sonolux.scene.schema import Scene
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
-from sonolux.sound.rounds import RoundSum, RoundWork
+from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
 
 #: Independent ray groups of the jackknife. More groups estimate the error better (the interval
 #: uses Student's t with GROUPS − 1 degrees of freedom) but each is one more call of the tracer
@@ -242,7 +242,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         assert state.total is not None and state.groups is not None
         t = state.total.template
         errors = jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
-                           t.bin_start_s, t.bin_width_s, slowest_decay_s(t))
+                           *omni_bins(t, state.total.counts), slowest_decay_s(t))
         worst = errors.worst_over_target(accuracy.fraction_of_jnd)
         elapsed = spent + time.perf_counter() - started
         state.rounds.append({"rays": target, "seconds": round(elapsed, 3),
@@ -272,16 +272,14 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,
            errors: Errors, rounds: list[dict[str, Any]], stop: str) -> SoundField:
     """The field of the ``done`` rays traced: energy scaled from the nominal ``ceiling``."""
-    field = field_of_sum(replace(total, counts=total.counts[:, :0]), [(0, done)], done, None)
     quantum = total.template.quantum * ceiling / done
-    energy = np.empty(total.counts.shape, np.float32)
-    for r in range(energy.shape[0]):  # one receiver at a time: no float64 copy of the field
-        energy[r] = total.counts[r].astype(np.float64) * quantum
+    field = field_of_sum(replace(total, template=replace(total.template, quantum=quantum)),
+                         [(0, done)], done, None)
     record = dict(field.settings, rays=done, ray_range=[0, done], progressive={
         "accuracy_jnd": accuracy.fraction_of_jnd, "groups": n_groups, "nominal_rays": ceiling,
         "max_rays": accuracy.max_rays, "max_seconds": accuracy.max_seconds, "stopped": stop,
         "rounds": rounds, "errors": errors.summary(), "jnd": {k: v[0] for k, v in JND.items()}})
-    out = replace(field, energy=energy, counts=None, settings=record, quantum=quantum)
+    out = replace(field, settings=record)
     if out.early is not None:
         from sonolux.sound.early import add_arrivals
 

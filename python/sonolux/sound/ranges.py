@@ -25,6 +25,7 @@ from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.sound.bake import auto_rays, band_arrays
 from sonolux.sound.bake import bake as bake_whole
+from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.version import __version__
@@ -40,7 +41,7 @@ class SoundSum:
     uint64[receiver, direction, band, time] (energy = counts × quantum), the summed statistics,
     and ``template``, the rest of the field (its energy left out)."""
 
-    counts: np.ndarray
+    counts: Any  # uint64 ndarray, or a CompactArray of them
     stats: dict[str, Any]
     template: SoundField
 
@@ -49,13 +50,15 @@ class SoundSum:
         if field.counts is None:
             raise SonoluxError("a sound field without counts cannot be summed (bake a ray range)")
         template = replace(field, energy=np.zeros((0,), np.float32), counts=None, path=None)
-        return cls(np.ascontiguousarray(field.counts, np.uint64), dict(field.stats), template)
+        counts = field.counts if isinstance(field.counts, CompactArray) else \
+            np.ascontiguousarray(field.counts, np.uint64)
+        return cls(counts, dict(field.stats), template)
 
     def add(self, other: SoundSum) -> SoundSum:
         t, o = self.template, other.template
         if t.quantum != o.quantum or self.counts.shape != other.counts.shape:
             raise SonoluxError("these ranges come from different bakes and cannot be summed")
-        np.add(self.counts, other.counts, out=self.counts)
+        self.counts = add_counts(self.counts, other.counts)
         self.stats = combine_stats(self.stats, other.stats)
         return self
 
@@ -77,15 +80,6 @@ def combine_stats(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
     out["saturated"] = bool(a.get("saturated")) or bool(b.get("saturated"))
     out["cancelled"] = bool(a.get("cancelled")) or bool(b.get("cancelled"))
     return out
-
-
-def energy_of(counts: np.ndarray, quantum: float) -> np.ndarray:
-    """float32 energy = counts × quantum, rounded once from float64 as the core does; one
-    receiver at a time so that no float64 copy of the whole field is made."""
-    energy = np.empty(counts.shape, np.float32)
-    for r in range(counts.shape[0]):
-        energy[r] = counts[r].astype(np.float64) * quantum
-    return energy
 
 
 class SoundRanges:
@@ -114,8 +108,11 @@ class SoundRanges:
         self.target = tuple(options.ray_range or (0, rays))
         if self.target[1] > rays:
             raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
-        self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None)
+        # The memory limits do not change the bits: they are left out of the fingerprint.
+        self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None,
+                               memory_bytes=None)
         self.max_field_bytes = options.max_field_bytes
+        self.memory_bytes = options.memory_bytes
         self.scene, self.name = scene, scene.name
         self.stamp = {"scene": fingerprint(ranges.scene_content(scene)),
                       "settings": fingerprint(self.options), "version": __version__}
@@ -130,7 +127,8 @@ class SoundRanges:
     def trace(self, first: int, end: int, threads: int | None = None,
               progress: ranges.Progress | None = None) -> SoundSum:
         options = replace(self.options, ray_range=(first, end),
-                          max_field_bytes=self.max_field_bytes)
+                          max_field_bytes=self.max_field_bytes,
+                          memory_bytes=getattr(self, "memory_bytes", None))
         return SoundSum.of(bake_whole(self.loaded_scene(threads), options, progress=progress))
 
     def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
@@ -152,7 +150,7 @@ def encode_sum(total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     meta = {"settings": t.settings, "stats": total.stats, "theory": t.theory,
             "scene_name": t.scene_name, "scene_origin": t.scene_origin,
             "radius_m": t.radius_m, "grid_spacing_m": t.grid_spacing_m, "quantum": t.quantum}
-    arrays = {"counts": total.counts, **{k: getattr(t, k) for k in SMALL_ARRAYS}}
+    arrays = {**counts_arrays(total.counts), **{k: getattr(t, k) for k in SMALL_ARRAYS}}
     if t.grid_index is not None:
         arrays["grid_index"] = np.asarray(t.grid_index)
     return _jsonable(meta), arrays
@@ -166,7 +164,26 @@ def decode_sum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
         grid_spacing_m=meta["grid_spacing_m"], settings=meta["settings"], stats={},
         scene_name=meta["scene_name"], scene_origin=meta["scene_origin"],
         quantum=meta["quantum"], theory=meta["theory"])
-    return SoundSum(np.array(arrays["counts"], np.uint64), meta["stats"], template)
+    return SoundSum(counts_of_arrays(arrays), meta["stats"], template)
+
+
+def counts_arrays(counts: Any) -> dict[str, np.ndarray]:
+    """Plain arrays of a sum's counts, dense or compact, for the checkpoint."""
+    if isinstance(counts, CompactArray):
+        return {"counts_offset": counts.offset, "counts_cell": counts.cell,
+                "counts_value": counts.value, "counts_late": counts.late,
+                "counts_early_bins": np.array([counts.early_bins, counts.late_split], np.int64)}
+    return {"counts": counts}
+
+
+def counts_of_arrays(arrays: dict[str, np.ndarray]) -> Any:
+    """The counts that :func:`counts_arrays` wrote."""
+    if "counts" in arrays:
+        return np.array(arrays["counts"], np.uint64)
+    early_bins, late_split = (int(v) for v in arrays["counts_early_bins"])
+    return CompactArray(early_bins, np.array(arrays["counts_offset"]),
+                        np.array(arrays["counts_cell"]), np.array(arrays["counts_value"]),
+                        np.array(arrays["counts_late"]), late_split)
 
 
 def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
@@ -186,7 +203,10 @@ def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
     seconds = stats.get("seconds") or 0.0
     for k, n in (("rays_per_second", "rays"), ("segments_per_second", "segments")):
         stats[k] = stats.get(n, 0) / seconds if seconds > 0 else None
-    return replace(t, energy=energy_of(total.counts, t.quantum),
+    energy = energy_of(total.counts, t.quantum)
+    if whole:
+        energy = reduced(energy, t.settings)
+    return replace(t, energy=energy,
                    counts=None if whole else total.counts, settings=settings, stats=stats)
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from sonolux import ranges
 from sonolux.checkpoint import fingerprint
 from sonolux.memory import check_memory
+from sonolux.sound.compact import CompactArray
 from sonolux.sound.ranges import SoundRanges, SoundSum, decode_sum, encode_sum
 
 Range = tuple[int, int]
@@ -85,7 +86,7 @@ class RoundWork:
         by_group: dict[int, np.ndarray] = {}
         for a, b in self.cuts(first, end):
             part = self.inner.trace(a, b, threads, _offset(progress, a - first))
-            omni = part.counts.sum(axis=1, dtype=np.uint64)
+            omni = omni_counts(part.counts)
             g = self.group_of(a)
             by_group[g] = omni if g not in by_group else by_group[g] + omni
             total = part if total is None else total.add(part)
@@ -120,6 +121,32 @@ class RoundWork:
     def finish(self, total: RoundSum | None, done: list[Range]) -> RoundSum:
         del done
         return self.carry if total is None else total
+
+
+def omni_counts(counts: Any) -> np.ndarray:
+    """Exact counts summed over directions, uint64[receiver, band, time], from dense counts or a
+    compact array's cells (its late part at the resolution it stores: see :func:`omni_bins`)."""
+    if not isinstance(counts, CompactArray):
+        return np.asarray(counts).sum(axis=1, dtype=np.uint64)
+    if counts.envelope is not None:
+        raise ValueError("a reduced compact array no longer holds exact counts")
+    n, _, bands, _ = counts.shape
+    early = np.zeros((n, bands, counts.early_bins), np.uint64)
+    owner = np.repeat(np.arange(n), np.diff(counts.offset))
+    rest = counts.cell.astype(np.int64) % (bands * counts.early_bins)
+    band, sample = np.divmod(rest, counts.early_bins)
+    np.add.at(early, (owner, band, sample), counts.value.astype(np.uint64))
+    return np.concatenate([early, counts.late.sum(axis=1, dtype=np.uint64)], axis=-1)
+
+
+def omni_bins(template: Any, counts: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(bin starts, bin widths) in s of :func:`omni_counts`' time axis."""
+    start, width = np.asarray(template.bin_start_s), np.asarray(template.bin_width_s)
+    if not isinstance(counts, CompactArray) or counts.late_split == 1:
+        return start, width
+    e, k = counts.early_bins, counts.late_split
+    return (np.concatenate([start[:e], start[e::k]]),
+            np.concatenate([width[:e], width[e:].reshape(-1, k).sum(axis=1)]))
 
 
 def _offset(progress: ranges.Progress | None, before: int) -> ranges.Progress | None:

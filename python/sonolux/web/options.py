@@ -9,6 +9,9 @@ from dataclasses import dataclass
 from sonolux.errors import SonoluxError
 
 SAMPLE_FORMATS = ("int16", "float32")
+#: The decay a cell's responses keep by default: ISO 3382-1 takes a reverberation to have died
+#: away 60 dB below its start (the T60), and what follows is masked by any ongoing sound.
+TAIL_DB = 60.0
 
 
 @dataclass(frozen=True)
@@ -18,11 +21,17 @@ class WebExportOptions:
     quantization noise about 100 dB below the peak, far below the end of a 60 dB decay) or
     "float32". seed: of the synthesized fine structure; response (cell r, direction d) uses
     seed + r × directions + d, so directions and cells are uncorrelated and an equal-power
-    cross-fade between cells keeps the loudness. threads: 0 = all cores."""
+    cross-fade between cells keeps the loudness. tail_db: a cell's responses end (with the same
+    10 ms fade) where the energy still to come, summed over its directions, has fallen this far
+    below the cell's whole energy (its Schroeder curve, ISO 3382-1); None keeps the field's
+    whole time axis. compress: each cell's block is stored deflated (zlib, RFC 1950; the
+    browser's DecompressionStream inflates it), lossless. threads: 0 = all cores."""
 
     max_length_s: float | None = None
     sample_format: str = "int16"
     seed: int = 0
+    tail_db: float | None = TAIL_DB
+    compress: bool = True
     threads: int = 0
 
     def validate(self) -> WebExportOptions:
@@ -34,6 +43,13 @@ class WebExportOptions:
         if self.sample_format not in SAMPLE_FORMATS:
             raise SonoluxError(f"sample_format = {self.sample_format!r} is not one of: "
                                f"{', '.join(SAMPLE_FORMATS)}")
+        if self.tail_db is not None and not (
+                isinstance(self.tail_db, (int, float)) and not isinstance(self.tail_db, bool)
+                and 20.0 <= self.tail_db <= 200.0):
+            raise SonoluxError(f"tail_db = {self.tail_db!r} is not allowed: a decay from 20 to "
+                               "200 dB, or None for the field's whole time axis")
+        if not isinstance(self.compress, bool):
+            raise SonoluxError(f"compress = {self.compress!r} is not allowed: True or False")
         if not (isinstance(self.seed, int) and self.seed >= 0):
             raise SonoluxError(f"seed = {self.seed!r} is not allowed: a whole number ≥ 0")
         if not (isinstance(self.threads, int) and self.threads >= 0):

@@ -10,6 +10,10 @@ put the direct sound in the bin that holds t (the "rain" estimator computes it t
 the half sample allows for rounding at a bin's edge. So "direct only" is the same sound, at the
 same level, without what the walls add; a cell out of sight of a source has none from it.
 
+The decay is cut where it has died away (``tail_db``, :func:`decay_end`): where the energy still
+to come, over all the cell's directions, is that far below the cell's whole energy, so every
+direction of a cell ends together and the cut leaves out at most 10^(−tail_db/10) of its energy.
+
 Packing: leading and trailing zeros are cut (``delay`` counts the leading ones, so a response
 is ``delay`` zeros then ``length`` stored samples); int16 samples carry one ``scale`` each
 (value = int16 × scale, the peak at ±32767), float32 samples a scale of 1.
@@ -56,23 +60,44 @@ def direct_bins(field: SoundField, receiver: int) -> np.ndarray:
     return keep
 
 
-def cell_responses(field: SoundField, receiver: int, seed: int,
-                   max_length_s: float | None) -> CellResponses:
-    """Both sets of one cell: seeds seed + receiver × directions + d, cut at max_length_s."""
+def decay_end(responses: list[np.ndarray], tail_db: float) -> int:
+    """Samples until the energy still to come (summed over the responses: the cell's Schroeder
+    curve) is tail_db below the whole; the longest response's length when it never is."""
+    n = max((x.size for x in responses), default=0)
+    energy = np.zeros(n)
+    for x in responses:
+        energy[:x.size] += x * x
+    to_come = np.cumsum(energy[::-1])[::-1]  # to_come[k]: the energy from sample k on
+    if n == 0 or to_come[0] == 0:
+        return n
+    below = np.flatnonzero(to_come <= to_come[0] * 10.0 ** (-tail_db / 10.0))
+    return int(below[0]) if below.size else n
+
+
+def cell_responses(field: SoundField, receiver: int, seed: int, max_length_s: float | None,
+                   tail_db: float | None = None) -> CellResponses:
+    """Both sets of one cell: seeds seed + receiver × directions + d, cut at max_length_s and
+    where the cell's decay has fallen tail_db (None: not cut by the decay)."""
     n_dir = field.energy.shape[1]
     keep = direct_bins(field, receiver)
     fs = field.sample_rate_hz
     volume = float(field.settings["volume_m3"])
     c = float(field.settings["speed_of_sound_m_s"])
     full, direct = [], []
+    whole = [field.impulse_response(receiver, d, seed=seed + receiver * n_dir + d)
+             for d in range(n_dir)]
+    end_s = max_length_s
+    if tail_db is not None:
+        t = decay_end(whole, tail_db) / fs
+        end_s = t if end_s is None else min(end_s, t)
     for d in range(n_dir):
         s = seed + receiver * n_dir + d
-        full.append(_cut(field.impulse_response(receiver, d, seed=s), fs, max_length_s))
+        full.append(_cut(whole[d], fs, end_s))
         e = np.where(keep, field.energy[receiver, d].astype(np.float64), 0.0)
         if np.any(e > 0):
-            ir = pressure_ir(e, field.bin_start_s, field.bin_width_s, field.bands_hz, fs, volume,
-                             c, seed=s)
-            direct.append(_cut(ir, fs, max_length_s))
+            ir = pressure_ir(e, field.bin_start_s, field.bin_width_s, field.synthesis_bands_hz,
+                             fs, volume, c, seed=s)
+            direct.append(_cut(ir, fs, end_s))
         else:
             direct.append(np.zeros(0))
     return CellResponses(full, direct)

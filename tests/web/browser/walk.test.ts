@@ -61,6 +61,46 @@ describe('walking', () => {
     expect(s.errors).toEqual([]);
   });
 
+  test('responses are fetched by position: the start cell and its neighbours, then more on the way', async () => {
+    const page = s.page;
+    // Every request for responses.bin, as the cells whose blocks its byte range covers.
+    const ranges: string[] = [];
+    page.on('request', (r) => {
+      if (r.url().endsWith('/bundle/responses.bin')) ranges.push(r.headers().range ?? 'whole file');
+    });
+    await open(page, `${inject('litUrl')}?x=1.2&y=1.25&heading=0`);
+    const cells = await page.evaluate(() => window.sonolux.index!.cells.map((c) => ({ first: c.byteOffset, x: c.position[0], y: c.position[1] })));
+    const cellOf = (range: string) => {
+      const m = /^bytes=(\d+)-(\d+)$/.exec(range);
+      expect(m, `a range request, not ${range}`).not.toBeNull();
+      return cells.findIndex((c) => c.first === Number(m![1]));
+    };
+    await page.waitForFunction(() => window.sonolux.app!.store.requested.length >= 1, null, { timeout: 30_000 });
+    await waitFrames(page, 10);
+    // paper-small: 15 cells 1 m apart; at cell 5, (1, 1.25), only it and the cells within
+    // 1.5 m of it (x ≤ 2) are fetched, one range each.
+    const atStart = ranges.map(cellOf);
+    expect(atStart[0]).toBe(5);
+    expect(new Set(atStart).size).toBe(atStart.length);
+    for (const c of atStart) expect(Math.hypot(cells[c].x - 1, cells[c].y - 1.25)).toBeLessThanOrEqual(1.5 * 1 + 1e-9);
+    expect(atStart.length).toBeLessThan(cells.length / 2);
+    // Walking along +x fetches the cells ahead as they come near, each once.
+    await page.keyboard.down('ShiftLeft');
+    await page.keyboard.down('KeyW');
+    await page.waitForFunction(() => window.sonolux.app!.cell === 8, null, { timeout: 30_000, polling: 16 });
+    await page.keyboard.up('KeyW');
+    await page.keyboard.up('ShiftLeft');
+    await waitFrames(page, 10);
+    const all = ranges.map(cellOf);
+    expect(new Set(all).size).toBe(all.length);
+    const later = all.slice(atStart.length);
+    expect(later.length).toBeGreaterThan(0);
+    for (const c of later) expect(cells[c].x).toBeGreaterThan(2); // new cells, ahead of the start
+    expect(later).toContain(8);
+    console.log(`responses fetched: at the start cells ${atStart.join(', ')} of ${cells.length}; walking to cell 8 then cells ${later.join(', ')}`);
+    expect(s.errors).toEqual([]);
+  });
+
   test('walls stop the listener one body radius away', async () => {
     const page = s.page;
     await open(page, `${inject('litUrl')}?x=5&y=1.25&heading=0`);

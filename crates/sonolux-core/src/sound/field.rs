@@ -16,7 +16,6 @@ use std::sync::Mutex;
 
 use glam::DVec3;
 
-use crate::rng::Stream;
 
 /// Shape of the field: time bins × receivers × directions × bands while accumulating.
 #[derive(Clone, Debug, PartialEq)]
@@ -161,11 +160,11 @@ impl Accumulator {
 
     /// Adds `energy[b]` to the bands starting at `base` (through the worker's batch `buf`),
     /// rounding each to a whole number of quanta up or down at random with the probability that
-    /// keeps the expectation exact (one random number serves all bands: each band's rounding is
-    /// still unbiased).
+    /// keeps the expectation exact: `u` is uniform in [0, 1) (one number serves all bands: each
+    /// band's rounding is still unbiased). Callers key `u` by the deposit alone
+    /// ([`crate::rng::keyed_uniform`]), never by a stream other receivers also draw from.
     #[inline]
-    pub fn deposit(&self, buf: &mut Deposits, base: usize, energy: &[f64], rng: &mut Stream) {
-        let u = rng.uniform();
+    pub fn deposit(&self, buf: &mut Deposits, base: usize, energy: &[f64], u: f64) {
         let inv = 1.0 / self.quantum;
         for (b, &e) in energy.iter().enumerate() {
             if e <= 0.0 {
@@ -267,6 +266,7 @@ impl Accumulator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Stream;
 
     fn layout() -> Layout {
         Layout { n_receivers: 1, n_azimuth: 8, n_elevation: 3, n_bands: 1, sample_rate_hz: 1000.0, early_bins: 80, late_bin_s: 0.01, late_bins: 10 }
@@ -301,7 +301,7 @@ mod tests {
         let mut rng = Stream::new(1, 2, 3);
         let mut buf = Deposits::new();
         for _ in 0..100_000 {
-            acc.deposit(&mut buf, 0, &[0.3], &mut rng);
+            acc.deposit(&mut buf, 0, &[0.3], rng.uniform());
         }
         acc.flush(&mut buf);
         let mean = acc.get(0) as f64 / 100_000.0;

@@ -136,6 +136,11 @@ pub struct SoundSettings {
     pub first_ray: u64,
     pub end_ray: u64,
     pub seed: u64,
+    /// The index, in the whole bake, of this run's first receiver: a bake may trace its
+    /// receivers in tiles, and each deposit's rounding is keyed by the receiver's index in the
+    /// whole bake, so every tile gives its receivers the bits of the whole bake. 0 for a run of
+    /// every receiver.
+    pub first_receiver: u64,
     /// Worker threads, 0 = all cores, at most [`MAX_THREADS`]. Does not change the result.
     pub threads: usize,
     pub estimator: Estimator,

@@ -9,7 +9,7 @@ use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
 use super::{Directivity, Estimator, Scene, SoundSource};
 use crate::geometry::Ray;
-use crate::rng::Stream;
+use crate::rng::{keyed_uniform, Stream};
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
 /// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
@@ -92,6 +92,9 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     // wavefront the ray belongs to, whose centre is the (image) source it comes from.
     let mut wave_radius = 0.0f64;
     let mut reflections = 0u64;
+    // Segments of this ray so far: with the reflections, the key of each deposit's rounding.
+    let mut ray_segments = 0u64;
+    let first_receiver = set.first_receiver;
     // Free paths (surface to surface) of this ray: their sum and sum of squares.
     let (mut free_n, mut free_sum, mut free_sq) = (0u64, 0.0f64, 0.0f64);
     // Whether the spheres collect this segment: always in paper mode; in rain mode only after a
@@ -113,6 +116,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         let hit = scene.surfaces.nearest(pos, dir);
         let length = hit.map_or(f64::INFINITY, |h| h.0);
         st.segments += 1;
+        ray_segments += 1;
 
         // Deposit into the receiver spheres this segment crosses.
         if spheres {
@@ -137,7 +141,8 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
                     }
                 }
                 let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
-                acc.deposit(buf, base, &deposit[..nb], &mut rng);
+                let u = keyed_uniform(set.seed, s as u64, index, first_receiver + c.receiver as u64, 2 * ray_segments);
+                acc.deposit(buf, base, &deposit[..nb], u);
                 st.deposits += 1;
             });
         }
@@ -190,7 +195,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 
         // Rain: send the diffusely reflected energy to every receiver that sees this point.
         if set.estimator == Estimator::Rain {
-            rain(scene, point, normal, path, e, scat, share, acc, buf, st, &mut rng, deposit);
+            rain(scene, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], deposit);
         }
 
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
@@ -237,8 +242,9 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 /// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
 /// [`ball_mean_inverse_square`], and attenuated by the air on the way.
 #[allow(clippy::too_many_arguments)]
-/// `deposit` is the worker's scratch of one value a band.
-fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, rng: &mut Stream, deposit: &mut [f64]) {
+/// `deposit` is the worker's scratch of one value a band; `key` is (source, ray, event), the
+/// rounding's key with the receiver.
+fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], deposit: &mut [f64]) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = e.len();
@@ -261,7 +267,8 @@ fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: 
         for b in 0..nb {
             deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation_per_m[b] * d).exp();
         }
-        acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], rng);
+        let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
+        acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
         st.deposits += 1;
     }
 }
@@ -281,7 +288,7 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let mut buf = Deposits::new();
     for (s, src) in scene.sources.iter().enumerate() {
         for (r, c) in scene.receivers.centres.iter().enumerate() {
-            let mut rng = Stream::new(set.seed, s as u64, u64::MAX - r as u64);
+            let receiver_key = set.first_receiver + r as u64;
             let to = *c - src.position;
             let d = to.length();
             if d > 0.0 {
@@ -309,7 +316,8 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
                 deposit[b] = energy * gain[b] * (-set.air_attenuation_per_m[b] * d).exp() / split;
             }
             for dir in directions {
-                acc.deposit(&mut buf, lay.index(r, tb, dir), &deposit[..nb], &mut rng);
+                let u = keyed_uniform(set.seed, s as u64, u64::MAX, receiver_key, dir as u64);
+                acc.deposit(&mut buf, lay.index(r, tb, dir), &deposit[..nb], u);
             }
         }
     }
