@@ -204,6 +204,7 @@ fn settings(rays: u64, threads: usize) -> SoundSettings {
     SoundSettings {
         rays,
         first_ray: 0,
+        first_receiver: 0,
         end_ray: rays,
         seed: 5,
         threads,
