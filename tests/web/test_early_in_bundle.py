@@ -80,6 +80,7 @@ def test_early_arrivals_are_in_their_directions_responses_at_their_samples(hybri
     assert checked == images.size
     # The direct sound leads each cell's response in the source's direction, at full size.
     for r in range(len(RECEIVERS)):
-        first = images[early["receiver"][images] == r][np.argmin(early["time_s"][images][early["receiver"][images] == r])]
+        mine = images[early["receiver"][images] == r]
+        first = mine[np.argmin(early["time_s"][mine])]
         d = int(early["direction_bin"][first])
         assert index["cells"][r]["full"][d][0] == int(early["time_bin"][first])  # its delay

@@ -4,7 +4,7 @@
 //! Each class checks its own arrays' shapes when it is made; `SoundSettings::validate` in the
 //! core checks everything else once, when `trace_sound` starts.
 
-use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -51,9 +51,12 @@ impl Acoustics {
     }
 }
 
-/// How a source sends its rays out: `Directivity.omni()`, or `Directivity.cone(axis,
+/// How a source sends its rays out: `Directivity.omni()`; `Directivity.cone(axis,
 /// half_angle_deg)`: uniformly within half_angle_deg (0 to 180°] of the axis, as the paper's
-/// directional source.
+/// directional source; or `Directivity.pattern(gains, forward, up)`: per-band energy gains,
+/// float64[theta, phi, band] on the grid of `sonolux_core::sound::pattern` (θ from forward, 0
+/// to π inclusive; φ around it from up towards up × forward, 0 to 2π exclusive), emitted by
+/// importance; each band is normalised to a mean gain of 1.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Directivity {
     inner: core::Directivity,
@@ -79,12 +82,40 @@ impl Directivity {
         Ok(Directivity { inner: core::Directivity::Cone { axis: a.normalize(), cos_half_angle: half_angle_deg.to_radians().cos() }, half_angle_deg })
     }
 
+    #[staticmethod]
+    fn pattern(gains: PyReadonlyArray3<'_, f64>, forward: [f64; 3], up: [f64; 3]) -> PyResult<Self> {
+        let g = gains.as_array();
+        let (nt, np, nb) = g.dim();
+        let values: Vec<f64> = g.iter().copied().collect();
+        let p = core::Pattern::new(nt, np, nb, &values, DVec3::from_array(forward), DVec3::from_array(up)).map_err(|e| invalid(e.to_string()))?;
+        Ok(Directivity { inner: core::Directivity::Pattern(std::sync::Arc::new(p)), half_angle_deg: 180.0 })
+    }
+
+    /// The pattern's gain per band towards each unit direction: float64[direction, band]
+    /// (1 in every band for omni; the mean over the sphere is 1). `directions`: float64[n, 3].
+    fn gains<'py>(&self, py: Python<'py>, directions: PyReadonlyArray2<'_, f64>, n_bands: usize) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let d = directions.as_array();
+        if d.ncols() != 3 || n_bands == 0 {
+            return Err(invalid(format!("directions: shape {:?}, (n, 3) expected, and n_bands ≥ 1", d.dim())));
+        }
+        if let Err(problem) = self.inner.check(n_bands) {
+            return Err(invalid(format!("directivity: {problem}")));
+        }
+        let mut out = numpy::ndarray::Array2::<f64>::zeros((d.nrows(), n_bands));
+        for (row, mut o) in d.rows().into_iter().zip(out.rows_mut()) {
+            let v = DVec3::new(row[0], row[1], row[2]).normalize_or_zero();
+            self.inner.gains(v, o.as_slice_mut().expect("a row of a new array is contiguous"));
+        }
+        Ok(out.into_pyarray(py))
+    }
+
     /// "omni" or "cone".
     #[getter]
     fn kind(&self) -> &'static str {
         match self.inner {
             core::Directivity::Omni => "omni",
             core::Directivity::Cone { .. } => "cone",
+            core::Directivity::Pattern(_) => "pattern",
         }
     }
 
@@ -92,6 +123,7 @@ impl Directivity {
         match self.inner {
             core::Directivity::Omni => "Directivity.omni()".into(),
             core::Directivity::Cone { axis, .. } => format!("Directivity.cone({:?}, {})", axis.to_array(), self.half_angle_deg),
+            core::Directivity::Pattern(ref p) => format!("Directivity.pattern(<{} bands>)", p.n_bands()),
         }
     }
 }
@@ -115,7 +147,7 @@ impl SoundSource {
         if !(power_w > 0.0 && power_w.is_finite()) {
             return Err(invalid(format!("source power_w: {power_w} is not a positive power")));
         }
-        let directivity = directivity.map_or(core::Directivity::Omni, |d| d.inner);
+        let directivity = directivity.map_or(core::Directivity::Omni, |d| d.inner.clone());
         Ok(SoundSource { inner: core::SoundSource { position, power_w, directivity } })
     }
 }

@@ -1,8 +1,13 @@
 """What emits: sound sources (``[[sources]]``) and lights (``[[lights]]``).
 
 A sound source must lie in the room's air (not outside the closed volume, not inside an
-obstacle). It radiates ``power_w`` either in every direction (``directivity = "omni"``) or
-uniformly inside a cone of ``cone_half_angle_deg`` around ``axis`` (``"cone"``).
+obstacle). It radiates ``power_w`` in every band, either in every direction
+(``directivity = "omni"``), uniformly inside a cone of ``cone_half_angle_deg`` around ``axis``
+(``"cone"``), or by a tabulated pattern oriented by ``forward`` and ``up`` (default +x and +z):
+a built-in (``"cardioid"``, ``"supercardioid"``, ``"hypercardioid"``, ``"figure-of-eight"``,
+``"dodecahedron"``; :mod:`sonolux.scene.directivity`) or a measured one,
+``directivity = { sofa = "file.sofa" }`` (relative to the scene file;
+:mod:`sonolux.scene.sofa_directivity`).
 
 A light is resolved to emitting triangles:
 
@@ -35,10 +40,13 @@ import numpy as np
 from sonolux.errors import SonoluxError, close_matches
 from sonolux.light.ies import read_ies
 from sonolux.light.photometry import LUMINANCE_RGB, channel_flux_from_lumens
+from sonolux.scene.directivity import BUILTIN
 from sonolux.scene.inside import IN_AIR, IN_OBSTACLE, OUTSIDE, RoomSpace
 from sonolux.scene.schema import Light, Material, SoundSource, Table
+from sonolux.scene.sofa_directivity import read_sofa_directivity
 
-SOURCE_KEYS = ("name", "position_m", "power_w", "directivity", "cone_half_angle_deg", "axis")
+SOURCE_KEYS = ("name", "position_m", "power_w", "directivity", "cone_half_angle_deg", "axis",
+               "forward", "up")
 LIGHT_TYPES = ("rectangle", "surface", "ies")
 RECTANGLE_KEYS = ("name", "type", "center_m", "size_m", "normal", "tangent", "power_w",
                   "flux_lm", "color_rgb")
@@ -68,8 +76,13 @@ def read_sources(tables: list[Table]) -> list[SoundSource]:
         name = _unique_name(t, f"S{i + 1}", seen)
         position_m = t.vector("position_m", 3)
         power_w = t.number("power_w", 1.0, lo=0.0, lo_open=True)
-        directivity = t.string("directivity", "omni", ("omni", "cone"))
-        half_angle, axis = None, None
+        sofa = None
+        if isinstance(t.data.get("directivity"), dict):
+            sofa = _read_sofa(t)
+            directivity = "sofa"
+        else:
+            directivity = t.string("directivity", "omni", BUILTIN)
+        half_angle, axis, forward, up = None, None, None, None
         if directivity == "cone":
             half_angle = t.number("cone_half_angle_deg", 45.0, lo=0.0, hi=180.0, lo_open=True)
             axis = _unit(t.vector("axis", 3, nonzero=True))
@@ -78,8 +91,41 @@ def read_sources(tables: list[Table]) -> list[SoundSource]:
                 if t.has(k):
                     raise t.ctx.error(t.path(k), message='is only allowed with directivity = '
                                                          '"cone"')
-        sources.append(SoundSource(name, position_m, power_w, directivity, half_angle, axis))
+        if directivity in ("omni", "cone"):
+            for k in ("forward", "up"):
+                if t.has(k):
+                    raise t.ctx.error(t.path(k), message="is only allowed with a tabulated "
+                                      "directivity (" + ", ".join(BUILTIN[2:]) + ", or sofa)")
+        else:
+            forward, up = _frame(t)
+        sources.append(SoundSource(name, position_m, power_w, directivity, half_angle, axis,
+                                   forward, up, sofa))
     return sources
+
+
+def _frame(t: Table) -> tuple[np.ndarray, np.ndarray]:
+    """A source's forward and up, unit and perpendicular (up made perpendicular to forward)."""
+    forward = _unit(t.vector("forward", 3, [1.0, 0.0, 0.0], nonzero=True))
+    up = t.vector("up", 3, [0.0, 0.0, 1.0], nonzero=True)
+    across = up - forward * float(up @ forward)
+    if np.linalg.norm(across) < 1e-6 * np.linalg.norm(up):
+        raise t.ctx.error(t.path("up"), up.tolist(),
+                          f"a direction not parallel to forward {forward.tolist()}")
+    return forward, _unit(across)
+
+
+def _read_sofa(t: Table) -> Any:
+    """A ``directivity = { sofa = "file.sofa" }`` table: the file read and checked."""
+    spec = t.table("directivity")
+    assert spec is not None
+    spec.check_keys(("sofa",))
+    file = spec.string("sofa")
+    path = Path(file) if Path(file).is_absolute() else t.ctx.base_dir / file
+    try:
+        return read_sofa_directivity(path)
+    except SonoluxError as exc:
+        raise spec.ctx.error(spec.path("sofa"), file,
+                             f"a readable AES69 directivity ({exc})") from None
 
 
 def place_sources(sources: list[SoundSource], tables: list[Table], space: RoomSpace,

@@ -129,14 +129,19 @@ class Settings:
 
 @dataclass(frozen=True, eq=False)
 class SoundSource:
-    """A sound source. position_m: float64[3]; axis: float64[3] unit vector (cone only)."""
+    """A sound source. position_m: float64[3]; axis: float64[3] unit vector (cone only);
+    forward, up: float64[3] unit and perpendicular (tabulated patterns only); sofa: the
+    measured directivity read from its file (directivity "sofa" only)."""
 
     name: str
     position_m: np.ndarray
     power_w: float = 1.0
-    directivity: str = "omni"  # "omni" or "cone"
+    directivity: str = "omni"  # "omni", "cone", a built-in pattern or "sofa"
     cone_half_angle_deg: float | None = None
     axis: np.ndarray | None = None
+    forward: np.ndarray | None = None
+    up: np.ndarray | None = None
+    sofa: Any = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -117,7 +117,10 @@ def summarize(scene: Scene) -> dict[str, Any]:
         "sources": [{"name": s.name, "position_m": s.position_m.tolist(), "power_w": s.power_w,
                      "directivity": s.directivity,
                      **({"cone_half_angle_deg": s.cone_half_angle_deg,
-                         "axis": s.axis.tolist()} if s.directivity == "cone" else {})}
+                         "axis": s.axis.tolist()} if s.directivity == "cone" else {}),
+                     **({"forward": s.forward.tolist(), "up": s.up.tolist()}
+                        if s.forward is not None else {}),
+                     **({"sofa": str(s.sofa.path)} if s.sofa is not None else {})}
                     for s in scene.sources],
         "lights": [{"name": li.name, "type": li.kind, "power_w": li.power_w,
                     "area_m2": li.area_m2, "triangles": int(li.triangles_m.shape[0]),
@@ -172,7 +175,9 @@ def format_summary(s: dict[str, Any]) -> str:
         out.append("  sources     none")
     for i, src in enumerate(s["sources"]):
         kind = (f"cone {src['cone_half_angle_deg']:g}° around {_xyz(src['axis'])}"
-                if src["directivity"] == "cone" else src["directivity"])
+                if src["directivity"] == "cone" else src.get("sofa", src["directivity"]))
+        if "forward" in src:
+            kind += f" facing {_xyz(src['forward'])}, up {_xyz(src['up'])}"
         out.append(f"  {'sources' if i == 0 else '':<10}  {src['name']}: {kind}, "
                    f"{src['power_w']:g} W at {_xyz(src['position_m'])} m")
     if not s["lights"]:

@@ -32,7 +32,9 @@ from sonolux.acoustics.theory import sabine_t60
 from sonolux.errors import SonoluxError
 from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
+from sonolux.scene.directivity import builtin_gains
 from sonolux.scene.schema import Scene
+from sonolux.scene.sofa_directivity import sofa_gains
 from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
@@ -149,7 +151,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"])
-    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s)) for s in src]
+    edges_hz = scene.settings.band_set.edges_hz
+    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, edges_hz))
+               for s in src]
     receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
                                  scene.receivers.radius_m)
     started = time.perf_counter()
@@ -254,12 +258,17 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
     return replace(field, energy=energy, stats=stats, settings=settings, waves=part)
 
 
-def _directivity(source: Any) -> Any:
-    """The engine's directivity of a scene's source."""
+def _directivity(source: Any, edges_hz: np.ndarray) -> Any:
+    """The engine's directivity of a scene's source, tabulated for the bake's bands."""
     if source.directivity == "cone":
         return engine.Directivity.cone(tuple(float(v) for v in source.axis),
                                        float(source.cone_half_angle_deg))
-    return engine.Directivity.omni()
+    if source.directivity == "omni":
+        return engine.Directivity.omni()
+    gains = (sofa_gains(source.sofa, edges_hz) if source.directivity == "sofa"
+             else builtin_gains(source.directivity, edges_hz))
+    return engine.Directivity.pattern(np.ascontiguousarray(gains, float),
+                                      tuple(source.forward), tuple(source.up))
 
 
 def stored_axis(scene: Scene, options: SoundOptions,

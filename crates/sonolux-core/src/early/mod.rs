@@ -189,9 +189,11 @@ pub type SourceGains = dyn Fn(usize, DVec3, &mut [f64]) + Sync;
 
 /// Gain of the tracer's directivity towards the unit direction `dir` (energy per solid angle
 /// relative to an omnidirectional source of the same power).
+/// A tabulated pattern's gain differs by band: it enters through the per-band hook that
+/// [`early_arrivals`] wraps around the caller's, so it counts 1 here.
 pub fn directivity_gain(d: &Directivity, dir: DVec3) -> f64 {
     match *d {
-        Directivity::Omni => 1.0,
+        Directivity::Omni | Directivity::Pattern(_) => 1.0,
         Directivity::Cone { axis, cos_half_angle } => {
             if axis.dot(dir) < cos_half_angle {
                 0.0
@@ -202,6 +204,9 @@ pub fn directivity_gain(d: &Directivity, dir: DVec3) -> f64 {
     }
 }
 
+/// [`SourceGains`] that may borrow (the sources' patterns wrapped around the caller's hook).
+pub(crate) type ScopedGains<'a> = dyn Fn(usize, DVec3, &mut [f64]) + Sync + 'a;
+
 /// Everything the per-receiver work reads.
 pub(crate) struct Context<'a> {
     pub mesh: &'a Mesh,
@@ -209,7 +214,7 @@ pub(crate) struct Context<'a> {
     pub planes: &'a Planes,
     pub acoustics: &'a Acoustics,
     pub sources: &'a [SoundSource],
-    pub gains: Option<&'a SourceGains>,
+    pub gains: Option<&'a ScopedGains<'a>>,
     pub settings: &'a EarlySettings,
     /// Offset (m) that keeps a visibility ray from finding the surface it starts on.
     pub epsilon_m: f64,
@@ -238,7 +243,24 @@ pub fn early_arrivals(
         if !s.position.is_finite() || !(s.power_w > 0.0) {
             return Err(CoreError::invalid("sources", format!("source {i}: position must be finite and power positive")));
         }
+        if let Err(problem) = s.directivity.check(nb) {
+            return Err(CoreError::invalid("sources", format!("source {i}: {problem}")));
+        }
     }
+    // The sources' tabulated patterns (per band), times the caller's own gains if any.
+    let with_patterns = |s: usize, dir: DVec3, out: &mut [f64]| {
+        match gains {
+            Some(hook) => hook(s, dir, out),
+            None => out.fill(1.0),
+        }
+        if let Directivity::Pattern(p) = &sources[s].directivity {
+            let mut g = vec![0.0; out.len()];
+            p.gains(dir, &mut g);
+            out.iter_mut().zip(&g).for_each(|(o, g)| *o *= g);
+        }
+    };
+    let patterned = sources.iter().any(|s| matches!(s.directivity, Directivity::Pattern(_)));
+    let gains: Option<&ScopedGains<'_>> = if patterned { Some(&with_patterns) } else { gains };
     if let Some(i) = receivers.iter().position(|r| !r.is_finite()) {
         return Err(CoreError::invalid("receivers", format!("receiver {i} has a non-finite position {:?}", receivers[i])));
     }

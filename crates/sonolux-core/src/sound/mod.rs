@@ -12,9 +12,12 @@
 //!   Both estimate the same mean over each receiver's sphere.
 
 pub mod field;
+pub mod pattern;
 pub mod receivers;
 pub mod stats;
 mod trace;
+
+use std::sync::Arc;
 
 use glam::DVec3;
 
@@ -24,6 +27,7 @@ use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::{fill_blocks, run_chunks, Progress};
 pub use field::{Accumulator, Deposits, Layout};
+pub use pattern::Pattern;
 pub use receivers::Receivers;
 pub use stats::SoundStats;
 
@@ -33,11 +37,44 @@ pub enum Estimator {
     Rain,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Directivity {
     Omni,
     /// Rays uniformly within `cos_half_angle` of the unit `axis`, as the paper's directional source.
     Cone { axis: DVec3, cos_half_angle: f64 },
+    /// A tabulated gain per band, emitted by importance (see [`pattern`]).
+    Pattern(Arc<Pattern>),
+}
+
+impl Directivity {
+    /// The energy gain of every band towards the unit direction `dir`, relative to an
+    /// omnidirectional source of the same power (mean 1 over the sphere), written into `out`.
+    pub fn gains(&self, dir: DVec3, out: &mut [f64]) {
+        match self {
+            Directivity::Omni => out.fill(1.0),
+            Directivity::Cone { axis, cos_half_angle } => out.fill(if axis.dot(dir) < *cos_half_angle { 0.0 } else { 2.0 / (1.0 - cos_half_angle) }),
+            Directivity::Pattern(p) => p.gains(dir, out),
+        }
+    }
+
+    /// The largest energy a ray or a direct deposit can carry, relative to the source's power
+    /// shared evenly: bounds the field's fixed-point range.
+    pub fn peak(&self) -> f64 {
+        match self {
+            Directivity::Omni => 1.0,
+            Directivity::Cone { cos_half_angle, .. } => 2.0 / (1.0 - cos_half_angle),
+            Directivity::Pattern(p) => p.max_weight().max(p.max_gain()).max(1.0),
+        }
+    }
+
+    /// Checks that the directivity fits a bake of `n_bands` bands.
+    pub fn check(&self, n_bands: usize) -> Result<(), String> {
+        match self {
+            Directivity::Cone { axis, cos_half_angle } if !(axis.is_finite() && (axis.length() - 1.0).abs() < 1e-6 && (-1.0..1.0).contains(cos_half_angle)) => Err("a cone needs a unit axis and a half-angle in (0°, 180°]".into()),
+            Directivity::Pattern(p) if p.n_bands() != n_bands => Err(format!("its directivity pattern has {} bands, the bake {n_bands}", p.n_bands())),
+            _ => Ok(()),
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -340,10 +377,8 @@ pub fn trace_sound_hybrid(
         if !(s.position.is_finite() && s.power_w > 0.0 && s.power_w.is_finite()) {
             return Err(CoreError::invalid("sources", format!("source {i}: position must be finite and power positive")));
         }
-        if let Directivity::Cone { axis, cos_half_angle } = s.directivity {
-            if !(axis.is_finite() && (axis.length() - 1.0).abs() < 1e-6 && (-1.0..1.0).contains(&cos_half_angle)) {
-                return Err(CoreError::invalid("sources", format!("source {i}: a cone needs a unit axis and a half-angle in (0°, 180°]")));
-            }
+        if let Err(problem) = s.directivity.check(nb) {
+            return Err(CoreError::invalid("sources", format!("source {i}: {problem}")));
         }
     }
     if !(receivers.radius_m > 0.0 && receivers.radius_m.is_finite()) {

@@ -20,7 +20,8 @@ const MAX_REFLECTIONS: u64 = 1_000_000;
 /// that no bin can overflow: a bin's total never exceeds the total emitted energy times 16× the
 /// largest geometric weight of a deposit, 4 · 3 / (4π r²).
 pub(crate) fn quantum(sources: &[SoundSource], radius: f64) -> f64 {
-    let total: f64 = sources.iter().map(|s| s.power_w).sum();
+    // A ray or a direct deposit carries at most `peak` times its even share (directivity).
+    let total: f64 = sources.iter().map(|s| s.power_w * s.directivity.peak()).sum();
     let largest_weight = 4.0 * 3.0 / (4.0 * PI * radius * radius);
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
@@ -52,11 +53,20 @@ impl Worker {
     }
 }
 
-/// The first direction of ray `index`, and the ray's share of the source's energy.
-fn emit(source: &SoundSource, rays: u64, rng: &mut Stream) -> (DVec3, f64) {
-    let dir = match source.directivity {
-        Directivity::Omni => uniform_sphere(rng.uniform(), rng.uniform()),
-        Directivity::Cone { axis, cos_half_angle } => uniform_cone(&Frame::from_normal(axis), cos_half_angle, rng.uniform(), rng.uniform()),
+/// The first direction of ray `index`, and the ray's share of the source's energy; `weights`
+/// receives the ray's energy per band relative to that share: 1 for the uniform emitters, the
+/// importance weight g_b / (4π p) for a tabulated pattern (mean 1 in every band).
+fn emit(source: &SoundSource, rays: u64, rng: &mut Stream, weights: &mut [f64]) -> (DVec3, f64) {
+    let dir = match &source.directivity {
+        Directivity::Omni => {
+            weights.fill(1.0);
+            uniform_sphere(rng.uniform(), rng.uniform())
+        }
+        Directivity::Cone { axis, cos_half_angle } => {
+            weights.fill(1.0);
+            uniform_cone(&Frame::from_normal(*axis), *cos_half_angle, rng.uniform(), rng.uniform())
+        }
+        Directivity::Pattern(p) => p.sample(rng.uniform(), rng.uniform(), rng.uniform(), weights),
     };
     (dir, source.power_w / rays as f64)
 }
@@ -70,11 +80,10 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     let air = &set.air_attenuation_per_m[..nb];
     let Worker { stats: st, deposits: buf, stamp, energy, deposit, tally } = w;
     let mut rng = Stream::new(set.seed, s as u64, index);
-    let (mut dir, share) = emit(&scene.sources[s], set.rays, &mut rng);
-    let mut pos = scene.sources[s].position;
     // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
     let e = &mut energy[..nb];
-    e.fill(1.0);
+    let (mut dir, share) = emit(&scene.sources[s], set.rays, &mut rng, e);
+    let mut pos = scene.sources[s].position;
     let deposit = &mut deposit[..nb];
     let floor = 10f64.powf(-set.energy_drop_db / 10.0);
     let max_path = set.max_time_s * set.speed_of_sound_m_s;
@@ -100,7 +109,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     // the tracing.
     let tally = &mut tally[..stats::KINDS * nb];
     tally.fill(0.0);
-    tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].fill(1.0);
+    tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].copy_from_slice(e);
     st.rays += 1;
     loop {
         // Find the nearest surface along the ray.
@@ -265,29 +274,31 @@ fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: 
 }
 
 /// The direct sound of every source at every receiver it can see, computed exactly: power ×
-/// directivity × the sphere mean of 1/(4π d²) × air attenuation, at d / c, from the source's
-/// direction. A source inside a receiver's sphere is heard from all directions equally.
+/// directivity (per band, towards the receiver's centre) × the sphere mean of 1/(4π d²) × air
+/// attenuation, at d / c, from the source's direction. A source at a receiver's centre has no
+/// direction to it: its mean gain over the sphere, 1, is used. A source inside a receiver's
+/// sphere is heard from all directions equally.
 pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
     let radius = scene.receivers.radius_m;
     let mut deposit = vec![0.0f64; nb];
+    let mut gain = vec![1.0f64; nb];
     let mut buf = Deposits::new();
     for (s, src) in scene.sources.iter().enumerate() {
         for (r, c) in scene.receivers.centres.iter().enumerate() {
             let receiver_key = set.first_receiver + r as u64;
             let to = *c - src.position;
             let d = to.length();
-            let gain = match src.directivity {
-                Directivity::Omni => 1.0,
-                Directivity::Cone { axis, cos_half_angle } => {
-                    if d > 0.0 && axis.dot(to / d) < cos_half_angle {
-                        continue;
-                    }
-                    2.0 / (1.0 - cos_half_angle)
-                }
-            };
+            if d > 0.0 {
+                src.directivity.gains(to / d, &mut gain);
+            } else {
+                gain.fill(1.0);
+            }
+            if gain.iter().all(|&g| g == 0.0) {
+                continue;
+            }
             if d > radius {
                 let ray = Ray::new(src.position.as_vec3(), to.as_vec3());
                 if scene.bvh.occluded(&ray, 0.0, 1.0) {
@@ -298,11 +309,11 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
                 continue;
             }
             let Some(tb) = lay.time_bin(d / set.speed_of_sound_m_s) else { continue };
-            let energy = src.power_w * gain * ball_mean_inverse_square(d, radius);
+            let energy = src.power_w * ball_mean_inverse_square(d, radius);
             let directions: Vec<usize> = if d > radius { vec![lay.direction_bin(-to / d)] } else { (0..lay.n_directions()).collect() };
             let split = directions.len() as f64;
             for b in 0..nb {
-                deposit[b] = energy * (-set.air_attenuation_per_m[b] * d).exp() / split;
+                deposit[b] = energy * gain[b] * (-set.air_attenuation_per_m[b] * d).exp() / split;
             }
             for dir in directions {
                 let u = keyed_uniform(set.seed, s as u64, u64::MAX, receiver_key, dir as u64);

@@ -1,0 +1,131 @@
+"""Source directivity patterns: per-band energy gains on the engine's (θ, φ) grid.
+
+A pattern is a shape; the power is the source's. The engine normalises every band to a mean
+gain of 1 over the sphere (an omnidirectional source's), so a source of ``power_w`` radiates
+``power_w`` in every band whatever its pattern, and emits its rays by importance (see
+``crates/sonolux-core/src/sound/pattern.rs``).
+
+**Frame.** θ is the angle from the source's ``forward`` vector, φ the angle around it from
+``up`` (φ = 0) towards left = up × forward (φ = 90°): x forward, y left, z up, as AES69 (SOFA)
+describes a source. The grid has θ nodes every ``THETA_STEP_DEG`` from 0° to 180° and φ nodes
+every ``PHI_STEP_DEG`` (one φ node for an axially symmetric pattern); the engine interpolates
+bilinearly between nodes.
+
+Built-in patterns (energy gains; the pressure pattern squared):
+
+- ``"omni"`` and ``"cone"`` are the engine's own emitters (not tabulated).
+- The first-order family, pressure a + (1 − a) cos θ (Eargle, *The Microphone Book*, 2nd ed.,
+  Focal Press 2004, ch. 5): ``"cardioid"`` a = 1/2; ``"supercardioid"`` a = (√3 − 1)/2, the
+  largest front-to-back energy ratio; ``"hypercardioid"`` a = 1/4, the largest directivity
+  factor (Q = 4); ``"figure-of-eight"`` a = 0. Band-independent.
+- ``"dodecahedron"``: the 12-driver measurement source, modelled as 12 rigid circular pistons
+  (caps of half-angle ``DODECAHEDRON_CAP_DEG``) on a rigid sphere of radius
+  ``DODECAHEDRON_RADIUS_M``, at the face centres of a regular dodecahedron, all in phase. Its
+  far field is the sum over caps of the series for a cap on a sphere (Morse & Ingard,
+  *Theoretical Acoustics*, McGraw-Hill 1968, §7.2): p(θ) ∝ Σ_n v_n (−i)^(n+1) P_n(cos θ) /
+  h_n'(ka), with the cap's velocity coefficients v_0 = (1 − cos α)/2 and v_n =
+  (P_{n−1}(cos α) − P_{n+1}(cos α))/2. The energy is averaged over 9 frequencies spaced
+  evenly in log frequency across each band. The radius and cap are a typical source's
+  (0.2 m, a driver filling most of a face), not a measured product: give a SOFA file of your
+  own source when its deviation matters (ISO 3382-1:2009, A.3.2 bounds it per octave).
+
+A human talker is not built in: we did not find published per-band directivity data we could
+cite exactly (the brief's candidates, Chu & Warnock 2002 and Monson et al. 2012, were not
+available to us); use a SOFA file of a measured talker.
+
+SOFA files are read by :mod:`sonolux.scene.sofa_directivity`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import special
+
+from sonolux.errors import SonoluxError
+
+THETA_STEP_DEG = 2.5
+PHI_STEP_DEG = 5.0
+#: The first-order patterns: pressure a + (1 − a) cos θ.
+FIRST_ORDER = {"cardioid": 0.5, "supercardioid": (math.sqrt(3.0) - 1.0) / 2.0,
+               "hypercardioid": 0.25, "figure-of-eight": 0.0}
+DODECAHEDRON_RADIUS_M = 0.2
+DODECAHEDRON_CAP_DEG = 30.0
+#: Every name a scene's ``directivity`` may take (besides a ``{ sofa = "file" }`` table).
+BUILTIN = ("omni", "cone", *FIRST_ORDER, "dodecahedron")
+SPEED_OF_SOUND_M_S = 343.0
+
+
+def theta_nodes_rad() -> np.ndarray:
+    """θ of the grid's nodes, 0 to π inclusive: float64[n_theta]."""
+    return np.radians(np.linspace(0.0, 180.0, int(round(180.0 / THETA_STEP_DEG)) + 1))
+
+
+def phi_nodes_rad(symmetric: bool = False) -> np.ndarray:
+    """φ of the grid's nodes, 0 to 2π exclusive (one node if axially symmetric)."""
+    n = 1 if symmetric else int(round(360.0 / PHI_STEP_DEG))
+    return np.arange(n) * (2.0 * np.pi / n)
+
+
+def node_directions(symmetric: bool = False) -> np.ndarray:
+    """Unit directions of the grid's nodes in the source frame (x forward, y left, z up):
+    float64[theta, phi, 3]."""
+    th, ph = np.meshgrid(theta_nodes_rad(), phi_nodes_rad(symmetric), indexing="ij")
+    return np.stack([np.cos(th), np.sin(th) * np.sin(ph), np.sin(th) * np.cos(ph)], axis=-1)
+
+
+def first_order(a: float, n_bands: int) -> np.ndarray:
+    """The energy gains (a + (1 − a) cos θ)² on an axially symmetric grid:
+    float64[theta, 1, band]."""
+    g = (a + (1.0 - a) * np.cos(theta_nodes_rad())) ** 2
+    return np.repeat(g[:, None, None], n_bands, axis=2)
+
+
+def dodecahedron_axes() -> np.ndarray:
+    """The 12 face normals of a regular dodecahedron (the icosahedron's vertices): float64[12, 3]."""
+    t = (1.0 + math.sqrt(5.0)) / 2.0
+    v = []
+    for s1 in (-1.0, 1.0):
+        for s2 in (-t, t):
+            v += [(0.0, s1, s2), (s1, s2, 0.0), (s2, 0.0, s1)]
+    a = np.array(v)
+    return a / np.linalg.norm(a, axis=1, keepdims=True)
+
+
+def dodecahedron(band_edges_hz: np.ndarray, radius_m: float = DODECAHEDRON_RADIUS_M,
+                 cap_deg: float = DODECAHEDRON_CAP_DEG) -> np.ndarray:
+    """The 12-piston sphere's energy gains per band (see the module docs):
+    float64[theta, phi, band]; ``band_edges_hz`` float64[band, 2]."""
+    dirs = node_directions().reshape(-1, 3)
+    cos_to_caps = np.clip(dirs @ dodecahedron_axes().T, -1.0, 1.0)  # [direction, cap]
+    f_top = float(np.max(band_edges_hz))
+    n_max = int(2.0 * np.pi * f_top / SPEED_OF_SOUND_M_S * radius_m) + 25
+    orders = np.arange(n_max + 1)
+    # Σ over caps of P_n(cos γ): [order, direction], frequency-independent.
+    legendre_sum = np.stack([special.eval_legendre(n, cos_to_caps).sum(axis=1) for n in orders])
+    ca = math.cos(math.radians(cap_deg))
+    v = np.empty(n_max + 1)
+    v[0] = (1.0 - ca) / 2.0
+    v[1:] = (special.eval_legendre(orders[1:] - 1, ca) - special.eval_legendre(orders[1:] + 1, ca)) / 2.0
+    out = np.empty((dirs.shape[0], len(band_edges_hz)))
+    for b, (lo, hi) in enumerate(band_edges_hz):
+        energy = np.zeros(dirs.shape[0])
+        for f in np.geomspace(lo, hi, 11)[1:-1]:
+            ka = 2.0 * np.pi * f / SPEED_OF_SOUND_M_S * radius_m
+            dh = special.spherical_jn(orders, ka, True) + 1j * special.spherical_yn(orders, ka, True)
+            coeff = v * (-1j) ** (orders + 1) / dh
+            energy += np.abs(coeff @ legendre_sum) ** 2
+        out[:, b] = energy
+    return out.reshape(len(theta_nodes_rad()), -1, len(band_edges_hz))
+
+
+def builtin_gains(name: str, edges_hz: np.ndarray) -> np.ndarray:
+    """The tabulated gains of a built-in pattern (not omni or cone) for the bands with edges
+    ``edges_hz`` float64[band, 2] (``Settings.band_set.edges_hz``): float64[theta, phi, band]."""
+    if name in FIRST_ORDER:
+        return first_order(FIRST_ORDER[name], len(edges_hz))
+    if name == "dodecahedron":
+        return dodecahedron(np.asarray(edges_hz, float))
+    raise SonoluxError(f"directivity {name!r}: not a tabulated pattern; allowed: "
+                       + ", ".join(BUILTIN[2:]))
