@@ -24,23 +24,14 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
          checkpoint_every_s: float = 60.0, range_rays: int | None = None,
          tasks: int | None = None, progress: bool | Callable[[int, int, float], bool] = False,
          log: Callable[[str], None] | None = None, **overrides: Any) -> SoundField:
-    """Traces the scene's sound sources into a sound field over its receivers.
-
-    ``options`` (or keyword overrides such as ``rays=100_000``) set the bake, as for
-    :func:`sonolux.sound.bake.bake`; ``progress=True`` prints a progress line, or pass
-    ``f(done, total, elapsed_s) -> bool``; ``log`` receives one-line notes.
+    """:func:`sonolux.sound.ranges.bake` (the same arguments: options, Dask ``client``,
+    ``checkpoint``, ``resume``, ``progress``, ...), or, with ``accuracy``, the progressive bake.
 
     ``accuracy``: bake progressively (``rays`` must be "auto"): rounds of rays until the
     standard error of T30, EDT and C80 at every receiver and band is below this fraction of a
     just-noticeable difference (a float, e.g. 0.25), or a
     :class:`sonolux.sound.progressive.Accuracy` with caps on rays and seconds. The field's
     ``settings["progressive"]`` says how it ended and which errors it reached.
-
-    ``client``: a ``dask.distributed.Client``: the rays are traced as ``tasks`` ranges on its
-    workers (default 2 per worker thread) and summed exactly: the same bits as here.
-    ``checkpoint``: a side file that finished ranges are written to every
-    ``checkpoint_every_s``; ``resume=True`` continues from it, ``restart=True`` discards it; it
-    is removed when the bake is complete. ``range_rays`` fixes the rays per range in this process.
     """
     options = replace(options or SoundOptions(), **overrides)
     if accuracy is None:
