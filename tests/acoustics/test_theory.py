@@ -80,3 +80,35 @@ def test_eyring_tends_to_sabine_for_small_absorption_and_to_zero_at_one():
     # Always shorter than Sabine for the same mean absorption.
     a = np.array([0.05, 0.2, 0.5])
     assert np.all(eyring_t60(v, s, a) < sabine_t60(v, s * a))
+
+
+def test_fitzroy_is_eyring_when_every_axis_absorbs_alike_and_longer_when_one_pair_absorbs():
+    from sonolux.acoustics.theory import eyring_t60, fitzroy_t60
+
+    v, areas = 120.0, np.array([30.0, 40.0, 50.0])
+    same = fitzroy_t60(v, areas, [[0.2, 0.4]] * 3, 0.001, 343.0)
+    np.testing.assert_allclose(same, eyring_t60(v, areas.sum(), np.array([0.2, 0.4]), 0.001, 343.0),
+                               rtol=1e-12)
+    # The same absorption area, all of it on the floor and ceiling: walls flutter, the decay is
+    # slower than Eyring's uniform room (Fitzroy 1959), and dominated by the walls' pairs.
+    a_total = 0.2 * areas.sum()
+    uneven = fitzroy_t60(v, areas, [0.0001, 0.0001, (a_total - 0.007) / 50.0], 0.0, 343.0)
+    assert uneven > 5 * eyring_t60(v, areas.sum(), 0.2, 0.0, 343.0)
+
+
+def test_the_automatic_record_covers_a_room_that_absorbs_only_at_the_ceiling():
+    """The L-shaped classroom (absorbing ceiling, hard walls) decays about twice as slowly as
+    Sabine says: with a record from Sabine alone its T20s were refused ("record too short");
+    Fitzroy's T60 makes the record long enough for them."""
+    from pathlib import Path
+
+    import sonolux
+    from sonolux.analysis.params import room_parameters
+    from sonolux.engine import core_available
+
+    if not core_available():
+        pytest.skip("needs the compiled core")
+    room = Path(__file__).resolve().parents[2] / "examples" / "l-room" / "l-room.toml"
+    field = sonolux.bake(sonolux.load_scene(room), rays=60_000)
+    reasons = room_parameters(field, theory=False).reasons["t20"]
+    assert not any("record too short" in r for r in reasons.ravel())

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from sonolux import engine
-from sonolux.acoustics.theory import sabine_t60
+from sonolux.acoustics.theory import fitzroy_t60, sabine_t60
 from sonolux.errors import SonoluxError
 from sonolux.memory import budget_bytes
 from sonolux.progress import ProgressLine
@@ -75,14 +75,36 @@ def _absorption_area(scene: Scene, absorption: np.ndarray) -> np.ndarray:
 
 
 def auto_max_time(scene: Scene, arrays: dict[str, np.ndarray]) -> float:
-    """1.5 × the longest Sabine T60 (air included) + the time to cross the room's box."""
+    """1.5 × the longest T60 that Sabine's or Fitzroy's formula gives (air included) + the time
+    to cross the room's box. Fitzroy's (:func:`sonolux.acoustics.theory.fitzroy_t60`) covers
+    rooms whose absorption sits on one pair of surfaces (an absorbing ceiling over hard walls:
+    sound flutters between the walls and decays far slower than Sabine says); each surface
+    counts for the axis its normal is closest to."""
     if scene.settings.max_time_s > 0:
         return scene.settings.max_time_s
+    c = scene.settings.speed_of_sound_m_s
     t60 = sabine_t60(scene.volume_m3, _absorption_area(scene, arrays["absorption"]), arrays["air"],
-                     scene.settings.speed_of_sound_m_s)
+                     c)
+    areas, alpha = _axis_absorption(scene, arrays["absorption"])
+    if areas.sum() > 0:
+        t60 = np.maximum(t60, fitzroy_t60(scene.volume_m3, areas, alpha, arrays["air"], c))
     diagonal = float(np.linalg.norm(scene.mesh_report["bbox_max"] - scene.mesh_report["bbox_min"]))
-    t = 1.5 * float(np.max(t60)) + diagonal / scene.settings.speed_of_sound_m_s
+    t = 1.5 * float(np.max(t60)) + diagonal / c
     return min(t, 60.0) if math.isfinite(t) else 60.0
+
+
+def _axis_absorption(scene: Scene, absorption: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Area float64[3] of the surfaces whose normals lie closest to x, y and z, and their
+    area-weighted mean absorption float64[3, band]."""
+    v, t = np.asarray(scene.vertices_m, float), np.asarray(scene.triangles)
+    normal = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    area = 0.5 * np.linalg.norm(normal, axis=1)
+    axis = np.argmax(np.abs(normal), axis=1)
+    per_triangle = absorption[np.asarray(scene.material_index)]
+    areas = np.array([area[axis == k].sum() for k in range(3)])
+    alpha = np.array([area[axis == k] @ per_triangle[axis == k] / areas[k] if areas[k] > 0
+                      else np.zeros(absorption.shape[1]) for k in range(3)])
+    return areas, alpha
 
 
 def auto_rays(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray]) -> tuple[int, str]:

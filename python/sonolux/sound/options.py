@@ -31,7 +31,7 @@ class SoundOptions:
     early_s: length of the part kept at one-sample resolution (the paper's filters: 80 ms).
     late_bin_s: width of the time bins after it.
     max_time_s: length of the responses; None = from the scene (its max_time_s, else 1.5 × the
-        longest Sabine T60 plus the time to cross the room).
+        longest Sabine or Fitzroy T60 plus the time to cross the room: sound.bake.auto_max_time).
     ray_range: (first, end) to trace only part of the bake (it merges exactly with the rest).
     air_absorption: False turns the air's absorption off (for comparisons with theory that
         leaves it out); the scene's air still sets the speed of sound.
