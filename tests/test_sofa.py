@@ -82,6 +82,9 @@ def test_one_receiver_from_the_command_line(field_path, tmp_path, capsys):
     (["--sofa", "{tmp}/x.sofa", "--receiver", "-1"], "--receiver"),
     (["--sofa", "{tmp}/x.sofa", "--receiver", "one"], "--receiver"),
     (["--web", "{tmp}/b", "--receiver", "2"], "give --sofa"),
+    (["--sofa", "{tmp}/x.sofa", "--tail-db", "40"], "--tail-db shape the web bundle"),
+    (["--sofa", "{tmp}/x.sofa", "--no-compress", "--max-length-s", "1"],
+     "--max-length-s, --no-compress shape the web bundle"),
 ])
 def test_bad_requests_are_usage_errors(field_path, tmp_path, capsys, argv, words):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]

@@ -51,6 +51,13 @@ def cmd_export(args: argparse.Namespace) -> int:
         args.parser.error(f"--sofa {args.sofa}: a SOFA file must end in .sofa")
     if args.receiver is not None and not args.sofa:
         args.parser.error("--receiver chooses what --sofa exports: give --sofa OUT.sofa too")
+    bundle_only = [flag for flag, given in (
+        ("--max-length-s", args.max_length_s is not None),
+        ("--sample-format", args.sample_format != "int16"),
+        ("--tail-db", args.tail_db != TAIL_DB), ("--no-compress", args.no_compress)) if given]
+    if bundle_only and not args.web:
+        args.parser.error(f"{', '.join(bundle_only)} shape the web bundle: give --web DIR too "
+                          "(--sofa always writes the whole responses, float64)")
     if args.gltf:
         from sonolux.fieldfile import open_light_field
         from sonolux.light.export import export_gltf
