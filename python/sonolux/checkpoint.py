@@ -186,6 +186,19 @@ def remove_leftovers(path: str | Path) -> int:
 
 
 # --- reading --------------------------------------------------------------------------------
+def read_header(path: str | Path) -> dict[str, Any]:
+    """The header of a checkpoint alone, without reading its arrays or checking its checksum
+    (:func:`read` does both): for deciding what to do with it before it is read whole."""
+    try:
+        with open(path, "rb") as f:
+            if f.read(len(MAGIC)) != MAGIC:
+                raise CheckpointError(f"{path}: damaged checkpoint (not a sonolux checkpoint)",
+                                      "damaged")
+            return json.loads(f.readline())
+    except (OSError, ValueError) as exc:
+        raise CheckpointError(f"{path}: damaged checkpoint ({exc})", "damaged") from None
+
+
 def read(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """(header, arrays) of a checkpoint; a :class:`CheckpointError` with reason "damaged" when
     the file is truncated, altered or not a checkpoint."""

@@ -69,6 +69,25 @@ def band_arrays(scene: Scene) -> dict[str, np.ndarray]:
     }
 
 
+def bake_arrays(scene: Scene, options: SoundOptions) -> dict[str, np.ndarray]:
+    """:func:`band_arrays` as a bake with ``options`` uses them (no air if it leaves air out)."""
+    arrays = band_arrays(scene)
+    if not options.air_absorption:
+        arrays["air"] = np.zeros_like(arrays["air"])
+    return arrays
+
+
+def ray_count(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray] | None = None,
+              log: Callable[[str], None] | None = None) -> int:
+    """``options.rays``, or for "auto" the count of :func:`auto_rays` (its reason to ``log``)."""
+    if options.rays != "auto":
+        return int(options.rays)
+    rays, why = auto_rays(scene, options, arrays or bake_arrays(scene, options))
+    if log:
+        log(why)
+    return rays
+
+
 def _absorption_area(scene: Scene, absorption: np.ndarray) -> np.ndarray:
     by_material = scene.area_by_material_m2()
     return sum(by_material[m.name] * absorption[i] for i, m in enumerate(scene.materials))
@@ -145,15 +164,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"{scene.origin}: the scene has no sound source to bake")
     if scene.receivers.count == 0:
         raise SonoluxError(f"{scene.origin}: the scene has no receiver left to bake into")
-    arrays = band_arrays(scene)
-    if not options.air_absorption:
-        arrays["air"] = np.zeros_like(arrays["air"])
-    if options.rays == "auto":
-        rays, why = auto_rays(scene, options, arrays)
-        if log:
-            log(why)
-    else:
-        rays = int(options.rays)
+    arrays = bake_arrays(scene, options)
+    rays = ray_count(scene, options, arrays, log)
     first, end = options.ray_range or (0, rays)
     if end > rays:
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")

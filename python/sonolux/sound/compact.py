@@ -94,8 +94,7 @@ class CompactArray:
             early[...] = spread_even(self.envelope[k], self.envelope_split, self.early_bins, start)
         lo, hi = int(self.offset[k]), int(self.offset[k + 1])
         # early is a view of a C-contiguous block's first columns: index through its shape.
-        di, rest = np.divmod(self.cell[lo:hi].astype(np.int64), b * self.early_bins)
-        bi, ti = np.divmod(rest, self.early_bins)
+        di, bi, ti = self._unravel(self.cell[lo:hi])
         if self.envelope is None:
             early[di, bi, ti] = self.value[lo:hi]
         else:
@@ -104,6 +103,26 @@ class CompactArray:
         out[:, :, self.early_bins:] = self.late[k] if self.late_split == 1 else \
             spread_late(self.late[k], self.late_split)
         return out
+
+    def _unravel(self, cell: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(direction, band, sample) of early cells."""
+        bands = self.shape[2]
+        di, rest = np.divmod(cell.astype(np.int64), bands * self.early_bins)
+        bi, ti = np.divmod(rest, self.early_bins)
+        return di, bi, ti
+
+    def direction_sums(self) -> np.ndarray:
+        """The array summed over directions, [receiver, band, time], with the late part at the
+        resolution it is stored (``late_split`` bins of the dense view in one): exact for
+        counts, where the dense view would spread them. Not for a reduced array."""
+        if self.envelope is not None:
+            raise SonoluxError("a reduced compact array no longer holds its early cells")
+        n, _, bands, _ = self.shape
+        early = np.zeros((n, bands, self.early_bins), self.dtype)
+        owner = np.repeat(np.arange(n), np.diff(self.offset))
+        _, bi, ti = self._unravel(self.cell)
+        np.add.at(early, (owner, bi, ti), self.value)
+        return np.concatenate([early, self.late.sum(axis=1, dtype=self.dtype)], axis=-1)
 
     def __getitem__(self, key: Any) -> np.ndarray:
         rest: tuple[Any, ...] = ()

@@ -49,7 +49,7 @@ from sonolux.limits import MAX_RAYS
 from sonolux.range_bake import bake_ranges
 from sonolux.ranges import Checkpointing
 from sonolux.scene.schema import Scene
-from sonolux.sound.bake import add_waves
+from sonolux.sound.bake import add_waves, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
@@ -216,7 +216,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
                            "bake's ray count (--rays N) to split it")
     ceiling = accuracy.ceiling
     inner = SoundRanges(scene, replace(options, rays=ceiling))
-    rule = SoundRanges(scene, replace(options, rays="auto")).total
+    rule = ray_count(scene, replace(options, rays="auto"))
     start, target = 0, min(ceiling, _blocks(first_rays or max(rule / 8,
                                                               GROUPS * FIRST_GROUP_RAYS)))
     state = RoundSum()
@@ -286,14 +286,14 @@ def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Ac
 
 
 def _where_it_stopped(side: Path, start: int, target: int) -> tuple[int, int, list[Any]]:
-    """The round a progressive bake's checkpoint was in, and the rounds before it."""
+    """The round a progressive bake's checkpoint was in, and the rounds before it (from its
+    header: the bake's checks then read it whole)."""
     from sonolux import checkpoint as checkpoints
 
     if not side.exists():
         return start, target, []
     try:
-        header, _ = checkpoints.read(side)
-        meta = header["meta"]["progressive"]
+        meta = checkpoints.read_header(side)["meta"]["progressive"]
         return int(meta["target"][0]), int(meta["target"][1]), list(meta["rounds"])
     except (checkpoints.CheckpointError, KeyError, TypeError, ValueError):
         return start, target, []  # not a progressive checkpoint: the bake's checks will say

@@ -23,7 +23,7 @@ from sonolux import range_bake, ranges
 from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
-from sonolux.sound.bake import add_waves, auto_rays, band_arrays
+from sonolux.sound.bake import add_waves, ray_count
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
@@ -103,15 +103,7 @@ class SoundRanges:
     def __init__(self, scene: Scene, options: SoundOptions | None = None,
                  log: Callable[[str], None] | None = None) -> None:
         options = (options or SoundOptions()).validate()
-        if options.rays == "auto":
-            arrays = band_arrays(scene)
-            if not options.air_absorption:
-                arrays["air"] = np.zeros_like(arrays["air"])
-            rays, why = auto_rays(scene, options, arrays)
-            if log:
-                log(why)
-        else:
-            rays = int(options.rays)
+        rays = ray_count(scene, options, log=log)
         self.total = rays
         self.target = tuple(options.ray_range or (0, rays))
         if self.target[1] > rays:

@@ -125,18 +125,10 @@ class RoundWork:
 
 def omni_counts(counts: Any) -> np.ndarray:
     """Exact counts summed over directions, uint64[receiver, band, time], from dense counts or a
-    compact array's cells (its late part at the resolution it stores: see :func:`omni_bins`)."""
-    if not isinstance(counts, CompactArray):
-        return np.asarray(counts).sum(axis=1, dtype=np.uint64)
-    if counts.envelope is not None:
-        raise ValueError("a reduced compact array no longer holds exact counts")
-    n, _, bands, _ = counts.shape
-    early = np.zeros((n, bands, counts.early_bins), np.uint64)
-    owner = np.repeat(np.arange(n), np.diff(counts.offset))
-    rest = counts.cell.astype(np.int64) % (bands * counts.early_bins)
-    band, sample = np.divmod(rest, counts.early_bins)
-    np.add.at(early, (owner, band, sample), counts.value.astype(np.uint64))
-    return np.concatenate([early, counts.late.sum(axis=1, dtype=np.uint64)], axis=-1)
+    compact array (its late part at the resolution it stores: see :func:`omni_bins`)."""
+    if isinstance(counts, CompactArray):
+        return counts.direction_sums()
+    return np.asarray(counts).sum(axis=1, dtype=np.uint64)
 
 
 def omni_bins(template: Any, counts: Any) -> tuple[np.ndarray, np.ndarray]:
