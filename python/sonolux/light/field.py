@@ -29,9 +29,6 @@ import numpy as np
 
 from sonolux.errors import SonoluxError
 
-#: Rec. 709 / sRGB luminance weights of linear RGB.
-LUMINANCE_RGB = np.array([0.2126, 0.7152, 0.0722])
-
 
 @dataclass
 class LightField:

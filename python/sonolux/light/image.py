@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from sonolux.errors import SonoluxError
-from sonolux.light.field import LUMINANCE_RGB
+from sonolux.light.photometry import LUMINANCE_RGB
 from sonolux.outputs import write_atomically
 
 KEY_VALUE = 0.18
