@@ -46,7 +46,7 @@ def hybrid(tmp_path_factory):
 
 
 def test_early_arrivals_are_in_their_directions_responses_at_their_samples(hybrid, tmp_path):
-    export_web(hybrid, tmp_path / "b", WebExportOptions(tail_db=None, seed=1))
+    export_web(hybrid, tmp_path / "b", WebExportOptions(tail_db=None, seed=1, responses="pcm"))
     index = json.loads((tmp_path / "b" / "field.json").read_text())
     data = (tmp_path / "b" / "responses.bin").read_bytes()
     field = sonolux.open(hybrid)

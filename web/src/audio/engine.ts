@@ -157,6 +157,12 @@ export class SoundEngine {
     return this.voices.map((v) => ({ cell: v.cell, mode: v.mode, ready: v.ready, current: v === this.current }));
   }
 
+  /** Drops every voice, so that they are made again from the store's responses (after the
+   * source fields' gains changed); the wanted cell's new voice fades in when it is ready. */
+  refresh(): void {
+    this.dispose();
+  }
+
   dispose(): void {
     for (const v of this.voices) {
       this.tasks?.drop(v);
