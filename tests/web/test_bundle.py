@@ -17,7 +17,8 @@ from sonolux.web.bundle import direction_table
 from sonolux.web.geometry import from_gltf, plan_segments, to_gltf
 from sonolux.web.responses import cell_responses, decay_end, direct_bins, pack
 
-SHORT = WebExportOptions(responses="pcm", max_length_s=0.1)  # where the reverberation's length does not matter
+# The bundle of responses (sonolux-web/2), where the reverberation's length does not matter.
+SHORT = WebExportOptions(responses="pcm", max_length_s=0.1)
 
 
 def read(bundle):
@@ -139,7 +140,8 @@ def test_direct_only_is_the_direct_sound(sound_field, tmp_path):
 
 
 def test_bundle_options(sound_field, tmp_path):
-    export_web(sound_field, tmp_path / "f", WebExportOptions(responses="pcm", max_length_s=0.25, sample_format="float32"))
+    export_web(sound_field, tmp_path / "f",
+               WebExportOptions(responses="pcm", max_length_s=0.25, sample_format="float32"))
     index, data = read(tmp_path / "f")
     assert index["sample_format"] == "float32" and index["response_length_samples"] == 12000
     x = response(index, data, 7, "full", 0)

@@ -16,8 +16,16 @@ from sonolux.errors import SonoluxError
 from sonolux.sound.compact import CompactArray
 from sonolux.web import WebExportOptions, export_web
 from sonolux.web.bundle import write_compact_bundle
-from sonolux.web.compact_cells import (Axis, CompactCell, axis_of, cell_response, cut_bins,
-                                       dense_histogram, fade_cut)
+from sonolux.web.compact_cells import (
+    Axis,
+    CompactCell,
+    axis_of,
+    cell_response,
+    cut_bins,
+    dense_histogram,
+    fade_cut,
+    pressure_energy,
+)
 
 
 def read(bundle):
@@ -60,7 +68,8 @@ def axis(index):
 
 def test_compact_bundle_decodes_to_the_fields_histogram(sound_field, tmp_path):
     """Every cell's block decodes to the field's own dense histogram (CompactArray.receiver)
-    over the bins it keeps, bit for bit; the cut leaves out at most 10^-6 of the energy."""
+    over the bins it keeps, bit for bit; the cut leaves out at most 10^-6 of the energy of the
+    pressure (pressure_energy)."""
     summary = export_web(sound_field, tmp_path / "b")
     index, data = read(tmp_path / "b")
     field = sonolux.open(sound_field)
@@ -76,7 +85,8 @@ def test_compact_bundle_decodes_to_the_fields_histogram(sound_field, tmp_path):
         n = dense.shape[-1] - ax.late_split  # the last kept stored bin is spread one-sided
         np.testing.assert_array_equal(dense[..., :n], whole[..., :n])
         length = index["cells"][r]["length_samples"]
-        left = whole.astype(np.float64).sum(axis=(0, 1))
+        left = pressure_energy(whole.astype(np.float64).sum(axis=0), field.synthesis_bands_hz,
+                               field.sample_rate_hz)
         bins_end = np.rint((field.bin_start_s + field.bin_width_s) * field.sample_rate_hz)
         after = left[bins_end > length].sum()
         assert after <= 1.01e-6 * left.sum()  # tail_db 60: at most 10^-6 is left out
@@ -93,8 +103,8 @@ def test_compact_bundle_is_smaller_than_responses(sound_field, tmp_path):
 
 def test_a_cells_response_follows_its_histogram(sound_field, tmp_path):
     """The synthesis the browser follows (cell_response): per direction, the energy of the
-    response equals the histogram's (same in every band here to within the band split's
-    cross terms: 10 % allowed, the histogram's bands differ by air absorption)."""
+    response is what pressure_energy expects of its histogram (Parseval over the bank), within
+    10 % (the random impulses' power spectrum is white only on average)."""
     export_web(sound_field, tmp_path / "b")
     index, data = read(tmp_path / "b")
     ax = axis(index)
@@ -105,7 +115,8 @@ def test_a_cells_response_follows_its_histogram(sound_field, tmp_path):
     for d in range(dense.shape[0]):
         p = cell_response(dense[d], ax, 10**9, 48000, s["volume_m3"], s["speed_of_sound_m_s"],
                           np.array(s["bands_hz"]), seed=d)
-        e_hist = dense[d].astype(np.float64).sum(axis=1).mean()
+        e_hist = pressure_energy(dense[d].astype(np.float64), np.array(s["bands_hz"]),
+                                 48000).sum()
         assert np.sum(p * p) / 48000 == pytest.approx(e_hist, rel=0.1)
         assert fade_cut(p, length, 48000).size <= length
 

@@ -45,8 +45,17 @@ from sonolux.errors import SonoluxError
 from sonolux.outputs import atomic_folder
 from sonolux.sound.field import SoundField
 from sonolux.sound.synthesis import PAD_PERIODS
-from sonolux.web.compact_cells import (Axis, axis_of, check_synthesisable, cut_bins, cut_cell,
-                                       receiver_compact, reduced_energy, stored_energy_per_bin)
+from sonolux.web.compact_cells import (
+    Axis,
+    axis_of,
+    check_synthesisable,
+    cut_bins,
+    cut_cell,
+    pressure_energy,
+    receiver_compact,
+    reduced_energy,
+    stored_energy_per_bin,
+)
 from sonolux.web.geometry import glb_triangles, plan_segments, write_scene_glb
 from sonolux.web.options import WebExportOptions
 from sonolux.web.responses import FADE_OUT_S, cell_responses, pack
@@ -174,8 +183,8 @@ def write_compact_bundle(fields: list[tuple[str, SoundField]], field_path: str |
             "volume_m3": float(sound.settings["volume_m3"]),
             "speed_of_sound_m_s": float(sound.settings["speed_of_sound_m_s"]),
             "fade_out_s": FADE_OUT_S, "pad_periods": PAD_PERIODS,
-            "playback_gain_rule": "the loudest cell's histogram energy (all directions and "
-                                  "sources, mean over bands) is one"}
+            "playback_gain_rule": "the loudest cell's pressure energy (all directions and "
+                                  "source fields) is one"}
         index["source_fields"] = [
             {"name": n, "positions_m": [[float(v) for v in p]
                                         for p in np.atleast_2d(f.source_positions_m)],
@@ -195,12 +204,14 @@ def _write_compact_cells(fields: list[tuple[str, SoundField]], axis: Axis, tmp: 
     fs = fields[0][1].sample_rate_hz
     n = fields[0][1].n_receivers
     cells, energy_max, offset, longest = [], 0.0, 0, 0
+    bands = fields[0][1].synthesis_bands_hz
     limit = None if options.max_length_s is None else int(round(options.max_length_s * fs))
     with open(tmp / "responses.bin", "wb") as f:
         for r in range(n):
             parts = [receiver_compact(fld, red, arr, split, r)
                      for (_, fld), (red, arr, split) in zip(fields, reduced)]
-            per_bin = sum(stored_energy_per_bin(c, axis) for c in parts)
+            per_bin = pressure_energy(sum(stored_energy_per_bin(c, axis) for c in parts),
+                                      bands, fs)
             energy_max = max(energy_max, float(np.sum(per_bin)))
             late_bins, length = cut_bins(per_bin, axis, options.tail_db)
             if limit is not None:

@@ -20,8 +20,8 @@ split into bands), so the browser's response is the library's, up to its own ran
 structure.
 
 The cut (``tail_db``): the first stored bin from which the energy still to come (summed over the
-cell's directions and source fields, averaged over bands: the energy of the synthesised
-pressure for a histogram equal in every band) is ``tail_db`` below the cell's whole energy. The
+cell's directions and source fields, as the synthesised pressure carries it:
+:func:`pressure_energy`) is ``tail_db`` below the cell's whole energy. The
 response ends there with a 10 ms fade, as the ``sonolux-web/2`` responses do; what is left out
 is at most 10^(−tail_db/10) of the cell's energy. A full-resolution field is made compact a
 receiver at a time, with the bake's defaults (128 arrivals, 1 ms envelope).
@@ -36,7 +36,7 @@ import numpy as np
 from sonolux.errors import SonoluxError
 from sonolux.sound.compact import CompactArray, is_compact
 from sonolux.sound.field import SoundField
-from sonolux.sound.synthesis import pressure_ir
+from sonolux.sound.synthesis import band_split_weights, pressure_ir
 from sonolux.web.responses import FADE_OUT_S, direct_bins
 
 #: The bake's defaults (sound/options.py), for fields stored at full resolution.
@@ -134,17 +134,28 @@ def receiver_compact(sound: SoundField, reduced: CompactArray | None, arrivals: 
 
 
 def stored_energy_per_bin(c: CompactArray, axis: Axis) -> np.ndarray:
-    """float64[stored bin]: energy per early sample then per stored late bin, summed over
-    directions and averaged over bands (the cut's measure)."""
-    early = np.zeros(axis.early_bins)
-    env = c.envelope[0].astype(np.float64).sum(axis=0).mean(axis=0)  # [envelope bin]
-    np.add.at(early, np.minimum(np.arange(env.size) * axis.envelope_split, axis.early_bins - 1),
-              env)
-    _, bi, ti = c._unravel(c.cell)
+    """float64[band, stored bin]: energy per early sample then per stored late bin, summed over
+    directions."""
     n_bands = c.shape[2]
-    np.add.at(early, ti, c.value.astype(np.float64) / n_bands)
-    late = c.late[0].astype(np.float64).sum(axis=0).mean(axis=0)
-    return np.concatenate([early, late])
+    early = np.zeros((n_bands, axis.early_bins))
+    env = c.envelope[0].astype(np.float64).sum(axis=0)  # [band, envelope bin]
+    starts = np.minimum(np.arange(env.shape[-1]) * axis.envelope_split, axis.early_bins - 1)
+    early[:, starts] += env
+    _, bi, ti = c._unravel(c.cell)
+    np.add.at(early, (bi, ti), c.value.astype(np.float64))
+    late = c.late[0].astype(np.float64).sum(axis=0)
+    return np.concatenate([early, late], axis=-1)
+
+
+def pressure_energy(per_band: np.ndarray, bands_hz: np.ndarray, fs: float) -> np.ndarray:
+    """float64[bin]: the energy the synthesis gives a histogram's bins [band, bin]: white
+    impulses scaled per band by sqrt(E_b) and split by the bank W_b (synthesis.py) carry
+    mean_f (Σ_b W_b(f) sqrt(E_b))² (Parseval), the energy of the pressure the viewer plays."""
+    if per_band.shape[0] == 1:
+        return per_band[0]
+    w = band_split_weights(2048, fs, bands_hz)  # [band, frequency]
+    amp = np.sqrt(np.maximum(per_band, 0.0)).T @ w  # [bin, frequency]
+    return np.mean(amp * amp, axis=1)
 
 
 def cut_bins(per_bin: np.ndarray, axis: Axis, tail_db: float | None) -> tuple[int, int]:

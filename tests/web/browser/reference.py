@@ -20,9 +20,18 @@ import numpy as np
 from sonolux.fieldfile import open_field
 from sonolux.sound.synthesis import _check_histogram, _sample_groups, poisson_impulses
 from sonolux.web.bundle import source_fields
-from sonolux.web.compact_cells import (axis_of, cell_response, cut_bins, cut_cell, dense_histogram,
-                                       receiver_compact, reduced_energy, stored_energy_per_bin,
-                                       time_bins)
+from sonolux.web.compact_cells import (
+    axis_of,
+    cell_response,
+    cut_bins,
+    cut_cell,
+    dense_histogram,
+    pressure_energy,
+    receiver_compact,
+    reduced_energy,
+    stored_energy_per_bin,
+    time_bins,
+)
 from sonolux.web.options import TAIL_DB
 
 
@@ -54,7 +63,8 @@ def main() -> None:
     volume, c = float(sound.settings["volume_m3"]), float(sound.settings["speed_of_sound_m_s"])
     bands = sound.synthesis_bands_hz
     parts = [receiver_compact(f, *reduced_energy(f), r) for _, f in fields]
-    late_bins, length = cut_bins(sum(stored_energy_per_bin(p, axis) for p in parts), axis, TAIL_DB)
+    per_bin = pressure_energy(sum(stored_energy_per_bin(p, axis) for p in parts), bands, fs)
+    late_bins, length = cut_bins(per_bin, axis, TAIL_DB)
     n_dir, n_cells = sound.energy.shape[1], sound.n_receivers
     out = []
     for j, p in enumerate(parts):
