@@ -122,8 +122,9 @@ export class ResponseStore {
   budgetBytes = 256e6;
   /** Called with the first error of a fetch (the page shows it). */
   onError: (e: unknown) => void = () => {};
-  /** /3: the synthesis worker, and each source field's gain in the mix. */
+  /** /3: the synthesis workers, and each source field's gain in the mix. */
   readonly synth: Synthesiser | null;
+  private readonly urgent = new Set<number>();
   gains: number[];
 
   constructor(
@@ -155,7 +156,7 @@ export class ResponseStore {
     const block = await inflateCell(this.index, cell, stored);
     let parts;
     try {
-      parts = await this.synth.cell(cell, readParts(this.index, cell, block));
+      parts = await this.synth.cell(cell, readParts(this.index, cell, block), undefined, this.urgent.has(cell.index));
     } catch (e) {
       throw new BundleError(this.index.responsesFile, `cell ${cell.index}: ${(e as Error).message}`);
     }
@@ -184,9 +185,14 @@ export class ResponseStore {
     return this.done.has(cell);
   }
 
-  load(cell: number): Promise<CellResponses> {
+  /** Fetches (once) and decodes the cell; `urgent`: the listener needs it now, so its
+   * synthesis goes before the other cells waiting. */
+  load(cell: number, urgent = false): Promise<CellResponses> {
     let p = this.cache.get(cell);
+    if (p && urgent) this.urgent.add(cell);
+    if (p && urgent) this.synth?.hurry(cell);
     if (!p) {
+      if (urgent) this.urgent.add(cell);
       p = this.fetchBlock(this.index.cells[cell]).then(async (block) => {
         const c = await this.decode(this.index.cells[cell], block);
         this.done.set(cell, c);

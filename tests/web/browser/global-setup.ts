@@ -57,6 +57,9 @@ export default async function setup({ provide }: { provide: (key: string, value:
     'h = replace(f, energy=f.energy.map_values(lambda v: np.asarray(v) * 0.5, np.float32), source_positions_m=np.atleast_2d(f.source_positions_m) + [0.5, 0.0, 0.0])',
     'write_compact_bundle([("talker", f), ("second", h)], sys.argv[1], sys.argv[2])',
   ].join('\n'), lit, two]);
+  // The same field as a bundle of responses (sonolux-web/2), which the viewer still reads.
+  const pcm = join(work, 'pcm');
+  execFileSync(exe, ['export', lit, '--web', pcm, '--responses', 'pcm'], { stdio: ['ignore', 'ignore', 'inherit'] });
   const cache = join(work, 'cache');
   const servers = await Promise.all([serve(exe, lit, cache), serve(exe, unlit, cache)]);
   provide('litUrl', servers[0].url);
@@ -64,6 +67,7 @@ export default async function setup({ provide }: { provide: (key: string, value:
   provide('shots', shots);
   provide('litField', lit);
   provide('twoSources', two);
+  provide('pcmBundle', pcm);
   provide('python', python);
   return () => {
     for (const s of servers) s.proc.kill();
@@ -78,6 +82,7 @@ declare module 'vitest' {
     shots: string;
     litField: string;
     twoSources: string;
+    pcmBundle: string;
     python: string;
   }
 }

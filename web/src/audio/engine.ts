@@ -68,7 +68,7 @@ export class SoundEngine {
     }
     const data = this.store.get(cell);
     if (!data) {
-      void this.store.load(cell).catch(() => {}); // the store reports errors to the page
+      void this.store.load(cell, urgent).catch(() => {}); // the store reports errors to the page
       return null;
     }
     const v = new CellVoice(this.ctx, cell, mode, responsesOf(data, mode), (k) => this.delayed(k), this.spatializer.buses);
