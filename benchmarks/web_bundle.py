@@ -33,14 +33,24 @@ TARGET = {"cell_bytes": 200e3, "paper-large_total_bytes": 50e6}  # issue 19
 VITE_NODE = HERE.parent / "web" / "node_modules" / ".bin" / "vite-node"
 
 
+def rule_rays(room: str) -> int:
+    """The library's automatic ray count of the room (``bake.ray_count``, the rule of
+    rays="auto"; the command line's default is the progressive bake, whose count varies)."""
+    import sonolux
+    from sonolux.sound.bake import ray_count
+
+    return ray_count(sonolux.load_scene(room), sonolux.SoundOptions(rays="auto"))
+
+
 def field_of(room: str, rays: str) -> Path:
     from sonolux import cli
 
     cache = HERE / ".cache"
     cache.mkdir(exist_ok=True)
-    path = cache / f"web-bundle-{room}-{rays}.h5"
+    count = str(rule_rays(room)) if rays == "auto" else rays
+    path = cache / f"web-bundle-{room}-{count}.h5"
     if not path.exists():
-        code = cli.main(["bake", room, "-o", str(path), "--rays", rays, "--no-light", "-q"])
+        code = cli.main(["bake", room, "-o", str(path), "--rays", count, "--no-light", "-q"])
         if code != 0:
             raise SystemExit(f"baking {room} failed ({code})")
     return path
@@ -87,7 +97,8 @@ def worker_ms(bundle_dir: Path, cells: list[int]) -> list[dict] | None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--rays", default="auto", help="rays per source (default: each room's auto)")
+    p.add_argument("--rays", default="auto",
+                   help="rays per source (default: each room's automatic rule, bake.ray_count)")
     p.add_argument("--cells", type=int, default=5, help="cells timed per room (default 5)")
     args = p.parse_args()
     from sonolux.fieldfile import open_field
