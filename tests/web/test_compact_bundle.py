@@ -157,3 +157,27 @@ def test_cut_bins_rule():
 def test_responses_option_is_checked():
     with pytest.raises(SonoluxError, match="responses"):
         WebExportOptions(responses="mp3").validate()
+
+
+def test_a_full_resolution_field_is_made_compact_per_receiver(tmp_path):
+    """A field stored at full resolution (--storage full) is reduced a receiver at a time as
+    the bake reduces a compact one (128 arrivals, 1 ms envelope), its late bins as they are:
+    each cell decodes to that reduction of the receiver's histogram, and keeps its energy."""
+    from sonolux import cli
+
+    full = tmp_path / "full.h5"
+    assert cli.main(["bake", "paper-small", "-o", str(full), "--rays", "1500", "--no-light",
+                     "-q", "--storage", "full"]) == 0
+    export_web(full, tmp_path / "f")
+    index, data = read(tmp_path / "f")
+    field = sonolux.open(full)
+    assert index["format"] == "sonolux-web/3" and index["synthesis"]["late_split"] == 1
+    eb = index["synthesis"]["early_bins"]
+    for r in (0, 14):
+        (part,) = parts_of(index, data, r)
+        dense = dense_histogram(part, axis(index))
+        want = CompactArray.of(np.asarray(field.energy[r:r + 1]), eb).reduce(128, 48).receiver(0)
+        n = dense.shape[-1]
+        np.testing.assert_array_equal(dense, want[..., :n])
+        total = np.asarray(field.energy[r], np.float64)[..., :eb].sum()
+        assert dense[..., :eb].astype(np.float64).sum() == pytest.approx(total, rel=1e-5)

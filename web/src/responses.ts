@@ -253,7 +253,13 @@ export class ResponseStore {
 }
 
 function cellBytes(c: CellResponses): number {
+  // A mix of one source at gain 1 is that source's own arrays: count each buffer once.
+  const seen = new Set<ArrayBufferLike>();
   let n = 0;
-  for (const r of [...c.full, ...c.direct, ...(c.parts ?? []).flatMap((p) => [...p.full, ...p.direct])]) n += r.samples.byteLength;
+  for (const r of [...c.full, ...c.direct, ...(c.parts ?? []).flatMap((p) => [...p.full, ...p.direct])]) {
+    if (seen.has(r.samples.buffer)) continue;
+    seen.add(r.samples.buffer);
+    n += r.samples.buffer.byteLength;
+  }
   return n;
 }

@@ -194,6 +194,20 @@ export function bandWeights(bandsHz: number[], nFft: number, fs: number): Float6
   return w;
 }
 
+const weightsCache = new Map<string, Float64Array[]>();
+
+/** bandWeights by size: the cells of a bundle share a few sizes (kept: the last eight). */
+function cachedWeights(bandsHz: number[], nFft: number, fs: number): Float64Array[] {
+  const key = `${nFft} ${fs} ${bandsHz.join(',')}`;
+  let w = weightsCache.get(key);
+  if (!w) {
+    if (weightsCache.size >= 8) weightsCache.delete(weightsCache.keys().next().value!);
+    w = bandWeights(bandsHz, nFft, fs);
+    weightsCache.set(key, w);
+  }
+  return w;
+}
+
 interface Sequences {
   s: Float64Array[]; // [band][n]
   n: number;
@@ -261,7 +275,7 @@ export function bandSplit(spec: SynthesisSpec, seqs: Sequences[]): Float64Array[
   let minGap = Infinity;
   for (let b = 1; b < nb; b++) minGap = Math.min(minGap, spec.bandsHz[b] - spec.bandsHz[b - 1]);
   const N = nextPowerOfTwo(nMax + Math.ceil((spec.padPeriods * fs) / minGap));
-  const w = bandWeights(spec.bandsHz, N, fs);
+  const w = cachedWeights(spec.bandsHz, N, fs);
   const half = N / 2;
   const spectrum = (q: Sequences): [Float64Array, Float64Array] => {
     const pr = new Float64Array(half + 1);
