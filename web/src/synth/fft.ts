@@ -57,6 +57,23 @@ export function fft(re: Float64Array, im: Float64Array, inverse = false): void {
   for (let size = 2; size <= n; size *= 2) {
     const half = size >> 1;
     const step = n / size;
+    if (half < 64) {
+      // Few twiddles, many groups: each twiddle once, over every group (less loop overhead).
+      for (let k = 0; k < half; k++) {
+        const wr = cos[k * step];
+        const wi = s * sin[k * step];
+        for (let a = k; a < n; a += size) {
+          const b = a + half;
+          const xr = re[b] * wr - im[b] * wi;
+          const xi = re[b] * wi + im[b] * wr;
+          re[b] = re[a] - xr;
+          im[b] = im[a] - xi;
+          re[a] += xr;
+          im[a] += xi;
+        }
+      }
+      continue;
+    }
     for (let start = 0; start < n; start += size) {
       for (let k = 0, w = 0; k < half; k++, w += step) {
         const wr = cos[w];
