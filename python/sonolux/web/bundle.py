@@ -76,11 +76,15 @@ class BundleSummary:
     scene_source: str
     seconds: float
     warnings: list[str] = field(default_factory=list)
+    format: str = FORMAT
 
     def describe(self) -> str:
-        return (f"web bundle {self.path}: {self.cells} cells × {self.directions} directions, "
-                f"responses {self.responses_bytes / 1e6:.1f} MB (up to {self.response_length_s:.2f} s), "
-                f"scene from {self.scene_source}, in {self.seconds:.1f} s")
+        what = ("compact cells, synthesised by the browser" if self.format == FORMAT_COMPACT
+                else "responses")
+        return (f"web bundle {self.path} ({self.format}): {self.cells} cells × {self.directions} "
+                f"directions, {what} {self.responses_bytes / 1e6:.1f} MB (up to "
+                f"{self.response_length_s:.2f} s), scene from {self.scene_source}, in "
+                f"{self.seconds:.1f} s")
 
 
 def direction_table(sound: SoundField) -> list[dict]:
@@ -193,7 +197,7 @@ def write_compact_bundle(fields: list[tuple[str, SoundField]], field_path: str |
                                         encoding="utf-8")
     return BundleSummary(out_dir, sound.n_receivers, sound.energy.shape[1], n_bytes,
                          longest / sound.sample_rate_hz, glb.source, time.perf_counter() - t0,
-                         glb.warnings)
+                         glb.warnings, FORMAT_COMPACT)
 
 
 def _write_compact_cells(fields: list[tuple[str, SoundField]], axis: Axis, tmp: Path,
