@@ -17,6 +17,8 @@ export interface CompactRef {
   arrivals: number;
   envelopeBins: number;
   lateBins: number;
+  /** A hybrid bake's exact early arrivals stored after the late part (0 without). */
+  exactArrivals: number;
   byteOffset: number;
 }
 
@@ -219,10 +221,11 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
         arrivals: r.int(o.arrivals, `${path}[${k}].arrivals`),
         envelopeBins: r.int(o.envelope_bins, `${path}[${k}].envelope_bins`),
         lateBins: r.int(o.late_bins, `${path}[${k}].late_bins`),
+        exactArrivals: o.exact_arrivals === undefined ? 0 : r.int(o.exact_arrivals, `${path}[${k}].exact_arrivals`),
         byteOffset: r.int(o.byte_offset, `${path}[${k}].byte_offset`),
       };
       const db = directions.length * synthesis!.bandsHz.length;
-      const bytes = 4 * (2 * ref.arrivals + db * (ref.envelopeBins + ref.lateBins));
+      const bytes = 4 * (2 * ref.arrivals + db * (ref.envelopeBins + ref.lateBins) + ref.exactArrivals * (4 + synthesis!.bandsHz.length));
       if (ref.byteOffset % 4 !== 0 || ref.byteOffset + bytes > block) r.fail(`${path}[${k}]`, 'reaches past its cell block');
       return ref;
     });
@@ -305,6 +308,7 @@ function readSynthesis(r: Reader, v: unknown, directions: number): SynthesisSpec
     fadeOutS: r.num(s.fade_out_s, 'synthesis.fade_out_s', 0, 1),
     padPeriods: r.num(s.pad_periods, 'synthesis.pad_periods', 0, 1000),
     directions,
+    azimuthBands: s.azimuth_bands === undefined ? directions : r.int(s.azimuth_bands, 'synthesis.azimuth_bands', 1, directions),
   };
 }
 

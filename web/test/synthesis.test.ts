@@ -1,6 +1,6 @@
 import { describe, expect, test } from 'vitest';
 import { fft } from '../src/synth/fft';
-import { bandSplit, bandWeights, decodeHistogram, fadeCut, generator, weightedSequences, type CompactPart, type SynthesisSpec } from '../src/synth/synthesis';
+import { bandSplit, bandWeights, decodeHistogram, fadeCut, generator, panArrival, synthesisePart, weightedSequences, type CompactPart, type SynthesisSpec } from '../src/synth/synthesis';
 
 const SPEC: SynthesisSpec = {
   sampleRateHz: 48000,
@@ -14,6 +14,7 @@ const SPEC: SynthesisSpec = {
   fadeOutS: 0.0001,
   padPeriods: 12.5,
   directions: 1,
+  azimuthBands: 1,
 };
 
 describe('fft', () => {
@@ -36,6 +37,52 @@ describe('fft', () => {
     }
     fft(re, im, true);
     re.forEach((v, j) => expect(v / n).toBeCloseTo(x[j][0], 11));
+  });
+});
+
+describe('exact arrivals from their own direction', () => {
+  const eight = { ...SPEC, directions: 8, azimuthBands: 8 };
+  test('at a sector centre: all in that sector; between two: equal power; energy kept', () => {
+    expect(panArrival(eight, 90, 0)).toEqual([
+      [2, 1],
+      [3, 0],
+    ]);
+    const [[a, ga], [b, gb]] = panArrival(eight, 22.5, 0);
+    expect([a, b]).toEqual([0, 1]);
+    expect(ga).toBeCloseTo(Math.SQRT1_2, 12);
+    expect(gb).toBeCloseTo(Math.SQRT1_2, 12);
+    for (const az of [3, 100, 200, 359]) {
+      const p = panArrival(eight, az, 10);
+      expect(p[0][1] ** 2 + p[1][1] ** 2).toBeCloseTo(1, 12);
+      // VBAP: the gains' vector sum points at the arrival
+      const x = p.reduce((s, [d, g]) => s + g * Math.cos((d * 45 * Math.PI) / 180), 0);
+      const y = p.reduce((s, [d, g]) => s + g * Math.sin((d * 45 * Math.PI) / 180), 0);
+      expect((((Math.atan2(y, x) * 180) / Math.PI + 360) % 360)).toBeCloseTo(az, 9);
+    }
+  });
+
+  test('an arrival moves from its sector to the two around its direction, its energy kept', () => {
+    const spec = { ...SPEC, directions: 8, azimuthBands: 8, bandsHz: [1000] };
+    const eb = spec.earlyBins;
+    // one arrival at sample 3 from 22.5° (between sectors 0 and 1), stored in sector 0
+    const part: CompactPart = {
+      onset: 0,
+      cell: Uint32Array.from([3]),
+      value: Float32Array.from([2]),
+      envelope: new Float32Array(8 * 2),
+      envelopeBins: 2,
+      late: new Float32Array(0),
+      lateBins: 0,
+      exactSample: Uint32Array.from([3, 0]),
+      exactDirection: Float32Array.from([22.5, 0]),
+      exactEnergy: Float32Array.from([2]),
+    };
+    const r = synthesisePart(spec, part, eb, 1, [0, 0, 0], []);
+    const e = r.full.map((x) => x.reduce((a, v) => a + v * v, 0) / spec.sampleRateHz);
+    expect(e[0]).toBeCloseTo(1, 6); // float32 output
+    expect(e[1]).toBeCloseTo(1, 6);
+    expect(r.full[0][3]).toBeCloseTo(r.full[1][3], 12); // in phase: one phantom source
+    expect(e.slice(2).every((v) => v === 0)).toBe(true);
   });
 });
 

@@ -51,6 +51,7 @@ from sonolux.web.compact_cells import (
     check_synthesisable,
     cut_bins,
     cut_cell,
+    exact_arrivals,
     pressure_energy,
     receiver_compact,
     reduced_energy,
@@ -184,6 +185,7 @@ def write_compact_bundle(fields: list[tuple[str, SoundField]], field_path: str |
         index.pop("sample_format")
         index["synthesis"] = {
             **axis.as_json(), "bands_hz": [float(b) for b in sound.synthesis_bands_hz],
+            "azimuth_bands": sound.azimuth_bands,
             "volume_m3": float(sound.settings["volume_m3"]),
             "speed_of_sound_m_s": float(sound.settings["speed_of_sound_m_s"]),
             "fade_out_s": FADE_OUT_S, "pad_periods": PAD_PERIODS,
@@ -220,12 +222,14 @@ def _write_compact_cells(fields: list[tuple[str, SoundField]], axis: Axis, tmp: 
             late_bins, length = cut_bins(per_bin, axis, options.tail_db)
             if limit is not None:
                 length = min(length, limit)
-            stored = [cut_cell(c, late_bins) for c in parts]
+            stored = [cut_cell(c, late_bins, exact_arrivals(fld, r, axis.early_bins))
+                      for c, (_, fld) in zip(parts, fields)]
             entries, raw, at = [], [], 0
             for c in stored:
                 entries.append({"onset": c.onset, "arrivals": int(c.cell.size),
                                 "envelope_bins": int(c.envelope.shape[-1]),
-                                "late_bins": int(c.late.shape[-1]), "byte_offset": at})
+                                "late_bins": int(c.late.shape[-1]),
+                                "exact_arrivals": int(c.exact_sample.shape[0]), "byte_offset": at})
                 raw.append(c.to_bytes())
                 at += c.nbytes
             data = b"".join(raw)

@@ -29,7 +29,7 @@ receiver at a time, with the bake's defaults (128 arrivals, 1 ms envelope).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,14 +53,25 @@ class CompactCell:
     value: np.ndarray  # float32[arrivals]
     envelope: np.ndarray  # float32[direction, band, envelope bins]
     late: np.ndarray  # float32[direction, band, kept late bins]
+    #: A hybrid bake's exact early arrivals (image sources, diffraction) at this receiver:
+    #: sample and direction bin uint32[n, 2], direction float32[n, 2] (azimuth, elevation in
+    #: degrees, where the sound comes from), energy float32[n, band] (J/m²). Empty without
+    #: [early].
+    exact_sample: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.uint32))
+    exact_direction: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
+    exact_energy: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.float32))
 
     def to_bytes(self) -> bytes:
         return b"".join(np.ascontiguousarray(a, dt).tobytes() for a, dt in (
-            (self.cell, "<u4"), (self.value, "<f4"), (self.envelope, "<f4"), (self.late, "<f4")))
+            (self.cell, "<u4"), (self.value, "<f4"), (self.envelope, "<f4"), (self.late, "<f4"),
+            (self.exact_sample, "<u4"), (self.exact_direction, "<f4"),
+            (self.exact_energy, "<f4")))
 
     @property
     def nbytes(self) -> int:
-        return 4 * (self.cell.size + self.value.size + self.envelope.size + self.late.size)
+        return 4 * (self.cell.size + self.value.size + self.envelope.size + self.late.size
+                    + self.exact_sample.size + self.exact_direction.size
+                    + self.exact_energy.size)
 
 
 @dataclass(frozen=True)
@@ -178,10 +189,32 @@ def cut_bins(per_bin: np.ndarray, axis: Axis, tail_db: float | None) -> tuple[in
     return min(n_late, max(0, k + 1 - axis.early_bins)), start
 
 
-def cut_cell(c: CompactArray, late_bins: int) -> CompactCell:
-    return CompactCell(int(c.onset[0]), c.cell.astype(np.uint32), c.value.astype(np.float32),
-                       np.asarray(c.envelope[0], np.float32),
-                       np.ascontiguousarray(c.late[0][..., :late_bins], np.float32))
+def cut_cell(c: CompactArray, late_bins: int, exact: tuple | None = None) -> CompactCell:
+    out = CompactCell(int(c.onset[0]), c.cell.astype(np.uint32), c.value.astype(np.float32),
+                      np.asarray(c.envelope[0], np.float32),
+                      np.ascontiguousarray(c.late[0][..., :late_bins], np.float32))
+    if exact is not None:
+        out.exact_sample, out.exact_direction, out.exact_energy = exact
+    return out
+
+
+def exact_arrivals(sound: SoundField, r: int, early_bins: int) -> tuple | None:
+    """Receiver r's exact early arrivals of a hybrid field within the one-sample bins, as
+    CompactCell stores them; None without [early]. The arrivals are in the histogram already
+    (in their sector, at their sample): the viewer moves each from its sector's centre to its
+    own direction (synthesis.ts, panArrivals)."""
+    e = sound.early
+    if e is None:
+        return None
+    keep = (np.asarray(e["receiver"]) == r) & (np.asarray(e["time_bin"]) >= 0) \
+        & (np.asarray(e["time_bin"]) < early_bins)
+    v = np.asarray(e["from_direction"], np.float64)[keep]
+    azimuth = np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360.0
+    elevation = np.degrees(np.arcsin(np.clip(v[:, 2], -1.0, 1.0)))
+    return (np.stack([np.asarray(e["time_bin"])[keep], np.asarray(e["direction_bin"])[keep]],
+                     axis=1).astype(np.uint32),
+            np.stack([azimuth, elevation], axis=1).astype(np.float32),
+            np.asarray(e["energy"], np.float64)[keep].astype(np.float32))
 
 
 # --- the synthesis (the reference the browser's worker follows) ------------------------------

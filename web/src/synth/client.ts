@@ -27,6 +27,9 @@ export function readParts(index: BundleIndex, cell: Cell, block: ArrayBuffer): C
       envelopeBins: f.envelopeBins,
       late: take((b, o, n) => new Float32Array(b, o, n), db * f.lateBins),
       lateBins: f.lateBins,
+      exactSample: take((b, o, n) => new Uint32Array(b, o, n), 2 * f.exactArrivals),
+      exactDirection: take((b, o, n) => new Float32Array(b, o, n), 2 * f.exactArrivals),
+      exactEnergy: take((b, o, n) => new Float32Array(b, o, n), spec.bandsHz.length * f.exactArrivals),
     };
   });
 }

@@ -32,6 +32,8 @@ export interface SynthesisSpec {
   fadeOutS: number;
   padPeriods: number;
   directions: number;
+  /** Azimuth sectors per elevation band (directions = azimuthBands × elevation bands). */
+  azimuthBands: number;
 }
 
 /** One source field's part of a cell (arrays as in compact_cells.py). */
@@ -43,6 +45,38 @@ export interface CompactPart {
   envelopeBins: number;
   late: Float32Array; // [direction, band, lateBins]
   lateBins: number;
+  /** A hybrid bake's exact early arrivals (none without [early]): sample, (azimuth,
+   * elevation) in degrees where the sound comes from, energy per band (J/m²). */
+  exactSample?: Uint32Array; // [arrival, 2]: sample, direction bin
+  exactDirection?: Float32Array; // [arrival, 2]
+  exactEnergy?: Float32Array; // [arrival, band]
+}
+
+/** The sectors an arrival from azimuth φ (degrees) is panned between and their gains: the
+ * two sector centres around it, with 2-D vector base amplitude panning (Pulkki, JAES 45(6),
+ * 1997: g ∝ the base's inverse applied to the source's unit vector, normalised to
+ * g1² + g2² = 1), so that the two virtual sources at the sector centres make a phantom
+ * source at φ. Elevation: the arrival's own elevation band (bands of equal solid angle). */
+export function panArrival(spec: SynthesisSpec, azimuthDeg: number, elevationDeg: number): [number, number][] {
+  const nAz = spec.azimuthBands;
+  const nEl = spec.directions / nAz;
+  const e = Math.min(nEl - 1, Math.max(0, Math.floor(((Math.sin((elevationDeg * Math.PI) / 180) + 1) / 2) * nEl)));
+  if (nAz === 1) return [[e * nAz, 1]];
+  const step = 360 / nAz;
+  const az = ((azimuthDeg % 360) + 360) % 360;
+  const lower = Math.floor(az / step) % nAz;
+  const upper = (lower + 1) % nAz;
+  const phi = ((az - lower * step) * Math.PI) / 180; // from the lower centre
+  const span = (step * Math.PI) / 180;
+  let g1 = Math.sin(span - phi) / Math.sin(span);
+  let g2 = Math.sin(phi) / Math.sin(span);
+  const norm = Math.hypot(g1, g2);
+  g1 /= norm;
+  g2 /= norm;
+  return [
+    [e * nAz + lower, g1],
+    [e * nAz + upper, g2],
+  ];
 }
 
 /** The largest change of level a late spread allows across one stored bin (compact.py). */
@@ -370,16 +404,58 @@ export function synthesisePart(
   impulses?: Float64Array[],
 ): PartResponses {
   const fs = spec.sampleRateHz;
+  const nb = spec.bandsHz.length;
   const hs = Array.from({ length: spec.directions }, (_, d) => decodeHistogram(spec, part, d));
-  const full = bandSplit(
-    spec,
-    hs.map((h, d) => weightedSequences(spec, h, generator(seed + d), impulses?.[d])),
-  ).map((x) => fadeCut(x, length, fs, spec.fadeOutS));
   const T = denseBins(spec, part);
   const mask = directMask(spec, T, receiver, sources);
-  const direct = bandSplit(
+  const direct = hs.map((h) => h.map((row) => row.map((v, k) => (mask[k] ? v : 0))));
+  // A hybrid bake's exact arrivals leave their sector's histogram, to be added back as spikes
+  // panned from their own direction (in phase in both sectors: one phantom source).
+  const n = (part.exactSample?.length ?? 0) / 2;
+  const spikes: { sample: number; pan: [number, number][]; amp: number[] }[] = [];
+  for (let a = 0; a < n; a++) {
+    const sample = part.exactSample![2 * a];
+    const home = part.exactSample![2 * a + 1];
+    if (sample >= spec.earlyBins || home >= spec.directions) continue;
+    const pan = panArrival(spec, part.exactDirection![2 * a], part.exactDirection![2 * a + 1]);
+    const e = Array.from({ length: nb }, (_, b) => part.exactEnergy![a * nb + b]);
+    for (let b = 0; b < nb; b++) {
+      hs[home][b][sample] = Math.max(0, hs[home][b][sample] - e[b]);
+      direct[home][b][sample] = Math.max(0, direct[home][b][sample] - e[b]);
+    }
+    spikes.push({ sample, pan, amp: e.map((v) => Math.sqrt(v * fs)) });
+  }
+  const withSpikes = (qs: Sequences[], keep: (sample: number) => boolean): Sequences[] => {
+    for (const sp of spikes) {
+      if (!keep(sp.sample)) continue;
+      for (const [d, g] of sp.pan) {
+        const q = qs[d];
+        if (sp.sample >= q.n) {
+          q.s = q.s.map((row) => {
+            const grown = new Float64Array(sp.sample + 1);
+            grown.set(row);
+            return grown;
+          });
+          q.n = sp.sample + 1;
+        }
+        for (let b = 0; b < nb; b++) q.s[b][sp.sample] += g * sp.amp[b];
+      }
+    }
+    return qs;
+  };
+  const full = bandSplit(
     spec,
-    hs.map((h, d) => weightedSequences(spec, h.map((row) => row.map((v, k) => (mask[k] ? v : 0))), generator(seed + d + 0x9e3779b9))),
+    withSpikes(
+      hs.map((h, d) => weightedSequences(spec, h, generator(seed + d), impulses?.[d])),
+      () => true,
+    ),
   ).map((x) => fadeCut(x, length, fs, spec.fadeOutS));
-  return { full, direct };
+  const directOnly = bandSplit(
+    spec,
+    withSpikes(
+      direct.map((h, d) => weightedSequences(spec, h, generator(seed + d + 0x9e3779b9))),
+      (sample) => mask[sample] === 1,
+    ),
+  ).map((x) => fadeCut(x, length, fs, spec.fadeOutS));
+  return { full, direct: directOnly };
 }
