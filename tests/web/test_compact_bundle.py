@@ -181,3 +181,18 @@ def test_a_full_resolution_field_is_made_compact_per_receiver(tmp_path):
         np.testing.assert_array_equal(dense, want[..., :n])
         total = np.asarray(field.energy[r], np.float64)[..., :eb].sum()
         assert dense[..., :eb].astype(np.float64).sum() == pytest.approx(total, rel=1e-5)
+
+
+def test_cli_responses_flag(sound_field, tmp_path, capsys):
+    """export --web writes /3 by default and /2 with --responses pcm, and says which."""
+    from sonolux import cli
+
+    assert cli.main(["export", str(sound_field), "--web", str(tmp_path / "c")]) == 0
+    assert "(sonolux-web/3)" in capsys.readouterr().out
+    assert cli.main(["export", str(sound_field), "--web", str(tmp_path / "p"), "--responses",
+                     "pcm"]) == 0
+    assert "(sonolux-web/2)" in capsys.readouterr().out
+    assert read(tmp_path / "p")[0]["format"] == "sonolux-web/2"
+    with pytest.raises(SystemExit):
+        cli.main(["export", str(sound_field), "--web", str(tmp_path / "x"), "--responses", "mp3"])
+    assert "--responses" in capsys.readouterr().err
