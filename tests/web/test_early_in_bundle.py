@@ -90,7 +90,8 @@ def test_a_compact_bundle_carries_each_arrival_with_its_own_direction(hybrid, tm
     """sonolux-web/3 of a hybrid field: every image-source arrival within the one-sample bins
     is in its cell's block with its sample, its direction bin, its direction (azimuth,
     elevation of from_direction) and its energy per band, so the viewer pans it from its own
-    direction (web/src/synth/synthesis.ts, panArrival)."""
+    direction (web/src/synth/synthesis.ts, panArrival). (Arrivals that the compact field keeps
+    in its envelope, not exact, are not listed: here, two receivers, all are exact.)"""
     export_web(hybrid, tmp_path / "b", WebExportOptions(seed=1))
     index = json.loads((tmp_path / "b" / "field.json").read_text())
     data = (tmp_path / "b" / "responses.bin").read_bytes()

@@ -222,7 +222,7 @@ def _write_compact_cells(fields: list[tuple[str, SoundField]], axis: Axis, tmp: 
             late_bins, length = cut_bins(per_bin, axis, options.tail_db)
             if limit is not None:
                 length = min(length, limit)
-            stored = [cut_cell(c, late_bins, exact_arrivals(fld, r, axis.early_bins))
+            stored = [cut_cell(c, late_bins, exact_arrivals(fld, r, c))
                       for c, (_, fld) in zip(parts, fields)]
             entries, raw, at = [], [], 0
             for c in stored:

@@ -198,16 +198,23 @@ def cut_cell(c: CompactArray, late_bins: int, exact: tuple | None = None) -> Com
     return out
 
 
-def exact_arrivals(sound: SoundField, r: int, early_bins: int) -> tuple | None:
-    """Receiver r's exact early arrivals of a hybrid field within the one-sample bins, as
-    CompactCell stores them; None without [early]. The arrivals are in the histogram already
-    (in their sector, at their sample): the viewer moves each from its sector's centre to its
-    own direction (synthesis.ts, panArrivals)."""
+def exact_arrivals(sound: SoundField, r: int, part: CompactArray) -> tuple | None:
+    """Receiver r's exact early arrivals of a hybrid field, as CompactCell stores them; None
+    without [early]. The arrivals are in the histogram already (in their sector, at their
+    sample): the viewer moves each from its sector's centre to its own direction
+    (synthesis.ts, panArrival). Only arrivals whose (sector, sample) the compact part keeps
+    exact are listed (the others are in its envelope, spread over 1 ms, and stay there)."""
     e = sound.early
     if e is None:
         return None
+    early_bins = part.early_bins
+    di, _, ti = part._unravel(part.cell)
+    exact_cells = set(zip(di.tolist(), ti.tolist()))
     keep = (np.asarray(e["receiver"]) == r) & (np.asarray(e["time_bin"]) >= 0) \
         & (np.asarray(e["time_bin"]) < early_bins)
+    mine = np.flatnonzero(keep)
+    keep[mine] = [(int(e["direction_bin"][k]), int(e["time_bin"][k])) in exact_cells
+                  for k in mine]
     v = np.asarray(e["from_direction"], np.float64)[keep]
     azimuth = np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360.0
     elevation = np.degrees(np.arcsin(np.clip(v[:, 2], -1.0, 1.0)))
