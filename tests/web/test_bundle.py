@@ -17,7 +17,8 @@ from sonolux.web.bundle import direction_table
 from sonolux.web.geometry import from_gltf, plan_segments, to_gltf
 from sonolux.web.responses import cell_responses, decay_end, direct_bins, pack
 
-SHORT = WebExportOptions(max_length_s=0.1)  # where the reverberation's length does not matter
+# The bundle of responses (sonolux-web/2), where the reverberation's length does not matter.
+SHORT = WebExportOptions(responses="pcm", max_length_s=0.1)
 
 
 def read(bundle):
@@ -47,7 +48,7 @@ def response(index, data, cell, kind, d):
 
 
 def test_bundle_files_and_index(sound_field, tmp_path):
-    summary = export_web(sound_field, tmp_path / "b")
+    summary = export_web(sound_field, tmp_path / "b", WebExportOptions(responses="pcm"))
     index, data = read(tmp_path / "b")
     field = sonolux.open(sound_field)
     assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["field.json", "responses.bin", "scene.glb"]
@@ -68,7 +69,7 @@ def test_bundle_files_and_index(sound_field, tmp_path):
         assert zlib.crc32(data[c["byte_offset"]:end]) == c["crc32"]
         assert len(block(index, data, k)) == c["raw_length"] > c["byte_length"]
     assert end == len(data)
-    raw = WebExportOptions(compress=False)
+    raw = WebExportOptions(responses="pcm", compress=False)
     export_web(sound_field, tmp_path / "raw", raw)
     index_raw, data_raw = read(tmp_path / "raw")
     assert index_raw["encoding"] == "none" and "raw_length" not in index_raw["cells"][0]
@@ -79,7 +80,7 @@ def test_bundle_files_and_index(sound_field, tmp_path):
 def test_responses_are_the_fields_impulse_responses(sound_field, tmp_path):
     """Full responses are SoundField.impulse_response with seed + cell × 8 + direction, to the
     int16 quantization (a step of peak / 32767)."""
-    export_web(sound_field, tmp_path / "b", WebExportOptions(seed=5, tail_db=None))
+    export_web(sound_field, tmp_path / "b", WebExportOptions(responses="pcm", seed=5, tail_db=None))
     index, data = read(tmp_path / "b")
     field = sonolux.open(sound_field)
     for cell, d in [(0, 0), (7, 3), (14, 6)]:
@@ -98,7 +99,7 @@ def test_responses_end_where_the_decay_has_died_away(sound_field, tmp_path):
     field = sonolux.open(sound_field)
     fs = field.sample_rate_hz
     for tail_db in (30.0, 60.0):
-        export_web(sound_field, tmp_path / "b", WebExportOptions(tail_db=tail_db, seed=2))
+        export_web(sound_field, tmp_path / "b", WebExportOptions(responses="pcm", tail_db=tail_db, seed=2))
         index, data = read(tmp_path / "b")
         for cell in (0, 9):
             whole = [field.impulse_response(cell, d, seed=2 + cell * 8 + d) for d in range(8)]
@@ -118,7 +119,7 @@ def test_responses_end_where_the_decay_has_died_away(sound_field, tmp_path):
     assert index["response_length_samples"] < max(x.size for x in whole)
     for bad in (10, 500, float("nan"), "60"):
         with pytest.raises(SonoluxError, match="tail_db"):
-            WebExportOptions(tail_db=bad).validate()
+            WebExportOptions(responses="pcm", tail_db=bad).validate()
 
 
 def test_direct_only_is_the_direct_sound(sound_field, tmp_path):
@@ -139,15 +140,16 @@ def test_direct_only_is_the_direct_sound(sound_field, tmp_path):
 
 
 def test_bundle_options(sound_field, tmp_path):
-    export_web(sound_field, tmp_path / "f", WebExportOptions(max_length_s=0.25, sample_format="float32"))
+    export_web(sound_field, tmp_path / "f",
+               WebExportOptions(responses="pcm", max_length_s=0.25, sample_format="float32"))
     index, data = read(tmp_path / "f")
     assert index["sample_format"] == "float32" and index["response_length_samples"] == 12000
     x = response(index, data, 7, "full", 0)
     assert x.size <= 12000 and abs(x[-1]) < 1e-3 * np.max(np.abs(x))  # faded, not cut
     with pytest.raises(SonoluxError, match="max_length_s"):
-        WebExportOptions(max_length_s=-1).validate()
+        WebExportOptions(responses="pcm", max_length_s=-1).validate()
     with pytest.raises(SonoluxError, match="sample_format"):
-        WebExportOptions(sample_format="mp3").validate()
+        WebExportOptions(responses="pcm", sample_format="mp3").validate()
 
 
 def test_packing():
@@ -159,8 +161,8 @@ def test_packing():
 
 def test_replacing_a_bundle_is_atomic_and_other_folders_are_left_alone(sound_field, tmp_path):
     out = tmp_path / "b"
-    export_web(sound_field, out, WebExportOptions(max_length_s=0.1))
-    export_web(sound_field, out, WebExportOptions(max_length_s=0.2))
+    export_web(sound_field, out, WebExportOptions(responses="pcm", max_length_s=0.1))
+    export_web(sound_field, out, WebExportOptions(responses="pcm", max_length_s=0.2))
     assert read(out)[0]["max_length_s"] == 0.2
     assert [p.name for p in tmp_path.iterdir()] == ["b"]  # no temporary folder left behind
     mine = tmp_path / "mine"

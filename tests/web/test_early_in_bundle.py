@@ -46,7 +46,7 @@ def hybrid(tmp_path_factory):
 
 
 def test_early_arrivals_are_in_their_directions_responses_at_their_samples(hybrid, tmp_path):
-    export_web(hybrid, tmp_path / "b", WebExportOptions(tail_db=None, seed=1))
+    export_web(hybrid, tmp_path / "b", WebExportOptions(tail_db=None, seed=1, responses="pcm"))
     index = json.loads((tmp_path / "b" / "field.json").read_text())
     data = (tmp_path / "b" / "responses.bin").read_bytes()
     field = sonolux.open(hybrid)
@@ -84,3 +84,42 @@ def test_early_arrivals_are_in_their_directions_responses_at_their_samples(hybri
         first = mine[np.argmin(early["time_s"][mine])]
         d = int(early["direction_bin"][first])
         assert index["cells"][r]["full"][d][0] == int(early["time_bin"][first])  # its delay
+
+
+def test_a_compact_bundle_carries_each_arrival_with_its_own_direction(hybrid, tmp_path):
+    """sonolux-web/3 of a hybrid field: every image-source arrival within the one-sample bins
+    is in its cell's block with its sample, its direction bin, its direction (azimuth,
+    elevation of from_direction) and its energy per band, so the viewer pans it from its own
+    direction (web/src/synth/synthesis.ts, panArrival). (Arrivals that the compact field keeps
+    in its envelope, not exact, are not listed: here, two receivers, all are exact.)"""
+    export_web(hybrid, tmp_path / "b", WebExportOptions(seed=1))
+    index = json.loads((tmp_path / "b" / "field.json").read_text())
+    data = (tmp_path / "b" / "responses.bin").read_bytes()
+    assert index["format"] == "sonolux-web/3"
+    field = sonolux.open(hybrid)
+    early = field.early
+    n_b = len(index["synthesis"]["bands_hz"])
+    eb = index["synthesis"]["early_bins"]
+    checked = 0
+    for r, c in enumerate(index["cells"]):
+        (f,) = c["fields"]
+        raw = zlib.decompress(data[c["byte_offset"]:c["byte_offset"] + c["byte_length"]])
+        n_d = len(index["directions"])
+        at = f["byte_offset"] + 4 * (2 * f["arrivals"] + n_d * n_b * (f["envelope_bins"]
+                                                                     + f["late_bins"]))
+        m = f["exact_arrivals"]
+        sample_bin = np.frombuffer(raw, "<u4", 2 * m, at).reshape(m, 2)
+        direction = np.frombuffer(raw, "<f4", 2 * m, at + 8 * m).reshape(m, 2)
+        energy = np.frombuffer(raw, "<f4", n_b * m, at + 16 * m).reshape(m, n_b)
+        mine = np.flatnonzero((early["receiver"] == r) & (early["time_bin"] >= 0)
+                              & (early["time_bin"] < eb))
+        assert m == mine.size > 0
+        for row, k in enumerate(mine):
+            assert tuple(sample_bin[row]) == (early["time_bin"][k], early["direction_bin"][k])
+            v = early["from_direction"][k]
+            assert direction[row][0] == pytest.approx(math.degrees(math.atan2(v[1], v[0])) % 360,
+                                                      abs=1e-4)
+            assert direction[row][1] == pytest.approx(math.degrees(math.asin(v[2])), abs=1e-4)
+            np.testing.assert_allclose(energy[row], early["energy"][k], rtol=1e-6)
+            checked += 1
+    assert checked >= 2 * 19

@@ -95,7 +95,18 @@ export class WalkThrough {
       rendering: (r) => this.setRendering(r),
       volume: (v) => this.audio?.engine.setVolume(v),
     });
+    this.panel.setSources(
+      index.sourceFields.map((f) => f.name),
+      (g) => this.setGains(g),
+    );
     store.onError = (e) => showError(e);
+  }
+
+  /** The source fields' gains (a bundle with a field per source): the cells are mixed again
+   * and the sound engine's voices made anew. */
+  setGains(gains: number[]): void {
+    this.store.setGains(gains);
+    this.audio?.engine.refresh();
   }
 
   /** A quarter of the way along the room, mid-width, facing the first source. */

@@ -1,12 +1,32 @@
 /**
- * The bundle's index, field.json (written by `sonolux export FIELD --web DIR`, format
- * sonolux-web/2; sonolux-web/1, the same without compression, still reads), read and checked: anything missing or out of range is a BundleError that
- * names the file and the field, which the page shows.
+ * The bundle's index, field.json (written by `sonolux export FIELD --web DIR`), read and
+ * checked: anything missing or out of range is a BundleError that names the file and the
+ * field, which the page shows. Formats: sonolux-web/3 (each cell its source fields' compact
+ * fields, synthesised here: synth/), sonolux-web/2 (each cell its responses, deflated) and
+ * sonolux-web/1 (the same, never compressed).
  */
 import type { Vec3 } from './coords';
+import type { SynthesisSpec } from './synth/synthesis';
 
-export const FORMAT = 'sonolux-web/2';
-const FORMATS = ['sonolux-web/1', FORMAT];
+export const FORMAT = 'sonolux-web/3';
+const FORMATS = ['sonolux-web/1', 'sonolux-web/2', FORMAT];
+
+/** One source field's part of a /3 cell block (byteOffset into the inflated block). */
+export interface CompactRef {
+  onset: number;
+  arrivals: number;
+  envelopeBins: number;
+  lateBins: number;
+  /** A hybrid bake's exact early arrivals stored after the late part (0 without). */
+  exactArrivals: number;
+  byteOffset: number;
+}
+
+/** A source field of a /3 bundle: its name and its sources' positions. */
+export interface SourceField {
+  name: string;
+  positions: Vec3[];
+}
 
 /** How a cell's block is stored in responses.bin: as is, or zlib-compressed (RFC 1950). */
 export type Encoding = 'none' | 'deflate';
@@ -37,6 +57,9 @@ export interface Cell {
   crc32: number;
   full: ResponseRef[];
   direct: ResponseRef[];
+  /** /3: the responses' length (samples) and the source fields' parts of the block. */
+  lengthSamples: number;
+  fields: CompactRef[];
 }
 
 export interface Source {
@@ -68,6 +91,11 @@ export interface BundleIndex {
   cells: Cell[];
   /** The field's frequency bands, as the bundle names them (none in bundles without them). */
   bands: Bands | null;
+  /** /3: how the cells' responses are synthesised; null in /1 and /2 (responses stored). */
+  synthesis: SynthesisSpec | null;
+  /** /3: the source fields (one, "all", unless the field holds a field per source). */
+  sourceFields: SourceField[];
+  seed: number;
 }
 
 /** Frequency bands of the field: their kind and nominal centres, read from field.json. */
@@ -147,11 +175,12 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
   const r = new Reader(file);
   const j = r.obj(raw, 'the index');
   const format = r.str(j.format, 'format');
-  if (!FORMATS.includes(format)) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMATS.join(' and ')}`);
+  if (!FORMATS.includes(format)) r.fail('format', `is ${JSON.stringify(format)}; this viewer reads ${FORMATS.join(', ')}`);
   const encoding = j.encoding === undefined ? 'none' : r.str(j.encoding, 'encoding');
   if (encoding !== 'none' && encoding !== 'deflate') r.fail('encoding', `is ${JSON.stringify(encoding)}, not "none" or "deflate"`);
   const scene = r.obj(j.scene, 'scene');
-  const sampleFormat = r.str(j.sample_format, 'sample_format');
+  const compact = format === FORMAT;
+  const sampleFormat = compact ? 'float32' : r.str(j.sample_format, 'sample_format');
   if (sampleFormat !== 'int16' && sampleFormat !== 'float32') r.fail('sample_format', `is ${sampleFormat}`);
   const itemBytes = sampleFormat === 'int16' ? 2 : 4;
   const responsesBytes = r.int(j.responses_bytes, 'responses_bytes');
@@ -176,6 +205,30 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
       if ((ref.offset + ref.length) * itemBytes > block) r.fail(`${path}[${k}]`, 'reaches past its cell block');
       return ref;
     });
+  const synthesis = compact ? readSynthesis(r, j.synthesis, directions.length) : null;
+  const sourceFields: SourceField[] = compact
+    ? r.arr(j.source_fields, 'source_fields').map((f, k) => {
+        const o = r.obj(f, `source_fields[${k}]`);
+        return { name: r.str(o.name, `source_fields[${k}].name`), positions: r.arr(o.positions_m, `source_fields[${k}].positions_m`).map((p, m) => r.vec3(p, `source_fields[${k}].positions_m[${m}]`)) };
+      })
+    : [];
+  if (compact && sourceFields.length === 0) r.fail('source_fields', 'is empty');
+  const parts = (v: unknown, path: string, block: number): CompactRef[] =>
+    r.arr(v, path, sourceFields.length).map((e, k) => {
+      const o = r.obj(e, `${path}[${k}]`);
+      const ref = {
+        onset: r.int(o.onset, `${path}[${k}].onset`),
+        arrivals: r.int(o.arrivals, `${path}[${k}].arrivals`),
+        envelopeBins: r.int(o.envelope_bins, `${path}[${k}].envelope_bins`),
+        lateBins: r.int(o.late_bins, `${path}[${k}].late_bins`),
+        exactArrivals: o.exact_arrivals === undefined ? 0 : r.int(o.exact_arrivals, `${path}[${k}].exact_arrivals`),
+        byteOffset: r.int(o.byte_offset, `${path}[${k}].byte_offset`),
+      };
+      const db = directions.length * synthesis!.bandsHz.length;
+      const bytes = 4 * (2 * ref.arrivals + db * (ref.envelopeBins + ref.lateBins) + ref.exactArrivals * (4 + synthesis!.bandsHz.length));
+      if (ref.byteOffset % 4 !== 0 || ref.byteOffset + bytes > block) r.fail(`${path}[${k}]`, 'reaches past its cell block');
+      return ref;
+    });
   const cells = r.arr(j.cells, 'cells').map((c, i): Cell => {
     const o = r.obj(c, `cells[${i}]`);
     const byteOffset = r.int(o.byte_offset, `cells[${i}].byte_offset`);
@@ -191,14 +244,16 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
       byteLength,
       rawLength,
       crc32: r.int(o.crc32, `cells[${i}].crc32`, 0, 0xffffffff),
-      full: refs(o.full, `cells[${i}].full`, rawLength),
-      direct: refs(o.direct, `cells[${i}].direct`, rawLength),
+      full: compact ? [] : refs(o.full, `cells[${i}].full`, rawLength),
+      direct: compact ? [] : refs(o.direct, `cells[${i}].direct`, rawLength),
+      lengthSamples: compact ? r.int(o.length_samples, `cells[${i}].length_samples`) : 0,
+      fields: compact ? parts(o.fields, `cells[${i}].fields`, rawLength) : [],
     };
   });
   if (cells.length === 0) r.fail('cells', 'is empty');
   const grid = r.obj(j.grid, 'grid');
   const bounds = r.obj(j.bounds_m, 'bounds_m');
-  return {
+  const out: BundleIndex = {
     format,
     sceneFile: r.str(scene.file, 'scene.file'),
     sceneLit: Boolean(scene.lit),
@@ -227,6 +282,33 @@ export function parseIndex(raw: unknown, file = 'field.json'): BundleIndex {
     }),
     cells,
     bands: readBands(r, j.field),
+    synthesis,
+    sourceFields,
+    seed: j.seed === undefined ? 0 : r.int(j.seed, 'seed'),
+  };
+  if (out.synthesis) out.synthesis.sampleRateHz = out.sampleRateHz;
+  return out;
+}
+
+/** field.json's synthesis block (/3): the time axis of the compact cells and the room. */
+function readSynthesis(r: Reader, v: unknown, directions: number): SynthesisSpec {
+  const s = r.obj(v, 'synthesis');
+  const bandsHz = r.arr(s.bands_hz, 'synthesis.bands_hz').map((b, k) => r.num(b, `synthesis.bands_hz[${k}]`, 0));
+  if (bandsHz.length === 0) r.fail('synthesis.bands_hz', 'is empty');
+  for (let k = 1; k < bandsHz.length; k++) if (!(bandsHz[k] > bandsHz[k - 1])) r.fail('synthesis.bands_hz', 'is not increasing');
+  return {
+    sampleRateHz: 0, // set from sample_rate_hz below
+    earlyBins: r.int(s.early_bins, 'synthesis.early_bins'),
+    lateBinSamples: r.int(s.late_bin_samples, 'synthesis.late_bin_samples', 1),
+    lateSplit: r.int(s.late_split, 'synthesis.late_split', 1),
+    envelopeSplit: r.int(s.envelope_split, 'synthesis.envelope_split', 1),
+    bandsHz,
+    volumeM3: r.num(s.volume_m3, 'synthesis.volume_m3', 1e-9),
+    speedOfSoundMS: r.num(s.speed_of_sound_m_s, 'synthesis.speed_of_sound_m_s', 1),
+    fadeOutS: r.num(s.fade_out_s, 'synthesis.fade_out_s', 0, 1),
+    padPeriods: r.num(s.pad_periods, 'synthesis.pad_periods', 0, 1000),
+    directions,
+    azimuthBands: s.azimuth_bands === undefined ? directions : r.int(s.azimuth_bands, 'synthesis.azimuth_bands', 1, directions),
   };
 }
 

@@ -96,6 +96,26 @@ export class Panel {
     this.signalSelect.value = name;
   }
 
+  /** The source fields' mixer (shown only when there are several): a checkbox and a level
+   * per source; `onGains` gets every source's linear gain (0 when unchecked). */
+  setSources(names: string[], onGains: (gains: number[]) => void): void {
+    if (names.length < 2) return;
+    const levels: HTMLInputElement[] = [];
+    const on: HTMLInputElement[] = [];
+    const report = () => onGains(levels.map((l, k) => (on[k].checked ? Number(l.value) : 0)));
+    const rows = names.map((name, k) => {
+      const box = el('input', { type: 'checkbox', checked: true, id: `source-${k}`, title: `hear ${name}` });
+      const level = el('input', { type: 'range', min: '0', max: '2', step: '0.05', value: '1', id: `source-level-${k}`, title: `${name}: level` });
+      box.addEventListener('change', report);
+      level.addEventListener('change', report);
+      on.push(box);
+      levels.push(level);
+      return el('div', { className: 'row small' }, el('label', { htmlFor: box.id }, box, ` ${name}`), level);
+    });
+    const section = el('div', { className: 'sources', id: 'sources' }, el('span', { className: 'label' }, 'Sources'), ...rows);
+    this.settings.insertBefore(section, this.settings.firstChild);
+  }
+
   setStatus(text: string): void {
     if (this.status.textContent !== text) this.status.textContent = text;
   }

@@ -2,11 +2,14 @@
  * The cells' responses from responses.bin: fetched one cell's block at a time, only for the
  * cells around the listener (an HTTP range request; a server that answers with the whole file
  * is fine too: the file is then fetched once and kept), checked against the block's CRC-32,
- * inflated when the bundle is compressed, decoded to float32 and kept in a cache of bounded
- * size (least recently used cells go first).
+ * inflated when the bundle is compressed, then decoded (/1, /2: the responses themselves) or
+ * synthesised from the cell's compact fields in a Web Worker (/3, synth/), and kept in a
+ * cache of bounded size (least recently used cells go first). With several source fields
+ * (/3), a cell's responses are the sources' responses mixed with the gains of setGains.
  */
 import { BundleError, type BundleIndex, type Cell, type ResponseRef } from './bundle';
 import { crc32 } from './crc32';
+import { readParts, Synthesiser } from './synth/client';
 
 /** A response: `delay` zeros, then `samples` (already × scale). */
 export interface ImpulseResponse {
@@ -14,10 +17,42 @@ export interface ImpulseResponse {
   samples: Float32Array;
 }
 
+export interface PartImpulses {
+  full: ImpulseResponse[];
+  direct: ImpulseResponse[];
+}
+
 export interface CellResponses {
   cell: number;
   full: ImpulseResponse[];
   direct: ImpulseResponse[];
+  /** /3: each source field's own responses (full and direct are their mix). */
+  parts?: PartImpulses[];
+}
+
+/** Σ_k gains[k] × responses[k], per direction (delays kept: the sum starts at the earliest). */
+export function mixResponses(parts: ImpulseResponse[][], gains: number[]): ImpulseResponse[] {
+  const used = parts.map((_, k) => k).filter((k) => (gains[k] ?? 1) !== 0);
+  if (used.length === 1 && (gains[used[0]] ?? 1) === 1) return parts[used[0]];
+  return parts[0].map((_, d) => {
+    const rs = used.map((k) => ({ g: gains[k] ?? 1, r: parts[k][d] })).filter((e) => e.r.samples.length > 0);
+    if (rs.length === 0) return { delay: 0, samples: new Float32Array(0) };
+    const delay = Math.min(...rs.map((e) => e.r.delay));
+    const end = Math.max(...rs.map((e) => e.r.delay + e.r.samples.length));
+    const out = new Float32Array(end - delay);
+    for (const { g, r } of rs) {
+      const at = r.delay - delay;
+      for (let i = 0; i < r.samples.length; i++) out[at + i] += g * r.samples[i];
+    }
+    return { delay, samples: out };
+  });
+}
+
+/** Leading zeros cut off (the convolvers need not run over them). */
+function trimmed(x: Float32Array): ImpulseResponse {
+  let k = 0;
+  while (k < x.length && x[k] === 0) k++;
+  return { delay: k, samples: k === x.length ? new Float32Array(0) : x.subarray(k) };
 }
 
 export type Mode = 'full' | 'direct';
@@ -34,9 +69,9 @@ async function inflate(stored: ArrayBuffer): Promise<ArrayBuffer> {
   return new Response(stream).arrayBuffer();
 }
 
-/** Decodes one cell's block as stored (exactly its byte_length bytes): checked, inflated when
- * the bundle is compressed, then split into its responses. */
-export async function decodeCell(index: BundleIndex, cell: Cell, stored: ArrayBuffer): Promise<CellResponses> {
+/** One cell's block as stored (exactly its byte_length bytes), checked and inflated when the
+ * bundle is compressed. */
+export async function inflateCell(index: BundleIndex, cell: Cell, stored: ArrayBuffer): Promise<ArrayBuffer> {
   const file = index.responsesFile;
   if (stored.byteLength !== cell.byteLength) {
     throw new BundleError(file, `cell ${cell.index}: got ${stored.byteLength} bytes, expected ${cell.byteLength}`);
@@ -55,6 +90,13 @@ export async function decodeCell(index: BundleIndex, cell: Cell, stored: ArrayBu
       throw new BundleError(file, `cell ${cell.index}: inflates to ${block.byteLength} bytes, field.json says ${cell.rawLength}`);
     }
   }
+  return block;
+}
+
+/** Decodes one cell's block as stored (/1, /2): checked, inflated, split into its responses. */
+export async function decodeCell(index: BundleIndex, cell: Cell, stored: ArrayBuffer): Promise<CellResponses> {
+  const file = index.responsesFile;
+  const block = await inflateCell(index, cell, stored);
   const words = index.sampleFormat === 'int16' ? new Int16Array(block, 0, block.byteLength >> 1) : new Float32Array(block, 0, block.byteLength >> 2);
   const decode = (ref: ResponseRef): ImpulseResponse => {
     const out = new Float32Array(ref.length);
@@ -80,13 +122,52 @@ export class ResponseStore {
   budgetBytes = 256e6;
   /** Called with the first error of a fetch (the page shows it). */
   onError: (e: unknown) => void = () => {};
+  /** /3: the synthesis workers, and each source field's gain in the mix. */
+  readonly synth: Synthesiser | null;
+  private readonly urgent = new Set<number>();
+  gains: number[];
 
   constructor(
-    base: string,
+    readonly baseUrl: string,
     readonly index: BundleIndex,
     private readonly fetchFn: typeof fetch = (...a) => fetch(...a),
   ) {
-    this.url = new URL(index.responsesFile, base).href;
+    this.url = new URL(index.responsesFile, baseUrl).href;
+    this.synth = index.synthesis ? new Synthesiser(index) : null;
+    this.gains = index.sourceFields.map(() => 1);
+  }
+
+  /** New gains of the source fields: every cell here is mixed again (the engine's voices
+   * must then be made again: SoundEngine.refresh). */
+  setGains(gains: number[]): void {
+    this.gains = this.index.sourceFields.map((_, k) => gains[k] ?? 1);
+    for (const c of this.done.values()) this.mix(c);
+  }
+
+  private mix(c: CellResponses): void {
+    if (!c.parts) return;
+    c.full = mixResponses(c.parts.map((p) => p.full), this.gains);
+    c.direct = mixResponses(c.parts.map((p) => p.direct), this.gains);
+  }
+
+  /** A cell's responses from its block as stored: decoded (/1, /2) or synthesised (/3). */
+  async decode(cell: Cell, stored: ArrayBuffer): Promise<CellResponses> {
+    if (!this.synth) return decodeCell(this.index, cell, stored);
+    const block = await inflateCell(this.index, cell, stored);
+    let parts;
+    try {
+      parts = await this.synth.cell(cell, readParts(this.index, cell, block), undefined, this.urgent.has(cell.index));
+    } catch (e) {
+      throw new BundleError(this.index.responsesFile, `cell ${cell.index}: ${(e as Error).message}`);
+    }
+    const c: CellResponses = {
+      cell: cell.index,
+      full: [],
+      direct: [],
+      parts: parts.map((p) => ({ full: p.full.map(trimmed), direct: p.direct.map(trimmed) })),
+    };
+    this.mix(c);
+    return c;
   }
 
   /** The cell's responses if they are here already. */
@@ -104,11 +185,16 @@ export class ResponseStore {
     return this.done.has(cell);
   }
 
-  load(cell: number): Promise<CellResponses> {
+  /** Fetches (once) and decodes the cell; `urgent`: the listener needs it now, so its
+   * synthesis goes before the other cells waiting. */
+  load(cell: number, urgent = false): Promise<CellResponses> {
     let p = this.cache.get(cell);
+    if (p && urgent) this.urgent.add(cell);
+    if (p && urgent) this.synth?.hurry(cell);
     if (!p) {
+      if (urgent) this.urgent.add(cell);
       p = this.fetchBlock(this.index.cells[cell]).then(async (block) => {
-        const c = await decodeCell(this.index, this.index.cells[cell], block);
+        const c = await this.decode(this.index.cells[cell], block);
         this.done.set(cell, c);
         this.trim();
         return c;
@@ -167,7 +253,13 @@ export class ResponseStore {
 }
 
 function cellBytes(c: CellResponses): number {
+  // A mix of one source at gain 1 is that source's own arrays: count each buffer once.
+  const seen = new Set<ArrayBufferLike>();
   let n = 0;
-  for (const r of [...c.full, ...c.direct]) n += r.samples.byteLength;
+  for (const r of [...c.full, ...c.direct, ...(c.parts ?? []).flatMap((p) => [...p.full, ...p.direct])]) {
+    if (seen.has(r.samples.buffer)) continue;
+    seen.add(r.samples.buffer);
+    n += r.samples.buffer.byteLength;
+  }
   return n;
 }

@@ -9,7 +9,8 @@ import { makeSignal, type SignalName } from './audio/signals';
 import type { Rendering } from './audio/spatializer';
 import type { BundleIndex } from './bundle';
 import { FULL } from './crossfade';
-import type { Mode } from './responses';
+import { inflateCell, type Mode } from './responses';
+import { readParts } from './synth/client';
 import type { Listener } from './walker';
 
 export interface OfflineRequest {
@@ -36,6 +37,10 @@ export interface Hooks {
   startSound?: () => Promise<void>;
   renderOffline?: (r: OfflineRequest) => Promise<AudioBuffer>;
   project?: (x: number, y: number, z: number) => [number, number] | null;
+  /** /3: a cell's responses per source field and direction from the worker, optionally with
+   * given impulses (per source field, per direction), as plain arrays. */
+  synthesise?: (cell: number, impulses?: number[][][]) => Promise<{ full: number[][]; direct: number[][] }[]>;
+  setGains?: (gains: number[]) => void;
 }
 
 declare global {
@@ -54,12 +59,23 @@ export function installHooks(app: WalkThrough): void {
     predicted: app.predicted,
     frameCount: app.frameCount,
     pendingTasks: app.tasks.pending,
+    synthMs: app.store.synth?.times.slice() ?? [],
     audio: app.audio ? { state: app.audio.ctx.state, voices: app.audio.engine.describe(), changes: app.audio.engine.changes.slice() } : null,
   });
   h.teleport = (p) => app.teleport(p);
   h.startSound = () => app.startSound();
   h.project = (x, y, z) => app.view.project([x, y, z]);
   h.renderOffline = (r) => renderOffline(app, r);
+  h.setGains = (g) => app.setGains(g);
+  h.synthesise = async (cell, impulses) => {
+    const store = app.store;
+    const c = app.index.cells[cell];
+    const url = new URL(app.index.responsesFile, store.baseUrl).href;
+    const res = await fetch(url, { headers: { Range: `bytes=${c.byteOffset}-${c.byteOffset + c.byteLength - 1}` } });
+    const block = await inflateCell(app.index, c, await res.arrayBuffer());
+    const parts = await store.synth!.cell(c, readParts(app.index, c, block), impulses?.map((p) => p.map((x) => Float64Array.from(x))));
+    return parts.map((p) => ({ full: p.full.map((x) => Array.from(x)), direct: p.direct.map((x) => Array.from(x)) }));
+  };
 }
 
 async function renderOffline(app: WalkThrough, r: OfflineRequest): Promise<AudioBuffer> {

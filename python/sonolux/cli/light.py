@@ -96,7 +96,8 @@ def web_options(args: argparse.Namespace):
     from sonolux.web.options import WebExportOptions
 
     return WebExportOptions(max_length_s=args.max_length_s, sample_format=args.sample_format,
-                            seed=args.seed, tail_db=args.tail_db, compress=not args.no_compress)
+                            seed=args.seed, tail_db=args.tail_db, compress=not args.no_compress,
+                            responses=args.responses)
 
 
 def _tail_db(text: str) -> float | None:
@@ -118,6 +119,10 @@ def add_bundle_options(p: argparse.ArgumentParser) -> None:
                    help=f"end each cell's responses where its decay has fallen DB below its "
                         f"whole energy (default {TAIL_DB:g}, as the T60; 'none' keeps the "
                         f"field's whole time axis)")
+    g.add_argument("--responses", choices=("compact", "pcm"), default="compact",
+                   help="compact (default): each cell's compact field, the browser synthesises "
+                        "the responses (sonolux-web/3); pcm: the responses themselves "
+                        "(sonolux-web/2, --sample-format applies)")
     g.add_argument("--no-compress", action="store_true",
                    help="store the responses uncompressed (default: deflated per cell, lossless)")
 

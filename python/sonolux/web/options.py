@@ -9,6 +9,9 @@ from dataclasses import dataclass
 from sonolux.errors import SonoluxError
 
 SAMPLE_FORMATS = ("int16", "float32")
+#: "compact": sonolux-web/3, the cells' compact fields, synthesised in the browser;
+#: "pcm": sonolux-web/2, the synthesised responses themselves.
+RESPONSES = ("compact", "pcm")
 #: The decay a cell's responses keep by default: ISO 3382-1 takes a reverberation to have died
 #: away 60 dB below its start (the T60), and what follows is masked by any ongoing sound.
 TAIL_DB = 60.0
@@ -25,7 +28,10 @@ class WebExportOptions:
     10 ms fade) where the energy still to come, summed over its directions, has fallen this far
     below the cell's whole energy (its Schroeder curve, ISO 3382-1); None keeps the field's
     whole time axis. compress: each cell's block is stored deflated (zlib, RFC 1950; the
-    browser's DecompressionStream inflates it), lossless. threads: 0 = all cores."""
+    browser's DecompressionStream inflates it), lossless. threads: 0 = all cores.
+    responses: "compact" (sonolux-web/3: each cell's compact field, the responses synthesised
+    by the browser; sample_format does not apply) or "pcm" (sonolux-web/2: the responses);
+    a field with a wave part is always written "pcm"."""
 
     max_length_s: float | None = None
     sample_format: str = "int16"
@@ -33,6 +39,7 @@ class WebExportOptions:
     tail_db: float | None = TAIL_DB
     compress: bool = True
     threads: int = 0
+    responses: str = "compact"
 
     def validate(self) -> WebExportOptions:
         if self.max_length_s is not None and not (
@@ -48,6 +55,9 @@ class WebExportOptions:
                 and 20.0 <= self.tail_db <= 200.0):
             raise SonoluxError(f"tail_db = {self.tail_db!r} is not allowed: a decay from 20 to "
                                "200 dB, or None for the field's whole time axis")
+        if self.responses not in RESPONSES:
+            raise SonoluxError(f"responses = {self.responses!r} is not one of: "
+                               f"{', '.join(RESPONSES)}")
         if not isinstance(self.compress, bool):
             raise SonoluxError(f"compress = {self.compress!r} is not allowed: True or False")
         if not (isinstance(self.seed, int) and self.seed >= 0):

@@ -47,11 +47,28 @@ export default async function setup({ provide }: { provide: (key: string, value:
   const unlit = join(work, 'small-unlit.h5');
   const python = join(dirname(exe), 'python');
   execFileSync(python, ['-c', `import h5py, shutil; shutil.copy(${JSON.stringify(lit)}, ${JSON.stringify(unlit)}); f = h5py.File(${JSON.stringify(unlit)}, "a"); f.__delitem__("light") if "light" in f else None; f.close()`]);
+  // A bundle of two source fields (the contract with a field per source: a list of (name,
+  // field)): the baked field as "talker" and, as "second", the same at half the energy.
+  const two = join(work, 'two-sources');
+  execFileSync(python, ['-c', [
+    'import sys, numpy as np; from dataclasses import replace; import sonolux',
+    'from sonolux.web.bundle import write_compact_bundle',
+    'f = sonolux.open(sys.argv[1])',
+    'h = replace(f, energy=f.energy.map_values(lambda v: np.asarray(v) * 0.5, np.float32), source_positions_m=np.atleast_2d(f.source_positions_m) + [0.5, 0.0, 0.0])',
+    'write_compact_bundle([("talker", f), ("second", h)], sys.argv[1], sys.argv[2])',
+  ].join('\n'), lit, two]);
+  // The same field as a bundle of responses (sonolux-web/2), which the viewer still reads.
+  const pcm = join(work, 'pcm');
+  execFileSync(exe, ['export', lit, '--web', pcm, '--responses', 'pcm'], { stdio: ['ignore', 'ignore', 'inherit'] });
   const cache = join(work, 'cache');
   const servers = await Promise.all([serve(exe, lit, cache), serve(exe, unlit, cache)]);
   provide('litUrl', servers[0].url);
   provide('unlitUrl', servers[1].url);
   provide('shots', shots);
+  provide('litField', lit);
+  provide('twoSources', two);
+  provide('pcmBundle', pcm);
+  provide('python', python);
   return () => {
     for (const s of servers) s.proc.kill();
     rmSync(work, { recursive: true, force: true });
@@ -63,5 +80,9 @@ declare module 'vitest' {
     litUrl: string;
     unlitUrl: string;
     shots: string;
+    litField: string;
+    twoSources: string;
+    pcmBundle: string;
+    python: string;
   }
 }

@@ -97,6 +97,8 @@ describe('walking', () => {
     expect(later.length).toBeGreaterThan(0);
     for (const c of later) expect(cells[c].x).toBeGreaterThan(2); // new cells, ahead of the start
     expect(later).toContain(8);
+    const synthMs = ((await page.evaluate(() => window.sonolux.state!())) as { synthMs: number[] }).synthMs;
+    if (synthMs.length) console.log(`the worker synthesised ${synthMs.length} cells, ${Math.min(...synthMs).toFixed(0)}–${Math.max(...synthMs).toFixed(0)} ms each`);
     console.log(`responses fetched: at the start cells ${atStart.join(', ')} of ${cells.length}; walking to cell 8 then cells ${later.join(', ')}`);
     expect(s.errors).toEqual([]);
   });

@@ -68,7 +68,7 @@ export class SoundEngine {
     }
     const data = this.store.get(cell);
     if (!data) {
-      void this.store.load(cell).catch(() => {}); // the store reports errors to the page
+      void this.store.load(cell, urgent).catch(() => {}); // the store reports errors to the page
       return null;
     }
     const v = new CellVoice(this.ctx, cell, mode, responsesOf(data, mode), (k) => this.delayed(k), this.spatializer.buses);
@@ -155,6 +155,12 @@ export class SoundEngine {
   /** Voices alive now: (cell, mode, ready, level). */
   describe(): { cell: number; mode: Mode; ready: boolean; current: boolean }[] {
     return this.voices.map((v) => ({ cell: v.cell, mode: v.mode, ready: v.ready, current: v === this.current }));
+  }
+
+  /** Drops every voice, so that they are made again from the store's responses (after the
+   * source fields' gains changed); the wanted cell's new voice fades in when it is ready. */
+  refresh(): void {
+    this.dispose();
   }
 
   dispose(): void {
