@@ -33,6 +33,24 @@ def _pyrato(pf, ra, signal):
                 for k in ("EDT", "T20")}
 
 
+def _iso_edt_s(pf, ra, signal):
+    """ISO 3382-1's EDT of each channel, computed here on pyrato's Schroeder curve: from the
+    onset (the first sample within 20 dB of the peak power, ISO 3382-1 A.3.4) a least-squares
+    line over 0 to -10 dB. pyrato's own EDT starts at -0.1 dB, which skips the onset instead."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        edc = ra.edc.schroeder_integration(signal)
+    t = np.asarray(edc.times)
+    power = np.asarray(signal.time).reshape(-1, t.size) ** 2
+    out = []
+    for curve, p in zip(np.asarray(edc.time).reshape(-1, t.size), power):
+        onset = int(np.argmax(p >= 0.01 * p.max()))
+        db = 10 * np.log10(np.maximum(curve[onset:] / curve[onset], 1e-300))
+        end = int(np.argmax(db < -10.0))
+        out.append(-60.0 / np.polyfit(t[onset:onset + end], db[:end], 1)[0])
+    return np.array(out)
+
+
 def _xi_permille(pf, ra, signal, lo_db=-5.0, hi_db=-25.0):
     """ISO 3382-2 Annex B's non-linearity ξ = 1000 (1 − r²) of the T20 range of each channel's
     Schroeder curve, computed here from pyrato's curve (independently of sonolux's fit); inf
@@ -74,8 +92,9 @@ def _sonolux(x, fs, position_m, source_m):
 def test_edt_and_t20_match_pyrato(core, room, monkeypatch):
     # Measured (20 000 rays, seed 3 synthesis): with pyrato's EDT range, EDT within 0.5 % and
     # T20 within 0.05 % wherever sonolux defines them; tolerance 2 % (the issue's). With the
-    # ISO range (0 dB start), EDT differs by up to 3.7 % in the 125-500 Hz octaves, where the
-    # octave filter rounds the curve's first tenth of a dB: tolerance 5 % there.
+    # ISO range (0 dB start), EDT is compared with the same range fitted here to pyrato's curve
+    # (pyrato's EDT starts at -0.1 dB: in the 125-500 Hz octaves the filter rounds the curve's
+    # first tenth of a dB, and the two definitions differed by up to 5.3 % there); tolerance 2 %.
     # Some T20s are refused as curved (ξ > 10 ‰): in paper-large up to 10 of 21 (its walls
     # reflect 95 % and its floor 70 %: a non-diffuse room whose decays bend; the broadband
     # channel also mixes the 8 kHz octave's fast decay with the slow ones). So that refusing is
@@ -105,7 +124,7 @@ def test_edt_and_t20_match_pyrato(core, room, monkeypatch):
         ok = np.isfinite(same["edt_s"])
         assert ok.all(), "EDT is defined for every channel of these rooms"
         np.testing.assert_allclose(same["edt_s"], theirs["EDT"], rtol=0.02)
-        np.testing.assert_allclose(iso["edt_s"], theirs["EDT"], rtol=0.05)
+        np.testing.assert_allclose(iso["edt_s"], _iso_edt_s(pf, ra, pf.Signal(x, fs)), rtol=0.02)
         ok = np.isfinite(iso["t20_s"])
         np.testing.assert_allclose(iso["t20_s"][ok], theirs["T20"][ok], rtol=0.02)
         xi = _xi_permille(pf, ra, pf.Signal(x, fs))

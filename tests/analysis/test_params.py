@@ -250,6 +250,14 @@ def test_parameters_match_pyrato_on_the_fields_impulse_responses(core):
                      "c80_db": 0.02, "d50": 0.001, "ts_s": 2e-4}
         for name, tol in tolerance.items():
             print(f"{xy} whole {name}: sonolux {ours[name][0]:.5f}, pyrato {theirs[name][0]:.5f}")
+            if name == "t30_s" and not np.isfinite(ours[name][0]):
+                # sonolux refuses a T30 whose decay is curved (ISO 3382-2 Annex B: C =
+                # 100 (T30/T20 - 1) above 10 %); pyrato gives a number. The refusal must be
+                # justified by pyrato's own T30 and T20 (above 0.8 of the limit; measured at
+                # (10, 4): 10.8 %).
+                curvature_pct = 100 * (theirs["t30_s"][0] / theirs["t20_s"][0] - 1)
+                assert curvature_pct > 8.0, (xy, curvature_pct)
+                continue
             rel = name.startswith(("t", "e")) and name != "ts_s"
             assert ours[name][0] == pytest.approx(theirs[name][0], **(
                 {"rel": tol} if rel else {"abs": tol})), (xy, name)

@@ -220,6 +220,16 @@ def test_light_tangent_parallel_to_normal(library):
     assert err.key == "lights[0].tangent" and "not parallel" in err.allowed
 
 
+@pytest.mark.parametrize("normal", [[0, 0, 1.4e-287], [0, 1e-170, 0], [1e200, 1e200, 0]])
+def test_light_normal_whose_length_is_not_a_float(library, normal):
+    # Found by the hardening walk: a normal of (0, 0, 1.4e-287) is not zero, but its length
+    # underflows to 0 and normalising it divided by zero.
+    scene = {"geometry": [], "lights": [{"center_m": [1, 1, 1], "size_m": [1, 1],
+                                         "normal": normal}]}
+    err = error_of(scene, library)
+    assert err.key == "lights[0].normal" and "finite, non-zero" in err.allowed
+
+
 def test_source_outside_the_room(write, library, core):
     path = write("scene.toml", ROOM + """
         [[sources]]

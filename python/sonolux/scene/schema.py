@@ -414,6 +414,10 @@ def check_vector(ctx: Context, key: str, v: Any, n: int, allowed: str, *,
     for i, x in enumerate(v):
         check_number(ctx, f"{key}[{i}]", x, lo, hi, lo_open, False, False)
     out = np.array(v, dtype=np.float64)
-    if nonzero and not np.any(out != 0.0):
-        raise ctx.error(key, v, "a non-zero vector")
+    # A direction is divided by its length: a length that underflows to 0 (components near
+    # 1e-160 and below) or overflows to inf cannot be, though the vector is not zero.
+    length = float(np.linalg.norm(out))
+    if nonzero and not (0.0 < length < np.inf):
+        raise ctx.error(key, v, "a non-zero vector whose length is a finite, non-zero float "
+                        "(components between about 1e-150 and 1e150)")
     return out
