@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.analysis import consistency
+from sonolux.analysis import consistency, lateral
 from sonolux.analysis.decay import (
     COMPENSATIONS,
     c50,
@@ -66,6 +66,7 @@ PARAMETERS: dict[str, tuple[str, str, float, float | None]] = {
     "g_db": ("G", "dB", 1.0, 1.0),
     "jlf": ("JLF", "", 1.0, 0.05),
     "jlfc": ("JLFC", "", 1.0, 0.05),
+    "lg_db": ("LG", "dB", 1.0, None),
 }
 DECAY_NAMES = ("edt", "t20", "t30")
 #: Quadrature points per direction bin for the lateral weights (error < 1e-4).
@@ -209,8 +210,9 @@ def source_azimuths_rad(field_: SoundField, positions_m: np.ndarray) -> np.ndarr
     return np.where(inside, np.nan, np.arctan2(d[:, 1], d[:, 0]))
 
 
-def _lateral_fractions(field_, energy, edges, onset, phi_s):
-    """JLF and JLFC: float[receiver, column] from energy float32[receiver, dir, band, T]."""
+def _lateral_fractions(field_, energy, edges, onset, phi_s, power_w):
+    """JLF, JLFC and LG: float[receiver, column] from energy float32[receiver, dir, band, T],
+    by the direction bins' mean figure-of-eight weights (see the module docstring)."""
     omni = _with_broadband(energy.sum(axis=1, dtype=np.float64))
     early = window_energy(omni, edges, onset[:, None], onset[:, None] + 0.080)
     out = {}
@@ -221,6 +223,10 @@ def _lateral_fractions(field_, energy, edges, onset, phi_s):
         lat = window_energy(lateral, edges, onset[:, None] + 0.005, onset[:, None] + 0.080)
         with np.errstate(invalid="ignore", divide="ignore"):
             out[name] = np.where(np.isnan(phi_s)[:, None], np.nan, lat / early)
+        if power == 2:  # LG: the late lateral energy against the free field at 10 m
+            late = window_energy(lateral, edges, onset[:, None] + 0.080, np.inf)
+            g = np.asarray(strength_g_db(late, power_w), dtype=np.float64)
+            out["lg_db"] = np.where(np.isnan(phi_s)[:, None], np.nan, g)
     return out
 
 
@@ -252,6 +258,8 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
     synthesised with noise); see :mod:`sonolux.analysis.decay`. Every decay time is checked
     (undefined with its reason in ``reasons``), and receivers that stand out from their
     neighbours are listed in ``outliers`` (:mod:`sonolux.analysis.consistency`).
+    A field with directional channels takes JLF, JLFC and LG from its true figure-of-eight
+    (:mod:`sonolux.analysis.lateral`); every other parameter is each channel's own.
     ``sti=True`` adds the speech transmission index per receiver, with the talker and noise of
     ``speech`` (a :class:`sonolux.analysis.sti.SpeechSettings`; default: what the scene gave,
     recorded in the field). A third-octave field's STI uses octaves summed from its thirds.
@@ -277,13 +285,17 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
         onset = onsets_s(omni[:, -1], edges)  # [r]
         part = _ratios(omni, start, width, np.repeat(onset[:, None], omni.shape[1], 1), power_w,
                        decay)
-        part.update(_lateral_fractions(field_, energy, edges, onset, phi_s[lo:lo + _CHUNK]))
+        part.update(_lateral_fractions(field_, energy, edges, onset, phi_s[lo:lo + _CHUNK],
+                                       power_w))
         parts.append(part)
         if directional:
             e = _with_broadband(energy.astype(np.float64))  # [r, dir, column, T]
             on = np.broadcast_to(onset[:, None, None], e.shape[:-1])
             dir_parts.append(_ratios(e, start, width, on, power_w, decay))
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    true_lateral = lateral.from_channels(field_, idx, power_w)
+    if true_lateral is not None:
+        merged.update(true_lateral)
     result = RoomParameters(
         bands_hz=np.asarray(field_.bands_hz, dtype=np.float64), receivers=idx,
         positions_m=positions,
@@ -305,7 +317,10 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
                               for k in PARAMETERS if k in dir_parts[0]}
         result.directional_reasons = {n: np.concatenate([p[f"{n}_reason"] for p in dir_parts])
                                       for n in DECAY_NAMES}
-    if np.isnan(phi_s).any():
+    if true_lateral is not None:
+        result.notes.append("JLF, JLFC and LG from the figure-of-eight channel of each point "
+                            "(ISO 3382-1 A.2.4), shown on its omni channel")
+    elif np.isnan(phi_s).any():
         result.notes.append(f"JLF is undefined at {int(np.isnan(phi_s).sum())} receiver(s) "
                             "whose sphere holds the source (no receiver-source line)")
     if field_.source_positions_m.shape[0] > 1:

@@ -1,0 +1,69 @@
+"""Lateral energy from a true figure-of-eight (ISO 3382-1:2009, A.2.4 and A.2.5), for fields
+whose receivers carry directional channels (:mod:`sonolux.scene.receiver_channels`).
+
+At a point with an omnidirectional channel (p) and a figure-of-eight channel (p_L, its maximum
+calibrated to the omni's, its null towards the source when its ``forward`` is "lateral"):
+
+- JLF = ∫_{5 ms}^{80 ms} p_L² dt / ∫_0^{80 ms} p² dt,
+- JLFC = ∫_{5 ms}^{80 ms} |p_L · p| dt / ∫_0^{80 ms} p² dt: for an arrival from direction u,
+  p_L = p (u·n), so |p_L p| = p² |u·n|, the energy of the figure-of-eight's ``|cos|``
+  companion channel,
+- LG = 10 lg(∫_{80 ms}^∞ p_L² dt / ∫ p_10² dt), p_10 the free-field response at 10 m (the
+  reference of G, :func:`sonolux.analysis.decay.strength_g_db`),
+
+times counted from the omni channel's direct sound (the onset of A.3.4). The values are shown
+on the omni channel's row; the other channels' rows have NaN.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sonolux.analysis.decay import strength_g_db
+from sonolux.scene.receiver_channels import LATERAL_PRODUCT
+
+
+def companions(field_, r: int) -> tuple[int, int] | None:
+    """(figure-of-eight receiver, |cos| receiver) at receiver r's point when r is the point's
+    omni channel and the point has a figure-of-eight; else None."""
+    record = field_.settings.get("receiver_channels")
+    if not record:
+        return None
+    channels, channel_of, point_of = (record["channels"], record["channel_of"],
+                                      record["point_of"])
+    if channels[channel_of[r]]["pattern"] != "omni":
+        return None
+    same = [k for k in range(len(point_of)) if point_of[k] == point_of[r]]
+    eight = [k for k in same if channels[channel_of[k]]["pattern"] == "figure-of-eight"]
+    if not eight:
+        return None
+    name = channels[channel_of[eight[0]]]["name"] + "|cos|"
+    product = [k for k in same if channels[channel_of[k]]["name"] == name
+               and channels[channel_of[k]]["pattern"] == LATERAL_PRODUCT]
+    return (eight[0], product[0]) if product else None
+
+
+def from_channels(field_, idx: np.ndarray, power_w: float) -> dict[str, np.ndarray] | None:
+    """JLF, JLFC and LG float64[receiver, column] (bands, then broadband: the bands' mean
+    energy, as every parameter) of receivers ``idx``; None when the field has no channels."""
+    from sonolux.analysis.params import _edges, _with_broadband, onsets_s, window_energy
+
+    if not field_.settings.get("receiver_channels"):
+        return None
+    edges = _edges(field_)
+    n_col = len(field_.bands_hz) + 1
+    out = {k: np.full((len(idx), n_col), np.nan) for k in ("jlf", "jlfc", "lg_db")}
+    for i, r in enumerate(idx):
+        pair = companions(field_, int(r))
+        if pair is None:
+            continue
+        e = _with_broadband(np.stack([np.asarray(field_.energy[k], np.float64).sum(axis=0)
+                                      for k in (int(r), *pair)]))  # [3, column, T]
+        onset = float(onsets_s(e[0, -1], edges))
+        early = window_energy(e[0], edges, onset, onset + 0.080)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["jlf"][i] = window_energy(e[1], edges, onset + 0.005, onset + 0.080) / early
+            out["jlfc"][i] = window_energy(e[2], edges, onset + 0.005, onset + 0.080) / early
+            late = window_energy(e[1], edges, onset + 0.080, np.inf)
+            out["lg_db"][i] = strength_g_db(late, power_w)
+    return out
