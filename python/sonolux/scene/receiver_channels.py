@@ -92,7 +92,9 @@ def read_channels(t: Table) -> tuple[ReceiverChannel, ...]:
         if forward != "lateral":
             forward = _unit(t, f"{where}.forward", forward)
         up = _unit(t, f"{where}.up", item.get("up", [0.0, 0.0, 1.0]))
-        if not isinstance(forward, str) and abs(float(forward @ up)) > 1.0 - 1e-6:
+        # Only a measured (SOFA) pattern turns about its axis: there up must not be parallel.
+        if ("sofa" in item and not isinstance(forward, str)
+                and abs(float(forward @ up)) > 1.0 - 1e-6):
             raise t.ctx.error(f"{where}.up", up.tolist(), "a direction not parallel to forward")
         if "sofa" in item:
             if "pattern" in item:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from sonolux import engine
+from sonolux.errors import SonoluxError
 from sonolux.scene.receiver_channels import (
     FIRST_ORDER,
     LATERAL_PRODUCT,
@@ -37,6 +38,9 @@ def receiver_patterns(scene: Scene) -> list[Any] | None:
         if isinstance(forward, str):  # "lateral"
             forward = lateral_axis(rec.positions_m[r], scene.sources[0].position_m)
         if c.pattern == "sofa":
+            if abs(float(np.dot(forward, c.up))) > 1.0 - 1e-6:
+                raise SonoluxError(f"receiver channel {c.name!r}: its up {np.asarray(c.up).tolist()} "
+                                   f"is parallel to its forward {np.round(forward, 6).tolist()}")
             out.append(engine.ReceiverPattern.measured(sofa_gains[int(k)], tuple(forward),
                                                        tuple(c.up)))
         elif c.pattern == LATERAL_PRODUCT:
