@@ -347,6 +347,10 @@ def _add_sti(result: RoomParameters, field_: SoundField, idx: np.ndarray, speech
     else:
         result.sti = values
         result.sti_method = describe(settings)
+        talker = (field_.settings.get("source_directivity") or ["omni"])[0]
+        if talker != "omni":
+            result.sti_method += (f"; the talker's directivity ({talker}) as baked, its level "
+                                  "on its own axis")
 
 
 def scene_of(field_: SoundField):

@@ -241,6 +241,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "bands": scene.settings.bands,
         "speech": None if scene.speech is None else scene.speech.as_dict(),
         "receiver_channels": channels_record(scene),
+        "source_directivity": [s.directivity for s in src],
+        "source_axis_gain": [axis_gains(s, edges_hz) for s in src],
         "volume_m3": scene.volume_m3, "area_m2": scene.area_m2,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,
@@ -309,6 +311,17 @@ def _directivity(source: Any, edges_hz: np.ndarray) -> Any:
              else builtin_gains(source.directivity, edges_hz))
     return engine.Directivity.pattern(np.ascontiguousarray(gains, float),
                                       tuple(source.forward), tuple(source.up))
+
+
+def axis_gains(source: Any, edges_hz: np.ndarray) -> list[float]:
+    """A source's energy gain per band on its own axis (``forward``, a cone's ``axis``; 1 for
+    omni), relative to an omnidirectional source of the same power: the talker's on-axis level
+    that STI's speech level refers to (IEC 60268-16:2020 A.2.3, speech level at 1 m in front)."""
+    if source.directivity == "omni":
+        return [1.0] * len(edges_hz)
+    axis = source.axis if source.directivity == "cone" else source.forward
+    gains = _directivity(source, edges_hz).gains(np.asarray([axis], float), len(edges_hz))
+    return [float(g) for g in gains[0]]
 
 
 def stored_axis(scene: Scene, options: SoundOptions,
