@@ -41,7 +41,6 @@ if TYPE_CHECKING:
         Lighting,
         LightSettings,
         Optics,
-        ReceiverPattern,
         Receivers,
         SoundSettings,
         SoundSource,

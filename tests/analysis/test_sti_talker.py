@@ -49,9 +49,9 @@ def test_in_the_free_field_a_talker_facing_the_listener_equals_an_omni_talker():
     # Anechoic: only the direct sound, m = 1; the speech level decides through masking and
     # the reception threshold. On the talker's axis its level is the standard's, as the omni
     # talker's everywhere: the same STI (measured 3e-5 apart: the tabulated pattern's
-    # bilinear surface against its axis value; allowed 1e-4, a JND of STI is 0.03). Off axis (the second listener, 40° off) it is
-    # lower by the pattern, and in the cardioid's null (the first listener, facing away)
-    # nothing arrives.
+    # bilinear surface against its axis value; allowed 1e-4, a JND of STI is 0.03). Off axis
+    # (the second listener, 40° off) it is lower by the pattern, and in the cardioid's null
+    # (the first listener, the talker facing away) nothing arrives.
     kw = dict(absorption=1.0, scattering=0.0)
     omni = bake(room("omni", 1.0, **kw), rays=100, estimator="rain", max_time_s=0.1)
     facing = bake(room("cardioid", 1.0, **kw), rays=100, estimator="rain", max_time_s=0.1)

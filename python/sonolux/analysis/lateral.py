@@ -12,14 +12,12 @@ calibrated to the omni's, its null towards the source when its ``forward`` is "l
   reference of G, :func:`sonolux.analysis.decay.strength_g_db`),
 
 times counted from the omni channel's direct sound (the onset of A.3.4). The values are shown
-on the omni channel's row; the other channels' rows have NaN.
+on the omni channel's row; the other channels' rows have NaN. This module finds a point's
+channels; :func:`sonolux.analysis.params.room_parameters` integrates them.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from sonolux.analysis.decay import strength_g_db
 from sonolux.scene.receiver_channels import LATERAL_PRODUCT
 
 
@@ -41,29 +39,3 @@ def companions(field_, r: int) -> tuple[int, int] | None:
     product = [k for k in same if channels[channel_of[k]]["name"] == name
                and channels[channel_of[k]]["pattern"] == LATERAL_PRODUCT]
     return (eight[0], product[0]) if product else None
-
-
-def from_channels(field_, idx: np.ndarray, power_w: float) -> dict[str, np.ndarray] | None:
-    """JLF, JLFC and LG float64[receiver, column] (bands, then broadband: the bands' mean
-    energy, as every parameter) of receivers ``idx``; None when the field has no channels."""
-    from sonolux.analysis.params import _edges, _with_broadband, onsets_s, window_energy
-
-    if not field_.settings.get("receiver_channels"):
-        return None
-    edges = _edges(field_)
-    n_col = len(field_.bands_hz) + 1
-    out = {k: np.full((len(idx), n_col), np.nan) for k in ("jlf", "jlfc", "lg_db")}
-    for i, r in enumerate(idx):
-        pair = companions(field_, int(r))
-        if pair is None:
-            continue
-        e = _with_broadband(np.stack([np.asarray(field_.energy[k], np.float64).sum(axis=0)
-                                      for k in (int(r), *pair)]))  # [3, column, T]
-        onset = float(onsets_s(e[0, -1], edges))
-        early = window_energy(e[0], edges, onset, onset + 0.080)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out["jlf"][i] = window_energy(e[1], edges, onset + 0.005, onset + 0.080) / early
-            out["jlfc"][i] = window_energy(e[2], edges, onset + 0.005, onset + 0.080) / early
-            late = window_energy(e[1], edges, onset + 0.080, np.inf)
-            out["lg_db"][i] = strength_g_db(late, power_w)
-    return out

@@ -24,7 +24,10 @@ reflection gets a smeared weight: with 8 sectors and one elevation band, a horiz
 from exactly the side counts 0.54 to 0.63 instead of 1 (the sector's spread, 0.82 to 0.95,
 times 2/3 for the unknown elevation) and one from the source's direction 0.03 to 0.12 instead
 of 0, depending on where the sector edges fall. It maps where lateral energy is larger or
-smaller; it is not a substitute for a measured JLF of single reflections. Where
+smaller; it is not a substitute for a measured JLF of single reflections: give the receivers a
+figure-of-eight channel for that (then JLF, JLFC and LG come from it, :mod:`.lateral`). LG
+(the late lateral level, 80 ms on, re the free field at 10 m) is estimated from the bins the
+same way. Where
 the source lies inside the receiver's sphere the receiver-source line is undefined: JLF is NaN.
 
 Arrays. ``RoomParameters.values[name]`` is float64[receiver, column] with columns
@@ -230,6 +233,30 @@ def _lateral_fractions(field_, energy, edges, onset, phi_s, power_w):
     return out
 
 
+def _lateral_from_channels(field_, idx: np.ndarray, power_w: float) -> dict | None:
+    """JLF, JLFC and LG float64[receiver, column] from a point's true figure-of-eight and its
+    |cos| companion (:mod:`sonolux.analysis.lateral`); None when the field has no channels."""
+    if not field_.settings.get("receiver_channels"):
+        return None
+    edges = _edges(field_)
+    out = {k: np.full((len(idx), len(field_.bands_hz) + 1), np.nan)
+           for k in ("jlf", "jlfc", "lg_db")}
+    for i, r in enumerate(idx):
+        pair = lateral.companions(field_, int(r))
+        if pair is None:
+            continue
+        e = _with_broadband(np.stack([np.asarray(field_.energy[k], np.float64).sum(axis=0)
+                                      for k in (int(r), *pair)]))  # [3, column, T]
+        onset = float(onsets_s(e[0, -1], edges))
+        early = window_energy(e[0], edges, onset, onset + 0.080)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["jlf"][i] = window_energy(e[1], edges, onset + 0.005, onset + 0.080) / early
+            out["jlfc"][i] = window_energy(e[2], edges, onset + 0.005, onset + 0.080) / early
+            late = window_energy(e[1], edges, onset + 0.080, np.inf)
+            out["lg_db"][i] = strength_g_db(late, power_w)
+    return out
+
+
 def slowest_decay_s(field_: SoundField) -> np.ndarray | None:
     """The slowest decay the baked room allows, s, per column (bands, then broadband: the
     slowest band's); from the field's theory (``decay.slowest_decay_time_s``). Files without
@@ -293,7 +320,7 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
             on = np.broadcast_to(onset[:, None, None], e.shape[:-1])
             dir_parts.append(_ratios(e, start, width, on, power_w, decay))
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    true_lateral = lateral.from_channels(field_, idx, power_w)
+    true_lateral = _lateral_from_channels(field_, idx, power_w)
     if true_lateral is not None:
         merged.update(true_lateral)
     result = RoomParameters(
