@@ -198,3 +198,20 @@ def test_the_field_file_records_the_channels(tmp_path):
     assert rec["channel_of"] == [0, 1, 2] and rec["point_of"] == [0, 0, 0]
     np.testing.assert_allclose(room_parameters(back, sti=False).values["jlf"][0],
                                room_parameters(field, sti=False).values["jlf"][0])
+
+
+def test_params_prints_a_table_per_channel(tmp_path, capsys):
+    import json
+
+    from sonolux.cli import main
+
+    sc = one_wall(["omni", {"pattern": "figure-of-eight", "forward": "lateral", "name": "lat"}])
+    path = tmp_path / "f.h5"
+    save_fields(path, sound=bake(sc, rays=200, estimator="rain"))
+    assert main(["params", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "channel 'omni'" in out and "channel 'lat'" in out and "channel 'lat|cos|'" in out
+    assert main(["params", str(path), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["channels"] == ["omni", "lat", "lat|cos|"]
+    assert data["parameters"]["jlf"]["per_receiver"][1] == [None, None, None]

@@ -39,3 +39,18 @@ def companions(field_, r: int) -> tuple[int, int] | None:
     product = [k for k in same if channels[channel_of[k]]["name"] == name
                and channels[channel_of[k]]["pattern"] == LATERAL_PRODUCT]
     return (eight[0], product[0]) if product else None
+
+
+def channel_names(field_) -> list[str]:
+    """The channel name of every receiver of the field ([] without channels)."""
+    record = field_.settings.get("receiver_channels")
+    if not record:
+        return []
+    return [record["channels"][k]["name"] for k in record["channel_of"]]
+
+
+def channel_groups(field_) -> list[tuple[str, list[int]]]:
+    """[(channel name, its receivers)] in channel order; [] without channels."""
+    names = channel_names(field_)
+    order = list(dict.fromkeys(names))
+    return [(n, [r for r, m in enumerate(names) if m == n]) for n in order]

@@ -100,6 +100,8 @@ class RoomParameters:
     sti: np.ndarray | None = None
     sti_method: str = ""
     speech: dict[str, Any] = field(default_factory=dict)
+    #: str[receiver]: each receiver's directional channel (empty without channels).
+    channels: list[str] = field(default_factory=list)
 
     @property
     def columns(self) -> list[str]:
@@ -344,6 +346,8 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
                               for k in PARAMETERS if k in dir_parts[0]}
         result.directional_reasons = {n: np.concatenate([p[f"{n}_reason"] for p in dir_parts])
                                       for n in DECAY_NAMES}
+    names = lateral.channel_names(field_)
+    result.channels = [names[int(r)] for r in idx] if names else []
     if true_lateral is not None:
         result.notes.append("JLF, JLFC and LG from the figure-of-eight channel of each point "
                             "(ISO 3382-1 A.2.4), shown on its omni channel")
