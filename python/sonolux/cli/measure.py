@@ -14,9 +14,9 @@ from sonolux.cli import args as parse
 
 
 def cmd_params(args: argparse.Namespace) -> int:
+    from sonolux.analysis.lateral import channel_groups
     from sonolux.analysis.params import room_parameters
     from sonolux.analysis.sti import speech_settings_of
-    from sonolux.analysis.lateral import channel_groups
     from sonolux.analysis.tables import format_cell, format_grid, to_json
     from sonolux.fieldfile import open_field
 
