@@ -215,3 +215,26 @@ def test_params_prints_a_table_per_channel(tmp_path, capsys):
     data = json.loads(capsys.readouterr().out)
     assert data["channels"] == ["omni", "lat", "lat|cos|"]
     assert data["parameters"]["jlf"]["per_receiver"][1] == [None, None, None]
+
+
+ODD_VALUES = [float("nan"), float("inf"), "12", True, None, [], {}, 10**40, -1]
+
+
+@pytest.mark.parametrize("key", ["pattern", "name", "forward", "up", "forward.0", "up.2"])
+@pytest.mark.parametrize("value", ODD_VALUES, ids=[repr(v) for v in ODD_VALUES])
+def test_any_odd_channel_value_loads_or_names_its_key(tmp_path, key, value):
+    channel = {"pattern": "figure-of-eight", "name": "f8", "forward": [0.0, 1.0, 0.0],
+               "up": [0.0, 0.0, 1.0]}
+    if "." in key:
+        k, i = key.split(".")
+        channel[k] = list(channel[k])
+        channel[k][int(i)] = value
+        key = k
+    elif value is None:
+        channel.pop(key)
+    else:
+        channel[key] = value
+    try:
+        anechoic(["omni", channel], [[2.0, 2.0, 2.0]], base_dir=tmp_path)
+    except SonoluxError as exc:
+        assert "\n" not in str(exc) and "receivers.channels[1]" in str(exc), str(exc)

@@ -99,7 +99,7 @@ def read_channels(t: Table) -> tuple[ReceiverChannel, ...]:
         if "sofa" in item:
             if "pattern" in item:
                 raise t.ctx.error(f"{where}.pattern", item["pattern"], "either pattern or sofa")
-            name = str(item.get("name", Path(str(item["sofa"])).stem))
+            name = _name(t, where, item, Path(str(item["sofa"])).stem)
             file = item["sofa"]
             if not isinstance(file, str):
                 raise t.ctx.error(f"{where}.sofa", file, "a SOFA file name")
@@ -112,9 +112,9 @@ def read_channels(t: Table) -> tuple[ReceiverChannel, ...]:
                     for k, c in enumerate(capsules)]
             continue
         pattern = item.get("pattern", "omni")
-        if pattern not in FIRST_ORDER:
+        if not isinstance(pattern, str) or pattern not in FIRST_ORDER:
             raise t.ctx.error(f"{where}.pattern", pattern, ", ".join(FIRST_ORDER) + " (or sofa)")
-        name = str(item.get("name", pattern))
+        name = _name(t, where, item, pattern)
         out.append(ReceiverChannel(name, pattern, forward, up))
         if pattern == "figure-of-eight":
             out.append(ReceiverChannel(f"{name}|cos|", LATERAL_PRODUCT, forward, up))
@@ -122,6 +122,13 @@ def read_channels(t: Table) -> tuple[ReceiverChannel, ...]:
     if len(set(names)) != len(names):
         raise t.ctx.error(key, names, "channels with distinct names (give each a name)")
     return tuple(out)
+
+
+def _name(t: Table, where: str, item: dict, default: str) -> str:
+    name = item.get("name", default)
+    if not isinstance(name, str) or not name:
+        raise t.ctx.error(f"{where}.name", name, "a non-empty text")
+    return name
 
 
 def _unit(t: Table, key: str, value: Any) -> np.ndarray:

@@ -405,6 +405,35 @@ mod tests {
     }
 
     #[test]
+    fn a_measured_pattern_keeps_its_level_and_omni_receivers_take_the_fast_path() {
+        // A measured gain of 2 in band 0 and 0.5 in band 1 everywhere: kept, not normalised
+        // (a source's pattern would be scaled to mean 1); its mean over the sphere is exact
+        // for a constant bilinear surface.
+        let (nt, np, nb) = (5, 4, 2);
+        let gains: Vec<f64> = (0..nt * np).flat_map(|_| [2.0, 0.5]).collect();
+        let p = Pattern::measured(nt, np, nb, &gains, DVec3::X, DVec3::Z).unwrap();
+        let r = ReceiverPattern::Table(Arc::new(p));
+        let mut e = [1.0, 1.0];
+        r.weigh(DVec3::new(0.3, -0.4, 0.5).normalize(), &mut e, &mut [0.0; 2]);
+        assert!((e[0] - 2.0).abs() < 1e-12 && (e[1] - 0.5).abs() < 1e-12, "{e:?}");
+        let mut m = [1.0, 1.0];
+        r.weigh_mean(&mut m);
+        assert!((m[0] - 2.0).abs() < 1e-12 && (m[1] - 0.5).abs() < 1e-12, "{m:?}");
+        assert_eq!(r.peak(), 2.0);
+        assert!(r.check(3).is_err());
+        // Patterns per receiver; an all-omni list is stored as none.
+        let centres = vec![DVec3::ZERO, DVec3::ONE];
+        let rc = Receivers::new(centres.clone(), 0.1).with_patterns(vec![ReceiverPattern::Omni, ReceiverPattern::Omni]).unwrap();
+        assert!(rc.patterns().is_empty());
+        assert!(Receivers::new(centres.clone(), 0.1).with_patterns(vec![ReceiverPattern::Omni]).is_err());
+        let rc = Receivers::new(centres, 0.1).with_patterns(vec![ReceiverPattern::Omni, r]).unwrap();
+        assert_eq!(rc.peak_gain(), 2.0);
+        let mut e = [1.0, 1.0];
+        rc.weigh(0, DVec3::X, &mut e, &mut [0.0; 2]);
+        assert_eq!(e, [1.0, 1.0]);
+    }
+
+    #[test]
     fn ball_mean_limits() {
         let r = 0.3;
         let at_centre = ball_mean_inverse_square(0.0, r);
