@@ -238,3 +238,13 @@ def test_any_odd_channel_value_loads_or_names_its_key(tmp_path, key, value):
         anechoic(["omni", channel], [[2.0, 2.0, 2.0]], base_dir=tmp_path)
     except SonoluxError as exc:
         assert "\n" not in str(exc) and "receivers.channels[1]" in str(exc), str(exc)
+
+
+def test_a_damaged_channel_record_is_refused_by_name(tmp_path):
+    from sonolux.errors import AnalysisError
+
+    sc = one_wall(["omni", {"pattern": "figure-of-eight", "forward": "lateral"}])
+    field = bake(sc, rays=100, estimator="rain")
+    field.settings["receiver_channels"]["channel_of"] = [0, 7, 1]
+    with pytest.raises(AnalysisError, match="receiver_channels"):
+        room_parameters(field, sti=False)

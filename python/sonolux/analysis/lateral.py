@@ -18,14 +18,41 @@ channels; :func:`sonolux.analysis.params.room_parameters` integrates them.
 
 from __future__ import annotations
 
+from typing import Any
+
+from sonolux.errors import AnalysisError
 from sonolux.scene.receiver_channels import LATERAL_PRODUCT
+
+
+def channel_record(field_) -> dict[str, Any] | None:
+    """The field's ``receiver_channels`` record, checked against its receivers (a damaged
+    file is refused by name); None without channels."""
+    record = (getattr(field_, "settings", None) or {}).get("receiver_channels")
+    if not record:
+        return None
+    n = field_.n_receivers
+    try:
+        channels, channel_of, point_of = (record["channels"], record["channel_of"],
+                                          record["point_of"])
+        ok = (len(channel_of) == n and len(point_of) == n
+              and all(isinstance(c["name"], str) and isinstance(c["pattern"], str)
+                      for c in channels)
+              and all(isinstance(k, int) and 0 <= k < len(channels) for k in channel_of)
+              and all(isinstance(k, int) and 0 <= k < n for k in point_of))
+    except (KeyError, TypeError):
+        ok = False
+    if not ok:
+        raise AnalysisError(f"{getattr(field_, 'path', None) or 'the field'}: its "
+                            f"receiver_channels record does not describe its {n} receivers "
+                            "(a damaged file?)")
+    return record
 
 
 def companions(field_, r: int) -> tuple[int, int] | None:
     """(figure-of-eight receiver, |cos| receiver) at receiver r's point when r is the point's
     omni channel and the point has a figure-of-eight; else None."""
-    record = field_.settings.get("receiver_channels")
-    if not record:
+    record = channel_record(field_)
+    if record is None:
         return None
     channels, channel_of, point_of = (record["channels"], record["channel_of"],
                                       record["point_of"])
@@ -43,8 +70,8 @@ def companions(field_, r: int) -> tuple[int, int] | None:
 
 def channel_names(field_) -> list[str]:
     """The channel name of every receiver of the field ([] without channels)."""
-    record = field_.settings.get("receiver_channels")
-    if not record:
+    record = channel_record(field_)
+    if record is None:
         return []
     return [record["channels"][k]["name"] for k in record["channel_of"]]
 

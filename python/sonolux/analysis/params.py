@@ -238,7 +238,7 @@ def _lateral_fractions(field_, energy, edges, onset, phi_s, power_w):
 def _lateral_from_channels(field_, idx: np.ndarray, power_w: float) -> dict | None:
     """JLF, JLFC and LG float64[receiver, column] from a point's true figure-of-eight and its
     |cos| companion (:mod:`sonolux.analysis.lateral`); None when the field has no channels."""
-    if not field_.settings.get("receiver_channels"):
+    if lateral.channel_record(field_) is None:
         return None
     edges = _edges(field_)
     out = {k: np.full((len(idx), len(field_.bands_hz) + 1), np.nan)
