@@ -248,3 +248,27 @@ def test_a_damaged_channel_record_is_refused_by_name(tmp_path):
     field.settings["receiver_channels"]["channel_of"] = [0, 7, 1]
     with pytest.raises(AnalysisError, match="receiver_channels"):
         room_parameters(field, sti=False)
+
+
+def test_an_impulse_response_array_is_read_by_its_spectrum(tmp_path):
+    # GeneralFIR: capsule 0 a delta of amplitude 0.5 (|H|² = 0.25 at every frequency),
+    # capsule 1 a delta of 2 delayed by 3 samples (|H|² = 4): each channel records that share
+    # of the omni's direct sound, whatever the direction (1e-6).
+    az, el = np.meshgrid(np.arange(0, 360, 30.0), np.arange(-90, 91, 30.0))
+    s = sofar.Sofa("GeneralFIR")
+    s.SourcePosition = np.stack([az.ravel(), el.ravel(), np.ones(az.size)], axis=1)
+    s.SourcePosition_Type = "spherical"
+    s.SourcePosition_Units = "degree, degree, metre"
+    s.ReceiverPosition = np.zeros((2, 3))
+    ir = np.zeros((az.size, 2, 256))
+    ir[:, 0, 0], ir[:, 1, 3] = 0.5, 2.0
+    s.Data_IR = ir
+    s.Data_SamplingRate = 48000.0
+    s.Data_Delay = np.zeros((1, 2))
+    sofar.write_sofa(str(tmp_path / "ir.sofa"), s)
+    sc = anechoic(["omni", {"sofa": "ir.sofa", "name": "ir"}], [[2.0, 3.0, 4.0], [8.0, 7.0, 6.0]],
+                  base_dir=tmp_path)
+    field = bake(sc, rays=100, estimator="rain", air_absorption=False, max_time_s=0.05)
+    e = np.asarray(field.energy, float).sum(axis=(1, 3)).reshape(2, 3, -1)
+    np.testing.assert_allclose(e[:, 1] / e[:, 0], 0.25, rtol=1e-6)
+    np.testing.assert_allclose(e[:, 2] / e[:, 0], 4.0, rtol=1e-6)
