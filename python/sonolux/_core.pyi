@@ -21,6 +21,7 @@ __all__ = [
     "Acoustics",
     "Directivity",
     "SoundSource",
+    "ReceiverPattern",
     "Receivers",
     "SoundSettings",
     "EarlySettings",
@@ -101,8 +102,25 @@ class SoundSource:
     ) -> SoundSource: ...
 
 @final
+class ReceiverPattern:
+    @staticmethod
+    def omni() -> ReceiverPattern: ...
+    @staticmethod
+    def first_order(a: float, axis: Sequence[float], power: float = 2.0) -> ReceiverPattern: ...
+    @staticmethod
+    def measured(
+        gains: NDArray[np.float64], forward: Sequence[float], up: Sequence[float]
+    ) -> ReceiverPattern: ...
+    def gains(self, directions: NDArray[np.float64], n_bands: int) -> NDArray[np.float64]: ...
+
+@final
 class Receivers:
-    def __new__(cls, positions_m: NDArray[np.float64], radius_m: float) -> Receivers: ...
+    def __new__(
+        cls,
+        positions_m: NDArray[np.float64],
+        radius_m: float,
+        patterns: Sequence[ReceiverPattern] | None = None,
+    ) -> Receivers: ...
     @property
     def count(self) -> int: ...
 

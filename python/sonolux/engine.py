@@ -49,8 +49,8 @@ if TYPE_CHECKING:
 
 #: The binding's names that this gateway hands out as they are.
 _FROM_CORE = ("Acoustics", "Convolver", "Directivity", "EarlySettings", "Emitters", "Lighting",
-              "LightSettings", "Optics", "Receivers", "SoundSettings", "SoundSource", "WaveSettings",
-              "fold", "partition", "MAX_THREADS")
+              "LightSettings", "Optics", "ReceiverPattern", "Receivers", "SoundSettings", "SoundSource",
+              "WaveSettings", "fold", "partition", "MAX_THREADS")
 
 Progress = Callable[[int, int, float], bool]
 
@@ -137,7 +137,7 @@ class _Checked:
 
 #: The binding's settings classes, whose arguments come from users (through the library).
 _SETTINGS = ("Acoustics", "Directivity", "Emitters", "Lighting", "LightSettings", "Optics",
-             "Receivers", "SoundSettings", "SoundSource", "WaveSettings")
+             "ReceiverPattern", "Receivers", "SoundSettings", "SoundSource", "WaveSettings")
 
 
 def __getattr__(name: str) -> Any:

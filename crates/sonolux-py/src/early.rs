@@ -10,7 +10,7 @@ use sonolux_core::early as core;
 use sonolux_core::sound::SpecularCoverage;
 
 use crate::sound::{Acoustics, Receivers, SoundSettings, SoundSource};
-use crate::{check_threads, to_py, Geometry};
+use crate::{check_threads, invalid, to_py, Geometry};
 
 /// What the exact early part computes (keyword arguments only; see `sonolux_core::early::
 /// EarlySettings`): image sources up to `max_order` reflections and `max_time_s` (the
@@ -105,9 +105,16 @@ pub(crate) fn early_arrivals<'py>(
     let mut set = early.inner.clone();
     set.receiver_radius_m = rec.radius_m;
     let nb = acoustics.inner().n_bands;
-    let res = py
+    let mut res = py
         .detach(|| core::early_arrivals(&geometry.mesh, &geometry.bvh, acoustics.inner(), &sources, &rec.centres, &set, None))
         .map_err(to_py)?;
+    // Each arrival weighed by its receiver's pattern towards where it comes from, as the
+    // tracer weighs its deposits.
+    rec.check_patterns(nb).map_err(|p| invalid(format!("receivers patterns: {p}")))?;
+    let mut scratch = vec![0.0; nb];
+    for (i, a) in res.arrivals.iter().enumerate() {
+        rec.weigh(a.receiver as usize, a.from_direction, &mut res.energy[i * nb..(i + 1) * nb], &mut scratch);
+    }
     let layout = settings.inner().layout(rec.len(), nb);
     let k = res.arrivals.len();
     let (mut source, mut receiver, mut time_s, mut from, mut kind, mut order, mut dir_bin, mut time_bin) =

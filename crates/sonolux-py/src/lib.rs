@@ -296,6 +296,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sound::Directivity>()?;
     m.add_class::<sound::SoundSource>()?;
     m.add_class::<sound::Receivers>()?;
+    m.add_class::<sound::ReceiverPattern>()?;
     m.add_class::<sound::SoundSettings>()?;
     m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
     m.add_class::<wave::WaveSettings>()?;

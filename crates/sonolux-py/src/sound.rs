@@ -152,7 +152,62 @@ impl SoundSource {
     }
 }
 
-/// The receiver spheres: Receivers(positions_m: float64[receiver, 3], radius_m).
+/// How a receiver weighs sound by the direction it arrives from (see
+/// `sonolux_core::sound::ReceiverPattern`): omni(), first_order(a, axis, power=2.0) (energy
+/// |a + (1 − a) cos θ|^power, θ from the axis), or measured(gains float64[theta, phi, band],
+/// forward, up) (a measured gain per band on the source patterns' grid, kept at its level).
+#[pyclass(module = "sonolux._core", frozen)]
+pub(crate) struct ReceiverPattern {
+    inner: core::ReceiverPattern,
+}
+
+#[pymethods]
+impl ReceiverPattern {
+    #[staticmethod]
+    fn omni() -> Self {
+        ReceiverPattern { inner: core::ReceiverPattern::Omni }
+    }
+
+    #[staticmethod]
+    #[pyo3(signature = (a, axis, power = 2.0))]
+    fn first_order(a: f64, axis: [f64; 3], power: f64) -> PyResult<Self> {
+        let v = DVec3::from_array(axis);
+        if !(v.is_finite() && v.length() > 0.0) {
+            return Err(invalid(format!("receiver pattern axis: {axis:?} is not a direction")));
+        }
+        let inner = core::ReceiverPattern::FirstOrder { axis: v.normalize(), a, power };
+        inner.check(1).map_err(|p| invalid(format!("receiver pattern: {p}")))?;
+        Ok(ReceiverPattern { inner })
+    }
+
+    #[staticmethod]
+    fn measured(gains: PyReadonlyArray3<'_, f64>, forward: [f64; 3], up: [f64; 3]) -> PyResult<Self> {
+        let g = gains.as_array();
+        let (nt, np, nb) = g.dim();
+        let values: Vec<f64> = g.iter().copied().collect();
+        let p = core::Pattern::measured(nt, np, nb, &values, DVec3::from_array(forward), DVec3::from_array(up)).map_err(|e| invalid(e.to_string()))?;
+        Ok(ReceiverPattern { inner: core::ReceiverPattern::Table(std::sync::Arc::new(p)) })
+    }
+
+    /// The energy gain per band from each unit direction of arrival: float64[direction, band].
+    fn gains<'py>(&self, py: Python<'py>, directions: PyReadonlyArray2<'_, f64>, n_bands: usize) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let d = directions.as_array();
+        if d.ncols() != 3 || n_bands == 0 {
+            return Err(invalid(format!("directions: shape {:?}, (n, 3) expected, and n_bands ≥ 1", d.dim())));
+        }
+        self.inner.check(n_bands).map_err(|p| invalid(format!("receiver pattern: {p}")))?;
+        let mut out = numpy::ndarray::Array2::<f64>::ones((d.nrows(), n_bands));
+        let mut scratch = vec![0.0; n_bands];
+        for (row, mut o) in d.rows().into_iter().zip(out.rows_mut()) {
+            let v = DVec3::new(row[0], row[1], row[2]).normalize_or_zero();
+            self.inner.weigh(v, o.as_slice_mut().expect("a row of a new array is contiguous"), &mut scratch);
+        }
+        Ok(out.into_pyarray(py))
+    }
+}
+
+/// The receiver spheres: Receivers(positions_m: float64[receiver, 3], radius_m, patterns=None),
+/// `patterns` one ReceiverPattern a receiver (None: all omnidirectional).
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Receivers {
     inner: core::Receivers,
@@ -161,7 +216,8 @@ pub(crate) struct Receivers {
 #[pymethods]
 impl Receivers {
     #[new]
-    fn new(positions_m: PyReadonlyArray2<'_, f64>, radius_m: f64) -> PyResult<Self> {
+    #[pyo3(signature = (positions_m, radius_m, patterns = None))]
+    fn new(positions_m: PyReadonlyArray2<'_, f64>, radius_m: f64, patterns: Option<Vec<PyRef<'_, ReceiverPattern>>>) -> PyResult<Self> {
         let p = positions_m.as_array();
         if p.ncols() != 3 {
             return Err(invalid(format!("receivers positions_m: expected shape (n, 3), got {:?}", p.shape())));
@@ -174,7 +230,11 @@ impl Receivers {
             return Err(invalid(format!("receivers radius_m: {radius_m} is not a length from 0.0001 to 10000 m")));
         }
         let centres = p.rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect();
-        Ok(Receivers { inner: core::Receivers::new(centres, radius_m) })
+        let mut inner = core::Receivers::new(centres, radius_m);
+        if let Some(list) = patterns {
+            inner = inner.with_patterns(list.iter().map(|x| x.inner.clone()).collect()).map_err(|p| invalid(format!("receivers patterns: {p}")))?;
+        }
+        Ok(Receivers { inner })
     }
 
     #[getter]

@@ -24,7 +24,10 @@ reflection gets a smeared weight: with 8 sectors and one elevation band, a horiz
 from exactly the side counts 0.54 to 0.63 instead of 1 (the sector's spread, 0.82 to 0.95,
 times 2/3 for the unknown elevation) and one from the source's direction 0.03 to 0.12 instead
 of 0, depending on where the sector edges fall. It maps where lateral energy is larger or
-smaller; it is not a substitute for a measured JLF of single reflections. Where
+smaller; it is not a substitute for a measured JLF of single reflections: give the receivers a
+figure-of-eight channel for that (then JLF, JLFC and LG come from it, :mod:`.lateral`). LG
+(the late lateral level, 80 ms on, re the free field at 10 m) is estimated from the bins the
+same way. Where
 the source lies inside the receiver's sphere the receiver-source line is undefined: JLF is NaN.
 
 Arrays. ``RoomParameters.values[name]`` is float64[receiver, column] with columns
@@ -40,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from sonolux.analysis import consistency
+from sonolux.analysis import consistency, lateral
 from sonolux.analysis.decay import (
     COMPENSATIONS,
     c50,
@@ -66,6 +69,7 @@ PARAMETERS: dict[str, tuple[str, str, float, float | None]] = {
     "g_db": ("G", "dB", 1.0, 1.0),
     "jlf": ("JLF", "", 1.0, 0.05),
     "jlfc": ("JLFC", "", 1.0, 0.05),
+    "lg_db": ("LG", "dB", 1.0, None),
 }
 DECAY_NAMES = ("edt", "t20", "t30")
 #: Quadrature points per direction bin for the lateral weights (error < 1e-4).
@@ -96,6 +100,8 @@ class RoomParameters:
     sti: np.ndarray | None = None
     sti_method: str = ""
     speech: dict[str, Any] = field(default_factory=dict)
+    #: str[receiver]: each receiver's directional channel (empty without channels).
+    channels: list[str] = field(default_factory=list)
 
     @property
     def columns(self) -> list[str]:
@@ -209,8 +215,9 @@ def source_azimuths_rad(field_: SoundField, positions_m: np.ndarray) -> np.ndarr
     return np.where(inside, np.nan, np.arctan2(d[:, 1], d[:, 0]))
 
 
-def _lateral_fractions(field_, energy, edges, onset, phi_s):
-    """JLF and JLFC: float[receiver, column] from energy float32[receiver, dir, band, T]."""
+def _lateral_fractions(field_, energy, edges, onset, phi_s, power_w):
+    """JLF, JLFC and LG: float[receiver, column] from energy float32[receiver, dir, band, T],
+    by the direction bins' mean figure-of-eight weights (see the module docstring)."""
     omni = _with_broadband(energy.sum(axis=1, dtype=np.float64))
     early = window_energy(omni, edges, onset[:, None], onset[:, None] + 0.080)
     out = {}
@@ -221,6 +228,34 @@ def _lateral_fractions(field_, energy, edges, onset, phi_s):
         lat = window_energy(lateral, edges, onset[:, None] + 0.005, onset[:, None] + 0.080)
         with np.errstate(invalid="ignore", divide="ignore"):
             out[name] = np.where(np.isnan(phi_s)[:, None], np.nan, lat / early)
+        if power == 2:  # LG: the late lateral energy against the free field at 10 m
+            late = window_energy(lateral, edges, onset[:, None] + 0.080, np.inf)
+            g = np.asarray(strength_g_db(late, power_w), dtype=np.float64)
+            out["lg_db"] = np.where(np.isnan(phi_s)[:, None], np.nan, g)
+    return out
+
+
+def _lateral_from_channels(field_, idx: np.ndarray, power_w: float) -> dict | None:
+    """JLF, JLFC and LG float64[receiver, column] from a point's true figure-of-eight and its
+    |cos| companion (:mod:`sonolux.analysis.lateral`); None when the field has no channels."""
+    if lateral.channel_record(field_) is None:
+        return None
+    edges = _edges(field_)
+    out = {k: np.full((len(idx), len(field_.bands_hz) + 1), np.nan)
+           for k in ("jlf", "jlfc", "lg_db")}
+    for i, r in enumerate(idx):
+        pair = lateral.companions(field_, int(r))
+        if pair is None:
+            continue
+        e = _with_broadband(np.stack([np.asarray(field_.energy[k], np.float64).sum(axis=0)
+                                      for k in (int(r), *pair)]))  # [3, column, T]
+        onset = float(onsets_s(e[0, -1], edges))
+        early = window_energy(e[0], edges, onset, onset + 0.080)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["jlf"][i] = window_energy(e[1], edges, onset + 0.005, onset + 0.080) / early
+            out["jlfc"][i] = window_energy(e[2], edges, onset + 0.005, onset + 0.080) / early
+            late = window_energy(e[1], edges, onset + 0.080, np.inf)
+            out["lg_db"][i] = strength_g_db(late, power_w)
     return out
 
 
@@ -252,6 +287,8 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
     synthesised with noise); see :mod:`sonolux.analysis.decay`. Every decay time is checked
     (undefined with its reason in ``reasons``), and receivers that stand out from their
     neighbours are listed in ``outliers`` (:mod:`sonolux.analysis.consistency`).
+    A field with directional channels takes JLF, JLFC and LG from its true figure-of-eight
+    (:mod:`sonolux.analysis.lateral`); every other parameter is each channel's own.
     ``sti=True`` adds the speech transmission index per receiver, with the talker and noise of
     ``speech`` (a :class:`sonolux.analysis.sti.SpeechSettings`; default: what the scene gave,
     recorded in the field). A third-octave field's STI uses octaves summed from its thirds.
@@ -277,13 +314,17 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
         onset = onsets_s(omni[:, -1], edges)  # [r]
         part = _ratios(omni, start, width, np.repeat(onset[:, None], omni.shape[1], 1), power_w,
                        decay)
-        part.update(_lateral_fractions(field_, energy, edges, onset, phi_s[lo:lo + _CHUNK]))
+        part.update(_lateral_fractions(field_, energy, edges, onset, phi_s[lo:lo + _CHUNK],
+                                       power_w))
         parts.append(part)
         if directional:
             e = _with_broadband(energy.astype(np.float64))  # [r, dir, column, T]
             on = np.broadcast_to(onset[:, None, None], e.shape[:-1])
             dir_parts.append(_ratios(e, start, width, on, power_w, decay))
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    true_lateral = _lateral_from_channels(field_, idx, power_w)
+    if true_lateral is not None:
+        merged.update(true_lateral)
     result = RoomParameters(
         bands_hz=np.asarray(field_.bands_hz, dtype=np.float64), receivers=idx,
         positions_m=positions,
@@ -305,7 +346,12 @@ def room_parameters(field_: SoundField, receivers=None, *, directional: bool = F
                               for k in PARAMETERS if k in dir_parts[0]}
         result.directional_reasons = {n: np.concatenate([p[f"{n}_reason"] for p in dir_parts])
                                       for n in DECAY_NAMES}
-    if np.isnan(phi_s).any():
+    names = lateral.channel_names(field_)
+    result.channels = [names[int(r)] for r in idx] if names else []
+    if true_lateral is not None:
+        result.notes.append("JLF, JLFC and LG from the figure-of-eight channel of each point "
+                            "(ISO 3382-1 A.2.4), shown on its omni channel")
+    elif np.isnan(phi_s).any():
         result.notes.append(f"JLF is undefined at {int(np.isnan(phi_s).sum())} receiver(s) "
                             "whose sphere holds the source (no receiver-source line)")
     if field_.source_positions_m.shape[0] > 1:
@@ -332,6 +378,10 @@ def _add_sti(result: RoomParameters, field_: SoundField, idx: np.ndarray, speech
     else:
         result.sti = values
         result.sti_method = describe(settings)
+        talker = (field_.settings.get("source_directivity") or ["omni"])[0]
+        if talker != "omni":
+            result.sti_method += (f"; the talker's directivity ({talker}) as baked, its level "
+                                  "on its own axis")
 
 
 def scene_of(field_: SoundField):

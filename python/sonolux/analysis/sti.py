@@ -15,8 +15,13 @@ Then IEC 60268-16:2020 Annex A, per octave band k (125 Hz ... 8 kHz) and modulat
 F (14 of them, 0.63 ... 12.5 Hz, third-octave steps):
 
 - the speech level at the listener, L_k = the talker's octave level at 1 m (Table A.4's male
-  spectrum on 60 dB(A), normal vocal effort, J.3) − 20 dB + G_k: G is the strength of the
-  field (re 10 m in the free field, where the level is 20 dB below that at 1 m);
+  spectrum on 60 dB(A), normal vocal effort, J.3) − 20 dB + G_k − 10 lg γ_k: G is the strength
+  of the field (re 10 m in the free field, where the level is 20 dB below that at 1 m), γ_k the
+  source's energy gain on its own axis (1 for omni). The standard's talker level is measured
+  1 m *in front of* the mouth; a directional source of the same power is 10 lg γ_k louder
+  there than an omni, so its power is lowered by that much to keep the talker's level. The
+  field already carries the source's directivity (a talker facing the listener or away, with
+  its reflections), so STI then follows the talker's orientation;
 - background noise L_n,k (none by default: a quiet room);
 - auditory masking by the band below (A.2.3: the masking slope amdB from its level:
   0.5 L − 65 below 63 dB, 1.8 L − 146.9 to 67 dB, 0.5 L − 59.8 to 100 dB, −10 dB above;
@@ -174,6 +179,17 @@ def octave_columns(field) -> tuple[list[list[int]], str]:
     return [[bands.index(b)] for b in OCTAVES_HZ], ""
 
 
+def axis_gain_db(field, cols: list[list[int]]) -> np.ndarray:
+    """float[7]: 10 lg γ of the first source's on-axis gain per STI octave (the mean of an
+    octave's thirds' gains: each third radiates the same power), recorded by the bake; zeros
+    for an omnidirectional source or a field baked before it was recorded."""
+    gains = (getattr(field, "settings", None) or {}).get("source_axis_gain")
+    if not gains:
+        return np.zeros(len(cols))
+    g = np.asarray(gains[0], float)
+    return 10 * np.log10(np.array([g[c].mean() for c in cols]))
+
+
 def field_sti(field, receivers: np.ndarray, g_db: np.ndarray | None = None,
               settings: SpeechSettings | None = None) -> tuple[np.ndarray, str]:
     """(STI float[receiver], '' or why it is undefined) of the field's receivers. The octave
@@ -189,6 +205,7 @@ def field_sti(field, receivers: np.ndarray, g_db: np.ndarray | None = None,
     if why:
         return np.full(len(receivers), np.nan), why
     power_w = float(np.sum(field.source_powers_w))
+    axis_db = axis_gain_db(field, cols)
     out = np.empty(len(receivers))
     for lo in range(0, len(receivers), 32):
         sel = receivers[lo:lo + 32]
@@ -199,7 +216,7 @@ def field_sti(field, receivers: np.ndarray, g_db: np.ndarray | None = None,
         if s.level_corrections:
             g = (strength_g_db(omni.sum(axis=-1), power_w) if g_db is None
                  else np.asarray(g_db, float)[lo:lo + 32])
-            speech = speech_levels_db(g, s.speech_dba)
+            speech = speech_levels_db(g, s.speech_dba) - axis_db
             m = m * level_factors(speech, s.noise_db)[..., None]
         out[lo:lo + 32] = sti_from_mtf(m)
     return out, ""

@@ -168,6 +168,7 @@ def to_json(p: RoomParameters, *, field_path: str | None = None, scene: str = ""
     out = {"field": field_path, "scene": scene, "bands_hz": p.bands_hz.tolist(),
            "columns": p.columns, "receivers": p.receivers.tolist(),
            "positions_m": p.positions_m.tolist(), "directions": p.direction_names,
+           "channels": p.channels or None,
            "parameters": params,
            "fit_failures": {n: [[r for r in row] for row in p.reasons[n].tolist()]
                             for n in p.reasons},

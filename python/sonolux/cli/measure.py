@@ -14,6 +14,7 @@ from sonolux.cli import args as parse
 
 
 def cmd_params(args: argparse.Namespace) -> int:
+    from sonolux.analysis.lateral import channel_groups
     from sonolux.analysis.params import room_parameters
     from sonolux.analysis.sti import speech_settings_of
     from sonolux.analysis.tables import format_cell, format_grid, to_json
@@ -35,6 +36,12 @@ def cmd_params(args: argparse.Namespace) -> int:
     else:
         p = room_parameters(field, compensation=args.compensation, speech=speech)
         text = format_grid(p, title)
+        channels = channel_groups(field)
+        if channels:  # directional channels: each channel's own table
+            text = "\n\n".join(
+                format_grid(room_parameters(field, idx, compensation=args.compensation,
+                                            speech=speech), f"{title}, channel {name!r}")
+                for name, idx in channels)
     if args.json:
         print(json.dumps(to_json(p, field_path=str(args.field), scene=field.scene_name),
                          indent=1, ensure_ascii=False))

@@ -9,6 +9,9 @@ cell sits at the centre of the floor plan (where the paper puts its talker). ``t
 Candidates are then dropped, each for the first reason that applies, and counted:
 outside the room; inside a closed obstacle; closer than ``radius_m`` to a surface (the
 sphere would cut it). See :mod:`sonolux.scene.inside` for how inside is decided.
+
+Points may carry directional ``channels`` (:mod:`sonolux.scene.receiver_channels`): each kept
+point then holds one receiver per channel, consecutive in the field.
 """
 
 from __future__ import annotations
@@ -18,11 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from sonolux.scene.inside import IN_AIR, IN_OBSTACLE, OUTSIDE, RoomSpace
+from sonolux.scene.receiver_channels import read_channels
 from sonolux.scene.schema import Context, Receivers, Table, check_vector
 
 RECEIVER_TYPES = ("grid", "points")
 GRID_KEYS = ("type", "height_m", "spacing_m", "radius_m", "origin_m")
-POINTS_KEYS = ("type", "positions_m", "radius_m")
+POINTS_KEYS = ("type", "positions_m", "radius_m", "channels")
 DEFAULT_HEIGHT_M = 1.5
 DEFAULT_SPACING_M = 1.0
 DEFAULT_RADIUS_M = 0.25
@@ -64,6 +68,7 @@ class ReceiverSpec:
     origin_m: np.ndarray | None = None
     positions_m: np.ndarray | None = None  # points: float64[k, 3]
     key: str = "receivers"
+    channels: tuple = ()  # points: the directional channels (empty: omni)
 
 
 def read_receivers(t: Table | None) -> ReceiverSpec:
@@ -72,6 +77,10 @@ def read_receivers(t: Table | None) -> ReceiverSpec:
         return ReceiverSpec()
     kind = t.string("type", "grid", RECEIVER_TYPES)
     if kind == "grid":
+        if "channels" in t.data:
+            raise t.ctx.error(t.path("channels"), t.data["channels"],
+                              message="directional channels are for type = \"points\" only; "
+                              "a grid's receivers are omnidirectional")
         t.check_keys(GRID_KEYS)
         spacing_m = t.number("spacing_m", DEFAULT_SPACING_M, lo=0.0, lo_open=True)
         return ReceiverSpec(
@@ -87,7 +96,11 @@ def read_receivers(t: Table | None) -> ReceiverSpec:
         raise t.ctx.error(key, raw, "a non-empty list of [x, y, z] positions")
     positions = np.array([check_vector(t.ctx, f"{key}[{i}]", p, 3, "a list of 3 numbers")
                           for i, p in enumerate(raw)], dtype=np.float64)
-    return ReceiverSpec(kind, radius_m=radius_m, positions_m=positions, key=t.key)
+    channels = read_channels(t) if "channels" in t.data else ()
+    if len(channels) == 1 and channels[0].pattern == "omni":
+        channels = ()
+    return ReceiverSpec(kind, radius_m=radius_m, positions_m=positions, key=t.key,
+                        channels=channels)
 
 
 def place_receivers(spec: ReceiverSpec, ctx: Context, space: RoomSpace, bbox_min: np.ndarray,
@@ -100,8 +113,16 @@ def place_receivers(spec: ReceiverSpec, ctx: Context, space: RoomSpace, bbox_min
         for i in np.flatnonzero(~kept):
             warnings.append(f"{spec.key}.positions_m[{i}] = {positions[i].tolist()} is dropped: "
                             f"{why[i]}")
-        return Receivers("points", np.ascontiguousarray(positions[kept]), spec.radius_m,
-                         candidates=positions.shape[0], **counts)
+        points = positions[kept]
+        if not spec.channels:
+            return Receivers("points", np.ascontiguousarray(points), spec.radius_m,
+                             candidates=positions.shape[0], **counts)
+        n_ch = len(spec.channels)
+        return Receivers("points", np.ascontiguousarray(np.repeat(points, n_ch, axis=0)),
+                         spec.radius_m, candidates=positions.shape[0], **counts,
+                         channels=spec.channels,
+                         channel_of=np.tile(np.arange(n_ch, dtype=np.int64), len(points)),
+                         point_of=np.repeat(np.arange(len(points), dtype=np.int64), n_ch))
     extent = bbox_max[:2] - bbox_min[:2]
     estimate = float(np.prod(np.floor(extent / spec.spacing_m) + 2))
     if estimate > MAX_CANDIDATES:

@@ -193,6 +193,13 @@ class Receivers:
     dropped_outside: int = 0
     dropped_inside_obstacle: int = 0
     dropped_near_surface: int = 0
+    #: Directional channels (points only, :mod:`sonolux.scene.receiver_channels`): each point
+    #: holds one receiver per channel, consecutive; ``channels`` the channels in order,
+    #: ``channel_of`` int64[k] and ``point_of`` int64[k] each receiver's channel and point.
+    #: Empty/None: one omnidirectional receiver a point.
+    channels: tuple[Any, ...] = ()
+    channel_of: np.ndarray | None = None
+    point_of: np.ndarray | None = None
 
     @property
     def count(self) -> int:

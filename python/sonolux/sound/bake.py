@@ -42,6 +42,7 @@ from sonolux.sound import waves as wave_sound
 from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.receiver_patterns import channels_record, receiver_patterns
 
 #: A compact field's stored late bins: the shortest T60 over this many (0.6 dB of decay a bin),
 #: at most MAX_COMPACT_LATE_BIN_S. Measured to keep EDT, T20 and T30 within 0.5 % of the full
@@ -164,6 +165,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"{scene.origin}: the scene has no sound source to bake")
     if scene.receivers.count == 0:
         raise SonoluxError(f"{scene.origin}: the scene has no receiver left to bake into")
+    if options.waves and scene.receivers.channels:
+        raise SonoluxError(f"{scene.origin}: directional receiver channels are not available "
+                           "with waves (the wave solver records pressure, not directions)")
     arrays = bake_arrays(scene, options)
     rays = ray_count(scene, options, arrays, log)
     first, end = options.ray_range or (0, rays)
@@ -188,8 +192,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     edges_hz = scene.settings.band_set.edges_hz
     sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, edges_hz))
                for s in src]
+    patterns = receiver_patterns(scene)
     receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
-                                 scene.receivers.radius_m)
+                                 scene.receivers.radius_m, patterns)
     started = time.perf_counter()
     early, arrivals = None, None
     if scene.early is not None:
@@ -235,6 +240,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
         "bands": scene.settings.bands,
         "speech": None if scene.speech is None else scene.speech.as_dict(),
+        "receiver_channels": channels_record(scene),
+        "source_directivity": [s.directivity for s in src],
+        "source_axis_gain": [axis_gains(s, edges_hz) for s in src],
         "volume_m3": scene.volume_m3, "area_m2": scene.area_m2,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,
@@ -303,6 +311,17 @@ def _directivity(source: Any, edges_hz: np.ndarray) -> Any:
              else builtin_gains(source.directivity, edges_hz))
     return engine.Directivity.pattern(np.ascontiguousarray(gains, float),
                                       tuple(source.forward), tuple(source.up))
+
+
+def axis_gains(source: Any, edges_hz: np.ndarray) -> list[float]:
+    """A source's energy gain per band on its own axis (``forward``, a cone's ``axis``; 1 for
+    omni), relative to an omnidirectional source of the same power: the talker's on-axis level
+    that STI's speech level refers to (IEC 60268-16:2020 A.2.3, speech level at 1 m in front)."""
+    if source.directivity == "omni":
+        return [1.0] * len(edges_hz)
+    axis = source.axis if source.directivity == "cone" else source.forward
+    gains = _directivity(source, edges_hz).gains(np.asarray([axis], float), len(edges_hz))
+    return [float(g) for g in gains[0]]
 
 
 def stored_axis(scene: Scene, options: SoundOptions,
@@ -377,6 +396,7 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str
     partial = (base["first_ray"], base["end_ray"]) != (0, base["rays"])
     acoustics, sources = geometry_args
     positions = np.ascontiguousarray(scene.receivers.positions_m, float)
+    patterns = receiver_patterns(scene)
     n, size = positions.shape[0], memory.tile_receivers
     tiles = memory.tiles
     energies: list[Any] = []
@@ -387,7 +407,8 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str
     for k, lo in enumerate(range(0, n, size)):
         hi = min(lo + size, n)
         receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
-                                     scene.receivers.radius_m)
+                                     scene.receivers.radius_m,
+                                     None if patterns is None else patterns[lo:hi])
         settings = engine.SoundSettings(**dict(base, first_receiver=lo))
         progress = None if callback is None else _tile_progress(callback, k, tiles, t0)
         out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings,

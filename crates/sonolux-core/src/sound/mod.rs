@@ -28,7 +28,7 @@ use crate::mesh::Mesh;
 use crate::parallel::{fill_blocks, run_chunks, Progress};
 pub use field::{Accumulator, Deposits, Layout};
 pub use pattern::Pattern;
-pub use receivers::Receivers;
+pub use receivers::{ReceiverPattern, Receivers};
 pub use stats::SoundStats;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -387,6 +387,7 @@ pub fn trace_sound_hybrid(
     if receivers.centres.iter().any(|c| !c.is_finite()) {
         return Err(CoreError::invalid("receivers", "every position must be finite"));
     }
+    receivers.check_patterns(nb).map_err(|problem| CoreError::invalid("receivers", problem))?;
     let layout = settings.layout(receivers.len(), nb);
     let convex = mesh.is_closed_convex();
     let scattering: Vec<&[f64]> = acoustics.scattering.chunks(nb).collect();
@@ -406,7 +407,7 @@ pub fn trace_sound_hybrid(
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
         covered,
     };
-    let quantum = trace::quantum(sources, receivers.radius_m);
+    let quantum = trace::quantum(sources, receivers.radius_m, receivers.peak_gain());
     let n = settings.end_ray - settings.first_ray;
     let field = Accumulator::new(layout.len(), quantum);
     let (workers, cancelled) = run_chunks(

@@ -47,6 +47,8 @@ pub struct Pattern {
     cos_theta: Vec<f64>,
     max_weight: f64,
     max_gain: f64,
+    /// The mean gain of each band over the sphere: 1 for a normalised (source) pattern.
+    mean_gain: Vec<f64>,
 }
 
 impl PartialEq for Pattern {
@@ -71,6 +73,17 @@ impl Pattern {
     /// energy; any scale: each band is normalised) oriented by `forward` and `up` (not parallel;
     /// `up` is made perpendicular to `forward`).
     pub fn new(n_theta: usize, n_phi: usize, n_bands: usize, gains: &[f64], forward: DVec3, up: DVec3) -> Result<Pattern, CoreError> {
+        Pattern::build(n_theta, n_phi, n_bands, gains, forward, up, true)
+    }
+
+    /// A pattern that keeps its gains as given (no normalisation): a receiver's measured
+    /// response, whose level is meaningful (1 = the response of an ideal omnidirectional
+    /// microphone). Its sampler is built but a receiver never emits.
+    pub fn measured(n_theta: usize, n_phi: usize, n_bands: usize, gains: &[f64], forward: DVec3, up: DVec3) -> Result<Pattern, CoreError> {
+        Pattern::build(n_theta, n_phi, n_bands, gains, forward, up, false)
+    }
+
+    fn build(n_theta: usize, n_phi: usize, n_bands: usize, gains: &[f64], forward: DVec3, up: DVec3, normalise: bool) -> Result<Pattern, CoreError> {
         let bad = |problem: String| Err(CoreError::invalid("directivity pattern", problem));
         if n_theta < 2 || n_phi < 1 || n_bands < 1 {
             return bad(format!("{n_theta} θ × {n_phi} φ nodes × {n_bands} bands: at least 2 × 1 × 1"));
@@ -102,12 +115,17 @@ impl Pattern {
             dphi * (w0 * (g[at(i, j, b)] + g[at(i, j + 1, b)]) + w1 * (g[at(i + 1, j, b)] + g[at(i + 1, j + 1, b)])) / 2.0
         };
 
-        // Normalise each band to a mean gain of 1 over the sphere.
+        // Normalise each band to a mean gain of 1 over the sphere (a source's pattern).
         let mut gain = gains.to_vec();
+        let mut mean_gain = vec![1.0; n_bands];
         for b in 0..n_bands {
             let total: f64 = (0..n_theta - 1).flat_map(|i| (0..n_phi).map(move |j| (i, j))).map(|(i, j)| cell_integral(gains, i, j, b)).sum();
             if !(total > 0.0) {
                 return bad(format!("band {b} radiates no energy in any direction"));
+            }
+            if !normalise {
+                mean_gain[b] = total / (4.0 * PI);
+                continue;
             }
             let scale = 4.0 * PI / total;
             for i in 0..n_theta {
@@ -123,7 +141,7 @@ impl Pattern {
         let mut mass = vec![0.0; n_cells];
         let mut cell_pdf = vec![0.0; n_cells];
         let mut max_weight = 0.0f64;
-        let all = 4.0 * PI * n_bands as f64;
+        let all: f64 = mean_gain.iter().map(|m| 4.0 * PI * m).sum();
         for i in 0..n_theta - 1 {
             let solid_angle = dphi * ((i as f64 * dtheta).cos() - ((i + 1) as f64 * dtheta).cos());
             for j in 0..n_phi {
@@ -142,7 +160,12 @@ impl Pattern {
         let max_gain = gain.iter().fold(0.0f64, |m, &g| m.max(g));
         let cells = Discrete::new(&mass).expect("every band has positive energy");
         let cos_theta = (0..n_theta).map(|i| (i as f64 * dtheta).cos()).collect();
-        Ok(Pattern { n_theta, n_phi, n_bands, gain, forward: f, up: u, left: l, cells, cell_pdf, cos_theta, max_weight, max_gain })
+        Ok(Pattern { n_theta, n_phi, n_bands, gain, forward: f, up: u, left: l, cells, cell_pdf, cos_theta, max_weight, max_gain, mean_gain })
+    }
+
+    /// The mean gain of each band over the sphere (1 for a source's normalised pattern).
+    pub fn mean_gain(&self) -> &[f64] {
+        &self.mean_gain
     }
 
     pub fn n_bands(&self) -> usize {

@@ -1,14 +1,112 @@
 //! Receivers: spheres at the cell centres of the grid (or at any listed points), with a uniform
 //! grid over them so that a ray segment finds the spheres it crosses by walking the cells it
 //! passes through (3D-DDA), whatever the number of receivers.
+//!
+//! A receiver may carry a **pattern** ([`ReceiverPattern`]): every deposit into it (sphere
+//! crossings, diffuse rain, the exact direct sound, and through the binding the image sources'
+//! arrivals) is weighted by the pattern's energy gain towards the direction the sound arrives
+//! from. Several receivers at one point with different patterns are the channels of one
+//! microphone position (an omni and a figure-of-eight for ISO 3382-1's JLF, a SOFA array's
+//! capsules).
+
+use std::sync::Arc;
 
 use glam::DVec3;
+
+use super::pattern::Pattern;
+
+/// How a receiver weighs sound by the unit direction it arrives from (pointing from the
+/// receiver towards where the sound comes from): an energy gain per band.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ReceiverPattern {
+    /// Gain 1 from every direction.
+    Omni,
+    /// The first-order family, pressure sensitivity a + (1 − a) cos θ, θ from the unit `axis`
+    /// (Eargle, *The Microphone Book*, 2004, ch. 5), with energy gain |a + (1 − a) cos θ|^power:
+    /// `power` 2 is the microphone's energy (1 on its axis: ISO 3382-1 A.2.4 calibrates the
+    /// figure-of-eight's maximum to the omni's); `power` 1 with a = 0 is |cos θ|, the weight of
+    /// the product |p_L · p| that JLFC integrates.
+    FirstOrder { axis: DVec3, a: f64, power: f64 },
+    /// A measured gain per band on the pattern's grid, kept at its level ([`Pattern::measured`]).
+    Table(Arc<Pattern>),
+}
+
+impl ReceiverPattern {
+    pub fn is_omni(&self) -> bool {
+        matches!(self, ReceiverPattern::Omni)
+    }
+
+    /// Multiplies `energy` (one value a band) by the gain towards `from` (unit).
+    #[inline]
+    pub fn weigh(&self, from: DVec3, energy: &mut [f64], scratch: &mut [f64]) {
+        match self {
+            ReceiverPattern::Omni => {}
+            ReceiverPattern::FirstOrder { axis, a, power } => {
+                let g = (a + (1.0 - a) * axis.dot(from)).abs().powf(*power);
+                energy.iter_mut().for_each(|e| *e *= g);
+            }
+            ReceiverPattern::Table(p) => {
+                let g = &mut scratch[..energy.len()];
+                p.gains(from, g);
+                energy.iter_mut().zip(g.iter()).for_each(|(e, g)| *e *= g);
+            }
+        }
+    }
+
+    /// Multiplies `energy` by the mean gain over the sphere: sound from every direction alike
+    /// (a source inside the receiver's sphere).
+    pub fn weigh_mean(&self, energy: &mut [f64]) {
+        match self {
+            ReceiverPattern::Omni => {}
+            ReceiverPattern::FirstOrder { a, power, .. } => {
+                // The mean over the sphere of |a + (1 − a) x|^power, x = cos θ uniform in [−1, 1].
+                let g = first_order_mean(*a, *power);
+                energy.iter_mut().for_each(|e| *e *= g);
+            }
+            ReceiverPattern::Table(p) => energy.iter_mut().zip(p.mean_gain()).for_each(|(e, g)| *e *= g),
+        }
+    }
+
+    /// The largest gain in any direction and band (bounds the field's fixed-point range).
+    pub fn peak(&self) -> f64 {
+        match self {
+            ReceiverPattern::Omni => 1.0,
+            ReceiverPattern::FirstOrder { a, power, .. } => a.abs().max((2.0 * a - 1.0).abs()).max(1.0).powf(*power),
+            ReceiverPattern::Table(p) => p.max_gain(),
+        }
+    }
+
+    /// Checks that the pattern fits a bake of `n_bands` bands.
+    pub fn check(&self, n_bands: usize) -> Result<(), String> {
+        match self {
+            ReceiverPattern::FirstOrder { axis, a, power } if !(axis.is_finite() && (axis.length() - 1.0).abs() < 1e-6 && (0.0..=1.0).contains(a) && *power > 0.0 && power.is_finite()) => {
+                Err(format!("a first-order pattern needs a unit axis, a in [0, 1] and a power > 0 (got axis {:?}, a {a}, power {power})", axis.to_array()))
+            }
+            ReceiverPattern::Table(p) if p.n_bands() != n_bands => Err(format!("its pattern has {} bands, the bake {n_bands}", p.n_bands())),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The mean over the sphere of |a + (1 − a) cos θ|^power: with x = cos θ uniform in [−1, 1],
+/// b = 1 − a and y = a + b x, (1/2b) ∫ |y|^p dy over [a − b, a + b] =
+/// (|a + b|^(p+1) − sgn(a − b) |a − b|^(p+1)) / (2 b (p + 1)); a^p when b = 0.
+pub fn first_order_mean(a: f64, power: f64) -> f64 {
+    let b = 1.0 - a;
+    if b.abs() < 1e-12 {
+        return a.abs().powf(power);
+    }
+    let (hi, lo) = (a + b, a - b);
+    (hi.abs().powf(power + 1.0) - lo.signum() * lo.abs().powf(power + 1.0)) / (2.0 * b * (power + 1.0))
+}
 
 /// The receiver spheres and the cell grid that finds them.
 #[derive(Clone, Debug)]
 pub struct Receivers {
     pub centres: Vec<DVec3>,
     pub radius_m: f64,
+    /// One pattern a receiver, or empty: every receiver omnidirectional.
+    patterns: Vec<ReceiverPattern>,
     /// The grid's box, and the size of its cells along each axis.
     lo: DVec3,
     hi: DVec3,
@@ -37,7 +135,7 @@ impl Receivers {
         // until then they get an empty search grid instead of a panic here.
         if !(radius_m > 0.0 && radius_m.is_finite()) || centres.iter().any(|c| !c.is_finite()) {
             let (lo, hi, cell, dims) = (DVec3::ZERO, DVec3::ONE, DVec3::ONE, [1, 1, 1]);
-            return Receivers { centres, radius_m, lo, hi, cell, dims, cells: vec![0, 0], items: Vec::new() };
+            return Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells: vec![0, 0], items: Vec::new() };
         }
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -87,7 +185,51 @@ impl Receivers {
             cells.push(items.len() as u32);
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
-        Receivers { centres, radius_m, lo, hi, cell, dims, cells, items }
+        Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells, items }
+    }
+
+    /// Gives every receiver its pattern (one a receiver, in order); an all-omni list is
+    /// stored as none, so that omnidirectional bakes take the fast path.
+    pub fn with_patterns(mut self, patterns: Vec<ReceiverPattern>) -> Result<Receivers, String> {
+        if patterns.len() != self.centres.len() {
+            return Err(format!("{} patterns for {} receivers: one a receiver", patterns.len(), self.centres.len()));
+        }
+        self.patterns = if patterns.iter().all(ReceiverPattern::is_omni) { Vec::new() } else { patterns };
+        Ok(self)
+    }
+
+    /// The patterns (empty: all omnidirectional).
+    pub fn patterns(&self) -> &[ReceiverPattern] {
+        &self.patterns
+    }
+
+    /// The largest gain of any receiver's pattern, at least 1.
+    pub fn peak_gain(&self) -> f64 {
+        self.patterns.iter().map(ReceiverPattern::peak).fold(1.0, f64::max)
+    }
+
+    /// Checks every pattern against a bake of `n_bands` bands.
+    pub fn check_patterns(&self, n_bands: usize) -> Result<(), String> {
+        for (r, p) in self.patterns.iter().enumerate() {
+            p.check(n_bands).map_err(|problem| format!("receiver {r}: {problem}"))?;
+        }
+        Ok(())
+    }
+
+    /// Weighs a deposit into receiver `r` of sound arriving from unit direction `from` by the
+    /// receiver's pattern (nothing to do for an omnidirectional one). `scratch` holds a band.
+    #[inline]
+    pub fn weigh(&self, r: usize, from: DVec3, energy: &mut [f64], scratch: &mut [f64]) {
+        if let Some(p) = self.patterns.get(r) {
+            p.weigh(from, energy, scratch);
+        }
+    }
+
+    /// Weighs a deposit of sound arriving from all directions alike (the source inside the sphere).
+    pub fn weigh_mean(&self, r: usize, energy: &mut [f64]) {
+        if let Some(p) = self.patterns.get(r) {
+            p.weigh_mean(energy);
+        }
     }
 
     /// Receivers per cell of the search grid, at most (1 on a floor-plan lattice).
@@ -236,6 +378,53 @@ pub fn ball_mean_inverse_square(d: f64, r: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn first_order_means_match_closed_forms() {
+        // Mean energy over the sphere of (a + (1 − a) cos θ)²: a² + (1 − a)²/3 (random-incidence
+        // response; Eargle 2004 ch. 5: 1/3 for the cardioid and figure-of-eight, 1/4 hyper).
+        for a in [0.0, 0.25, 0.5, 0.75, 1.0] {
+            let exact = a * a + (1.0 - a) * (1.0 - a) / 3.0;
+            assert!((first_order_mean(a, 2.0) - exact).abs() < 1e-12, "a = {a}");
+        }
+        // |cos θ|: mean 1/2.
+        assert!((first_order_mean(0.0, 1.0) - 0.5).abs() < 1e-12);
+        let p = ReceiverPattern::FirstOrder { axis: DVec3::Y, a: 0.0, power: 2.0 };
+        let mut e = [2.0, 4.0];
+        p.weigh(DVec3::new(1.0, 1.0, 0.0).normalize(), &mut e, &mut [0.0; 2]);
+        assert!((e[0] - 1.0).abs() < 1e-12 && (e[1] - 2.0).abs() < 1e-12);
+        assert_eq!(p.peak(), 1.0);
+        assert!((ReceiverPattern::FirstOrder { axis: DVec3::Y, a: 0.25, power: 2.0 }.peak() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_measured_pattern_keeps_its_level_and_omni_receivers_take_the_fast_path() {
+        // A measured gain of 2 in band 0 and 0.5 in band 1 everywhere: kept, not normalised
+        // (a source's pattern would be scaled to mean 1); its mean over the sphere is exact
+        // for a constant bilinear surface.
+        let (nt, np, nb) = (5, 4, 2);
+        let gains: Vec<f64> = (0..nt * np).flat_map(|_| [2.0, 0.5]).collect();
+        let p = Pattern::measured(nt, np, nb, &gains, DVec3::X, DVec3::Z).unwrap();
+        let r = ReceiverPattern::Table(Arc::new(p));
+        let mut e = [1.0, 1.0];
+        r.weigh(DVec3::new(0.3, -0.4, 0.5).normalize(), &mut e, &mut [0.0; 2]);
+        assert!((e[0] - 2.0).abs() < 1e-12 && (e[1] - 0.5).abs() < 1e-12, "{e:?}");
+        let mut m = [1.0, 1.0];
+        r.weigh_mean(&mut m);
+        assert!((m[0] - 2.0).abs() < 1e-12 && (m[1] - 0.5).abs() < 1e-12, "{m:?}");
+        assert_eq!(r.peak(), 2.0);
+        assert!(r.check(3).is_err());
+        // Patterns per receiver; an all-omni list is stored as none.
+        let centres = vec![DVec3::ZERO, DVec3::ONE];
+        let rc = Receivers::new(centres.clone(), 0.1).with_patterns(vec![ReceiverPattern::Omni, ReceiverPattern::Omni]).unwrap();
+        assert!(rc.patterns().is_empty());
+        assert!(Receivers::new(centres.clone(), 0.1).with_patterns(vec![ReceiverPattern::Omni]).is_err());
+        let rc = Receivers::new(centres, 0.1).with_patterns(vec![ReceiverPattern::Omni, r]).unwrap();
+        assert_eq!(rc.peak_gain(), 2.0);
+        let mut e = [1.0, 1.0];
+        rc.weigh(0, DVec3::X, &mut e, &mut [0.0; 2]);
+        assert_eq!(e, [1.0, 1.0]);
+    }
 
     #[test]
     fn ball_mean_limits() {

@@ -19,9 +19,10 @@ const MAX_REFLECTIONS: u64 = 1_000_000;
 /// precision (stochastic rounding keeps even smaller ones exact in expectation), large enough
 /// that no bin can overflow: a bin's total never exceeds the total emitted energy times 16× the
 /// largest geometric weight of a deposit, 4 · 3 / (4π r²).
-pub(crate) fn quantum(sources: &[SoundSource], radius: f64) -> f64 {
-    // A ray or a direct deposit carries at most `peak` times its even share (directivity).
-    let total: f64 = sources.iter().map(|s| s.power_w * s.directivity.peak()).sum();
+pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) -> f64 {
+    // A ray or a direct deposit carries at most `peak` times its even share (directivity),
+    // and a receiver's pattern multiplies it by at most `receiver_peak` (≥ 1).
+    let total: f64 = sources.iter().map(|s| s.power_w * s.directivity.peak()).sum::<f64>() * receiver_peak;
     let largest_weight = 4.0 * 3.0 / (4.0 * PI * radius * radius);
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
@@ -36,6 +37,8 @@ pub(crate) struct Worker {
     /// Per band: the ray's energy relative to its share, and a deposit being built.
     energy: Vec<f64>,
     deposit: Vec<f64>,
+    /// Per band: a receiver pattern's gains.
+    gain: Vec<f64>,
     /// Per kind of tally and band, `[kind * bands + band]`: the ray's energy balance.
     tally: Vec<f64>,
 }
@@ -48,6 +51,7 @@ impl Worker {
             stamp: vec![0; n_receivers],
             energy: vec![0.0; n_bands],
             deposit: vec![0.0; n_bands],
+            gain: vec![0.0; n_bands],
             tally: vec![0.0; stats::KINDS * n_bands],
         }
     }
@@ -78,7 +82,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
     let air = &set.air_attenuation_per_m[..nb];
-    let Worker { stats: st, deposits: buf, stamp, energy, deposit, tally } = w;
+    let Worker { stats: st, deposits: buf, stamp, energy, deposit, gain, tally } = w;
     let mut rng = Stream::new(set.seed, s as u64, index);
     // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
     let e = &mut energy[..nb];
@@ -140,6 +144,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
                         deposit[b] = e[b] * weight;
                     }
                 }
+                scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
                 let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
                 let u = keyed_uniform(set.seed, s as u64, index, first_receiver + c.receiver as u64, 2 * ray_segments);
                 acc.deposit(buf, base, &deposit[..nb], u);
@@ -195,7 +200,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 
         // Rain: send the diffusely reflected energy to every receiver that sees this point.
         if set.estimator == Estimator::Rain {
-            rain(scene, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], deposit);
+            rain(scene, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], (deposit, gain));
         }
 
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
@@ -242,9 +247,10 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 /// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
 /// [`ball_mean_inverse_square`], and attenuated by the air on the way.
 #[allow(clippy::too_many_arguments)]
-/// `deposit` is the worker's scratch of one value a band; `key` is (source, ray, event), the
-/// rounding's key with the receiver.
-fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], deposit: &mut [f64]) {
+/// `scratch` is the worker's (deposit, receiver gain), one value a band each; `key` is
+/// (source, ray, event), the rounding's key with the receiver.
+fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
+    let (deposit, gain) = scratch;
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = e.len();
@@ -267,6 +273,7 @@ fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: 
         for b in 0..nb {
             deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation_per_m[b] * d).exp();
         }
+        scene.receivers.weigh(r, -to / d, &mut deposit[..nb], gain);
         let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
         acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
         st.deposits += 1;
@@ -285,6 +292,7 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let radius = scene.receivers.radius_m;
     let mut deposit = vec![0.0f64; nb];
     let mut gain = vec![1.0f64; nb];
+    let mut receiver_gain = vec![1.0f64; nb];
     let mut buf = Deposits::new();
     for (s, src) in scene.sources.iter().enumerate() {
         for (r, c) in scene.receivers.centres.iter().enumerate() {
@@ -314,6 +322,12 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
             let split = directions.len() as f64;
             for b in 0..nb {
                 deposit[b] = energy * gain[b] * (-set.air_attenuation_per_m[b] * d).exp() / split;
+            }
+            // The receiver's pattern towards the source (or its mean, for a source inside).
+            if d > radius {
+                scene.receivers.weigh(r, -to / d, &mut deposit[..nb], &mut receiver_gain);
+            } else {
+                scene.receivers.weigh_mean(r, &mut deposit[..nb]);
             }
             for dir in directions {
                 let u = keyed_uniform(set.seed, s as u64, u64::MAX, receiver_key, dir as u64);
