@@ -12,7 +12,8 @@ dense and smooth. So :class:`CompactArray` keeps, per receiver,
 - the late part dense: ``late`` [receiver, direction, band, late time].
 
 It reads like the dense array it stands for (``a[r]``, ``a[r, d]``, ``a[sel]`` with a slice or
-an index array, ``shape``, ``dtype``, ``np.asarray(a)``): a receiver is made dense only when
+an index array, ``shape``, ``dtype``, ``np.asarray(a)``, and the reductions ``sum``, ``max``,
+``min``, ``mean`` and ``astype`` of :class:`sonolux.sound.lazy.ReceiverWise`): a receiver is made dense only when
 asked for, so the analysis, synthesis and auralization need not know the field is compact.
 Nothing is lost: the dense array made from it is bit for bit the array it was made from.
 
@@ -29,10 +30,11 @@ from typing import Any
 import numpy as np
 
 from sonolux.errors import SonoluxError
+from sonolux.sound.lazy import ReceiverWise
 
 
 @dataclass
-class CompactArray:
+class CompactArray(ReceiverWise):
     """A [receiver, direction, band, time] array as early non-zero cells + a dense late part."""
 
     early_bins: int
@@ -63,26 +65,11 @@ class CompactArray:
         return self.late.dtype
 
     @property
-    def ndim(self) -> int:
-        return 4
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self.shape))
-
-    def __len__(self) -> int:
-        return self.shape[0]
-
-    @property
     def nbytes(self) -> int:
         """Bytes held (not the dense array's)."""
         env = 0 if self.envelope is None else self.envelope.nbytes
         return int(self.offset.nbytes + self.cell.nbytes + self.value.nbytes + self.late.nbytes
                    + env)
-
-    @property
-    def dense_bytes(self) -> int:
-        return self.size * self.dtype.itemsize
 
     def receiver(self, k: int) -> np.ndarray:
         """The dense [direction, band, time] block of receiver k."""
@@ -140,10 +127,6 @@ class CompactArray:
                 np.zeros((0, *self.shape[1:]), self.dtype)
             rest = (slice(None), *rest) if rest else rest  # the receiver axis is kept
         return out[rest] if rest else out
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        out = self[:]
-        return out if dtype is None else out.astype(dtype)
 
     # --- making and combining -------------------------------------------------------------
     @classmethod
