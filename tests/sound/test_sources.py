@@ -10,8 +10,8 @@ import pytest
 import sonolux
 from sonolux.errors import SonoluxError
 from sonolux.fieldfile import open_field, save_fields
-from sonolux.sound.bake import bake as bake_whole
 from sonolux.range_bake import bake_ranges
+from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.ranges import SoundRanges
 from sonolux.sound.ranges import bake as in_ranges
 

@@ -41,8 +41,8 @@ from sonolux.sound import early as early_sound
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField, with_source_energy
-from sonolux.sound.stats import combine_stats
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.stats import combine_stats
 
 #: A compact field's stored late bins: the shortest T60 over this many (0.6 dB of decay a bin),
 #: at most MAX_COMPACT_LATE_BIN_S. Measured to keep EDT, T20 and T30 within 0.5 % of the full

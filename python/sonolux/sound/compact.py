@@ -13,8 +13,9 @@ dense and smooth. So :class:`CompactArray` keeps, per receiver,
 
 It reads like the dense array it stands for (``a[r]``, ``a[r, d]``, ``a[sel]`` with a slice or
 an index array, ``shape``, ``dtype``, ``np.asarray(a)``, and the reductions ``sum``, ``max``,
-``min``, ``mean`` and ``astype`` of :class:`sonolux.sound.lazy.ReceiverWise`): a receiver is made dense only when
-asked for, so the analysis, synthesis and auralization need not know the field is compact.
+``min``, ``mean`` and ``astype`` of :class:`sonolux.sound.lazy.ReceiverWise`): a receiver is
+made dense only when asked for, so the analysis, synthesis and auralization need not know the
+field is compact.
 Nothing is lost: the dense array made from it is bit for bit the array it was made from.
 
 The same layout holds the exact fixed-point counts (uint64) of a ray-range bake, which add up
