@@ -23,8 +23,8 @@ from sonolux.cli.light import add_bundle_options, log, web_options
 def cmd_auralize(args: argparse.Namespace) -> int:
     from sonolux.auralize.offline import AuralizeSettings
     from sonolux.auralize.to_file import Listening, Output, auralize_to_file
-    from sonolux.fieldfile import open_field
     from sonolux.errors import SettingError
+    from sonolux.fieldfile import open_field
     from sonolux.sound.pick import pick_sources
 
     if args.dry_of:
