@@ -182,6 +182,8 @@ def _write_array(g: Any, name: str, a: Any) -> None:
         c.attrs["late_split"] = a.late_split
         c.attrs["envelope_split"] = a.envelope_split
         c.attrs["reduced"] = a.envelope is not None
+        if a.late_groups is not None:
+            c.attrs["late_groups"] = np.asarray(a.late_groups, np.int64)
         if a.onset is not None:
             c.create_dataset("onset", data=a.onset, compression="gzip", shuffle=True)
         if a.envelope is not None:
@@ -238,9 +240,17 @@ def _read_array(c: Checker, g: Any, name: str) -> Any:
     if onset is not None and (onset.shape != (late.shape[0],) or onset.size
                               and (np.min(onset) < 0 or np.max(onset) >= max(early_bins, 1))):
         raise c.fail(f"{name}/onset", "is not one early sample per receiver")
+    groups = h.attrs.get("late_groups")
+    if groups is not None:
+        groups = np.asarray(groups)
+        if groups.shape != (late.shape[2],) or groups.dtype.kind not in "iu" \
+                or np.any(groups < 1) or not reduced:
+            raise c.fail(f"{name}", f"has late_groups {groups.tolist()}: one whole number ≥ 1 a "
+                                    f"band ({late.shape[2]}) of a reduced field expected")
+        groups = groups.astype(np.int64)
     return CompactArray(early_bins, offset.astype(np.int64), cell.astype(np.uint32), early, late,
                         late_split, envelope, split,
-                        None if onset is None else onset.astype(np.int64))
+                        None if onset is None else onset.astype(np.int64), groups)
 
 
 def _write_light(f: Any, field: LightField) -> None:

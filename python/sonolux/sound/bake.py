@@ -172,6 +172,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
     early_s, stored_late_s, split = stored_axis(scene, options, arrays)
+    groups = late_groups(scene, options, arrays, stored_late_s)
     picked = traced_sources(scene, options)
     # Each source traced alone (its own field), unless waves join them (one field, "all").
     runs: list[int | None] = [None] if options.waves and len(scene.sources) > 1 else picked
@@ -213,7 +214,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                        memory=memory,
                        early=early, callback=callback, split=split,
                        keep_counts=options.ray_range is not None,
-                       reduce=reduction(options, scene.settings.sample_rate_hz))
+                       reduce=(*reduction(options, scene.settings.sample_rate_hz), groups))
     seconds = time.perf_counter() - started
     stats = dict(out["stats"])
     stats.update(seconds=seconds, rays_per_second=stats["rays"] / seconds if seconds > 0 else None,
@@ -237,7 +238,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "late_bin_s": options.late_bin_s, "storage": options.storage,
         "compact_arrivals": options.compact_arrivals,
         "compact_envelope_s": options.compact_envelope_s,
-        "stored_late_bin_s": stored_late_s, "early_s": early_s, "azimuth_bands": options.azimuth_bands,
+        "stored_late_bin_s": stored_late_s, "compact_late_groups": groups, "early_s": early_s, "azimuth_bands": options.azimuth_bands,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
         "source_names": None if runs == [None] else [scene.sources[k].name for k in picked],
         "bands": scene.settings.bands,
@@ -341,6 +342,24 @@ def stored_axis(scene: Scene, options: SoundOptions,
     else:
         split = round(float(options.compact_late_bin_s) / options.late_bin_s)
     return early_s, split * options.late_bin_s, split
+
+
+def late_groups(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray],
+                stored_late_s: float) -> list[int] | None:
+    """A compact field's late bins per band: band b's stored bins summed in groups of
+    floor(T60_b / LATE_BINS_PER_T60 / stored width) (at most MAX_COMPACT_LATE_BIN_S wide), so
+    that every band's late bin spans the same decay, 60 dB / LATE_BINS_PER_T60 (0.6 dB), as the
+    shortest T60's does (T60_b: Sabine's, air included). None for full storage, a given
+    ``compact_late_bin_s``, or when no band's bins would widen."""
+    if options.storage == "full" or options.compact_late_bin_s != "auto":
+        return None
+    t60 = sabine_t60(scene.volume_m3, _absorption_area(scene, arrays["absorption"]),
+                     arrays["air"], scene.settings.speed_of_sound_m_s)
+    if not np.all(np.isfinite(t60)):
+        return None
+    width = np.minimum(np.asarray(t60, float) / LATE_BINS_PER_T60, MAX_COMPACT_LATE_BIN_S)
+    groups = [max(1, math.floor(w / stored_late_s + 1e-9)) for w in width]
+    return groups if max(groups) > 1 else None
 
 
 def field_shape(scene: Scene, options: SoundOptions, max_time_s: float,

@@ -54,6 +54,12 @@ class CompactArray(ReceiverWise):
     #: int64[receiver]: each receiver's onset sample (a reduced array): the envelope is spread
     #: over samples from it on only, so that nothing seems to arrive before the direct sound.
     onset: np.ndarray | None = None
+    #: int64[band]: stored late bins summed per group in each band (a reduced array,
+    #: :meth:`reduce`): band b's late part is held as groups of ``late_groups[b]`` stored bins,
+    #: each group's sum in its first bin and zeros in the others (which the file's gzip takes
+    #: to almost nothing), shown spread over the group as its neighbours' decay says (the
+    #: stored bins past the last whole group are kept as they are); None: no groups.
+    late_groups: np.ndarray | None = None
 
     # --- what it stands for ----------------------------------------------------------------
     @property
@@ -88,8 +94,21 @@ class CompactArray(ReceiverWise):
         else:
             early[di, bi, ti] = (early[di, bi, ti].astype(np.float64)
                                  + self.value[lo:hi]).astype(self.dtype)
-        out[:, :, self.early_bins:] = self.late[k] if self.late_split == 1 else \
-            spread_late(self.late[k], self.late_split)
+        out[:, :, self.early_bins:] = self._late_view(self.late[k])
+        return out
+
+    def _late_view(self, late: np.ndarray) -> np.ndarray:
+        """[direction, band, stored late bin] -> [direction, band, shown late bin]."""
+        if self.late_groups is None:
+            return late if self.late_split == 1 else spread_late(late, self.late_split)
+        n = late.shape[-1]
+        out = np.empty((*late.shape[:-1], n * self.late_split), late.dtype)
+        for b, m in enumerate(int(g) for g in self.late_groups):
+            whole = n // m * m
+            parts = [spread_late(late[:, b, :whole:m], m * self.late_split)] if whole else []
+            if whole < n:
+                parts.append(spread_late(late[:, b, whole:], self.late_split))
+            out[:, b] = np.concatenate(parts, axis=-1) if len(parts) > 1 else parts[0]
         return out
 
     def _unravel(self, cell: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -203,8 +222,12 @@ class CompactArray(ReceiverWise):
         late = self.late.copy()
         is_late = t >= self.early_bins
         if np.any(is_late):
-            flat = np.ravel_multi_index((r[is_late], d[is_late], b[is_late],
-                                         t[is_late] - self.early_bins), late.shape)
+            tl = t[is_late] - self.early_bins
+            if self.late_groups is not None:  # a grouped band holds a group's sum in its first
+                m = np.asarray(self.late_groups, np.int64)[b[is_late]]
+                whole = late.shape[-1] // m * m
+                tl = np.where(tl < whole, tl // m * m, tl)
+            flat = np.ravel_multi_index((r[is_late], d[is_late], b[is_late], tl), late.shape)
             unique, slot = np.unique(flat, return_inverse=True)
             sums = np.zeros(unique.size, np.float64)
             np.add.at(sums, slot, v[is_late])
@@ -245,7 +268,8 @@ class CompactArray(ReceiverWise):
                        envelope=None if self.envelope is None else self.envelope[receivers],
                        onset=None if self.onset is None else self.onset[receivers])
 
-    def reduce(self, arrivals: int, envelope_split: int) -> CompactArray:
+    def reduce(self, arrivals: int, envelope_split: int,
+               late_groups: Any = None) -> CompactArray:
         """The early part as the ``arrivals`` strongest (direction, sample) arrivals of each
         receiver, exact in every band (with every cell up to its onset and at its peak), and
         the rest of it as an envelope of bins
@@ -253,6 +277,8 @@ class CompactArray(ReceiverWise):
         bin keeps its energy's sum, so energies over windows of whole envelope bins (and the
         total) are unchanged; the arrivals keep the exact times and directions of the
         strongest reflections. Ties are broken by the arrival's index: the same bits every time.
+        ``late_groups`` (int[band] or None): the late part of band b summed in groups of that
+        many stored bins (see the attribute).
         """
         if self.envelope is not None:
             raise SonoluxError("this field is reduced already")
@@ -287,9 +313,13 @@ class CompactArray(ReceiverWise):
                   self.value[~keep].astype(np.float64))
         offset = np.zeros(n_r + 1, np.int64)
         np.cumsum(np.bincount(rows[keep], minlength=n_r), out=offset[1:])
+        late, groups = self.late, None
+        if late_groups is not None and np.any(np.asarray(late_groups) > 1):
+            groups = np.asarray(late_groups, np.int64)
+            late = grouped(self.late, groups)
         return replace(self, offset=offset, cell=self.cell[keep], value=self.value[keep],
                        envelope=envelope.astype(self.dtype), envelope_split=envelope_split,
-                       onset=onset.astype(np.int64))
+                       onset=onset.astype(np.int64), late=late, late_groups=groups)
 
 
     def _crossing_bins(self, rows: np.ndarray, band: np.ndarray, t: np.ndarray,
@@ -327,6 +357,23 @@ class CompactArray(ReceiverWise):
         binned = group * np.int64(-(-self.early_bins // split)) + t // split
         held = np.unique(binned[order][cross])
         return np.isin(binned, held)
+
+
+def grouped(late: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """[receiver, direction, band, stored bin] with band b's bins summed in groups of
+    ``groups[b]`` (float64 sums rounded once), each sum in its group's first bin, zeros in the
+    others; the bins past the last whole group as they were."""
+    out = np.array(late, copy=True)
+    n = late.shape[-1]
+    for b, m in enumerate(int(g) for g in groups):
+        whole = n // m * m
+        if m <= 1 or whole == 0:
+            continue
+        block = late[:, :, b, :whole].astype(np.float64)
+        sums = block.reshape(*block.shape[:-1], whole // m, m).sum(-1)
+        out[:, :, b, :whole] = 0
+        out[:, :, b, :whole:m] = sums.astype(late.dtype)
+    return out
 
 
 def is_compact(array: Any) -> bool:
@@ -408,4 +455,5 @@ def reduced(energy: Any, settings: dict[str, Any]) -> Any:
     if not isinstance(energy, CompactArray) or energy.envelope is not None:
         return energy
     split = max(1, round(float(settings["compact_envelope_s"]) * float(settings["sample_rate_hz"])))
-    return energy.reduce(int(settings["compact_arrivals"]), split)
+    return energy.reduce(int(settings["compact_arrivals"]), split,
+                         settings.get("compact_late_groups"))
