@@ -166,3 +166,15 @@ def test_one_source_files_and_old_files_keep_their_layout(tmp_path):
         assert "sources" not in f["sound"] and "energy" in f["sound"]
     old = open_field("tests/data/field-v1.h5")
     assert old.source_names == ["all"] and old.for_source("all") is old
+
+
+def test_a_progressive_bake_keeps_a_field_per_source_with_the_bits_of_a_whole_bake(room):
+    from sonolux.sound import progressive
+
+    cap = 6000
+    field, _ = progressive.bake(room, accuracy=progressive.Accuracy(0.01, max_rays=cap))
+    assert field.source_names == NAMES
+    rays = field.settings["rays"]
+    whole = bake_whole(room, rays=rays)
+    for k in range(3):
+        same(field.for_source(k).energy, whole.for_source(k).energy)
