@@ -61,6 +61,7 @@ def test_params_per_source_and_mix(capsys, h5):
 @pytest.mark.parametrize("argv", [
     ("params", "{h5}", "--source", "window"),
     ("info", "{h5}", "--source", "7"),
+    ("report", "{h5}", "-o", "{out}", "--source", "window"),
     ("export", "{h5}", "--sofa", "{out}.sofa", "--source", "window"),
     ("auralize", "{h5}", "builtin:clicks:0.3", "--at", "3,2.5", "-o", "{out}.wav",
      "--source", "window"),
@@ -106,6 +107,12 @@ def test_auralize_each_source_its_own_dry(capsys, h5, tmp_path):
     np.testing.assert_allclose(both, total, atol=1e-6)
     code, out, err = run(capsys, "auralize", h5, "--at", "3,2.5", "-o", out_wav)
     assert code == 2 and "--dry NAME=DRY" in err
+
+
+def test_report_of_one_source(capsys, h5, tmp_path):
+    code, out, err = run(capsys, "report", h5, "-o", tmp_path / "r", "--source", "door")
+    assert code == 0, err
+    assert (tmp_path / "r" / "index.html").exists()
 
 
 def test_export_sofa_of_one_source(capsys, h5, tmp_path):
