@@ -217,3 +217,10 @@ def test_the_sources_counts_add_up_to_a_bake_of_all_at_once(room, monkeypatch):
                                          room.receivers.radius_m), settings, None, None)
     assert out["quantum"] == split.quantum
     np.testing.assert_array_equal(per_source.sum(axis=0, dtype=np.uint64), out["counts"])
+
+
+def test_one_and_two_threads_give_each_source_the_same_bits():
+    fields = [bake_whole(scene(settings={**ROOM["settings"], "threads": n}), rays=RAYS)
+              for n in (1, 2)]
+    for k in range(3):
+        same(fields[0].for_source(k).energy, fields[1].for_source(k).energy)
