@@ -224,3 +224,15 @@ def test_one_and_two_threads_give_each_source_the_same_bits():
               for n in (1, 2)]
     for k in range(3):
         same(fields[0].for_source(k).energy, fields[1].for_source(k).energy)
+
+
+def test_octaves_of_a_third_octave_field_keep_a_field_per_source():
+    from sonolux.analysis.octaves import octave_field
+
+    thirds = scene(settings={**{k: v for k, v in ROOM["settings"].items() if k != "bands_hz"},
+                             "bands": "third-octave", "band_range_hz": [400, 2500]})
+    field = bake_whole(thirds, rays=500)
+    octaves = octave_field(field)
+    assert octaves.source_names == NAMES and octaves.energy.shape[2] == 3
+    for k in range(3):
+        same(octaves.for_source(k).energy, octave_field(field.for_source(k)).energy)
