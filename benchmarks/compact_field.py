@@ -5,6 +5,8 @@ Run with ``.venv/bin/python benchmarks/compact_field.py`` (``make bench`` runs i
 1. Bytes per receiver, in memory and in the file, of the three paper rooms (8 azimuths, their
    octaves) baked the same way twice: the peer is the full field (``storage="full"``, 1 ms late
    bins: the format-2 layout), the compact field is the default. Both bakes trace the same rays.
+   The mesh room (examples/scenes/mesh_room.toml) too, and paper-large with third-octave bands,
+   with 3 elevation bands (24 directions), and with both: sizes measured, not computed.
 2. A grid bake (``--grid-receivers``, default about 4,000 on a 0.5 m grid) with a memory budget
    (``--budget``, default 1.5 GB): its estimate, its tiles and its peak resident memory
    (getrusage, in a child process) next to the budget.
@@ -68,20 +70,43 @@ print(json.dumps({"receivers": field.n_receivers, "tiles": field.stats["tiles"],
 """
 
 
-def room_sizes(name: str, rays: int, tmp: Path) -> dict:
-    scene = sonolux.load_scene(name)
+def variant(name: str, *, thirds: bool) -> sonolux.Scene:
+    """A built-in scene, with third-octave bands instead of its own if asked."""
+    if not thirds:
+        return sonolux.load_scene(name)
+    import tomllib
+
+    from sonolux.scene import builtin
+
+    path = builtin.path(name)
+    data = tomllib.loads(path.read_text())
+    settings = {k: v for k, v in data.get("settings", {}).items()
+                if k not in ("bands", "bands_hz", "band_range_hz")}
+    data["settings"] = dict(settings, bands="third-octave", band_range_hz=[100, 10000])
+    return sonolux.load_scene(data, base_dir=path.parent)
+
+
+def room_sizes(name: str, rays: int, tmp: Path, *, thirds: bool = False,
+               elevation_bands: int = 1) -> dict:
+    """Sizes of the full field (the peer) and the compact one; for the variants with thirds
+    or elevations the compact one only, within a 4 GB budget (their full field would need
+    6-20 GB of this shared machine), its ratio then taken against the octave room's."""
+    scene = variant(name, thirds=thirds)
+    plain = not thirds and elevation_bands == 1
     out = {}
-    for storage in ("full", "compact"):
+    for storage in ("full", "compact") if plain else ("compact",):
         t0 = time.perf_counter()
-        field = bake(scene, rays=rays, storage=storage)
+        field = bake(scene, rays=rays, storage=storage, elevation_bands=elevation_bands,
+                     memory_bytes=None if plain else 4_000_000_000)
         seconds = time.perf_counter() - t0
         save_fields(tmp / f"{storage}.h5", sound=field)
         d = info(field)
         out[storage] = {"memory_bytes_per_receiver": d["bytes_per_receiver"],
                         "file_bytes_per_receiver": d["file_bytes_per_receiver"],
                         "bake_seconds": seconds}
-    out["file_ratio_full_to_compact"] = (out["full"]["file_bytes_per_receiver"]
-                                         / out["compact"]["file_bytes_per_receiver"])
+    if plain:
+        out["file_ratio_full_to_compact"] = (out["full"]["file_bytes_per_receiver"]
+                                             / out["compact"]["file_bytes_per_receiver"])
     out["receivers"] = field.n_receivers
     out["directions_x_bands"] = [field.energy.shape[1], field.energy.shape[2]]
     return out
@@ -111,20 +136,41 @@ def main() -> None:
     results: dict = {"rays": args.rays, "rooms": {}}
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
-        for name in ("paper-small", "paper-medium", "paper-large"):
-            r = room_sizes(name, args.rays, tmp)
-            results["rooms"][name] = r
-            print(f"{name}: {r['receivers']} receivers, file per receiver "
-                  f"{r['full']['file_bytes_per_receiver'] / 1e3:,.1f} KB full (peer) -> "
-                  f"{r['compact']['file_bytes_per_receiver'] / 1e3:,.1f} KB compact "
-                  f"({r['file_ratio_full_to_compact']:.1f}x smaller); in memory "
-                  f"{r['full']['memory_bytes_per_receiver'] / 1e3:,.0f} -> "
-                  f"{r['compact']['memory_bytes_per_receiver'] / 1e3:,.1f} KB")
+        # First: the child's peak RSS (getrusage) starts from this process's at the fork, so
+        # measured after the big bakes below it would count theirs (2.47 GB of a 1.5 GB
+        # budget, seen once; 1.02 GB measured alone).
         g = grid_bake(args.grid_receivers, int(args.budget), 2000, tmp)
         results["grid"] = g
         print(f"grid: {g['receivers']:,} receivers in {g['tiles']} tiles, estimate "
               f"{g['estimate_bytes'] / 1e9:.2f} GB, peak RSS {g['peak_rss_bytes'] / 1e9:.2f} GB, "
               f"budget {g['budget_bytes'] / 1e9:.2f} GB ({g['peak_over_budget']:.0%} of it)")
+        mesh_room = str(Path(__file__).resolve().parent.parent / "examples/scenes/mesh_room.toml")
+        rooms = [(n, n, {}) for n in ("paper-small", "paper-medium", "paper-large")]
+        rooms.append(("mesh room", mesh_room, {}))
+        rooms += [("paper-large, thirds", "paper-large", {"thirds": True}),
+                  ("paper-large, 3 elevations", "paper-large", {"elevation_bands": 3}),
+                  ("paper-large, thirds and 3 elevations", "paper-large",
+                   {"thirds": True, "elevation_bands": 3})]
+        for label, name, kw in rooms:
+            r = room_sizes(name, args.rays, tmp, **kw)
+            results["rooms"][label] = r
+            c = r["compact"]
+            if "full" in r:
+                f = r["full"]
+                print(f"{label}: {r['receivers']} receivers, {r['directions_x_bands'][0]} "
+                      f"directions x {r['directions_x_bands'][1]} bands, file per receiver "
+                      f"{f['file_bytes_per_receiver'] / 1e3:,.1f} KB full (peer) -> "
+                      f"{c['file_bytes_per_receiver'] / 1e3:,.1f} KB compact "
+                      f"({r['file_ratio_full_to_compact']:.1f}x smaller); in memory "
+                      f"{f['memory_bytes_per_receiver'] / 1e3:,.0f} -> "
+                      f"{c['memory_bytes_per_receiver'] / 1e3:,.1f} KB")
+            else:
+                base = results["rooms"][name]["compact"]["file_bytes_per_receiver"]
+                print(f"{label}: {r['directions_x_bands'][0]} directions x "
+                      f"{r['directions_x_bands'][1]} bands, compact file per receiver "
+                      f"{c['file_bytes_per_receiver'] / 1e3:,.1f} KB "
+                      f"({c['file_bytes_per_receiver'] / base:.2f}x the octave room's); in "
+                      f"memory {c['memory_bytes_per_receiver'] / 1e3:,.1f} KB")
     results["machine"] = machine_and_load(busy, other_cpu_use())
     write_json(OUT, results)
 

@@ -147,6 +147,7 @@ class SoundSettings:
         max_field_bytes: int,
         keep_counts: bool = False,
         first_receiver: int = 0,
+        only_source: int | None = None,
     ) -> SoundSettings: ...
 
 def trace_sound(

@@ -19,6 +19,10 @@ Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m
     /sound/bands_hz        float64[band];  /sound/directions  str[direction]
     /sound/receivers_m     float64[receiver, 3];  /sound/grid_index  int64[receiver, 2]
     /sound/sources_m       float64[source, 3];    /sound/source_powers_w  float64[source]
+    /sound/sources/<k>/... (bakes of several sources: a field per source; attrs names (JSON)
+                           on /sound/sources, name on each; each group holds energy, counts
+                           and early as /sound does for a bake of one source; /sound has no
+                           energy then)
     /sound/early/...       (hybrid bakes only: the exact early arrivals, already in energy)
                            source, receiver, kind (0 specular, 1 diffracted), order,
                            direction_bin, time_bin (-1 past the end) int64[arrival];
@@ -69,7 +73,7 @@ from sonolux.light.field import LightField
 from sonolux.light.workplane import WorkplaneResult
 from sonolux.outputs import atomic_output
 from sonolux.sound.compact import CompactArray
-from sonolux.sound.field import SoundField
+from sonolux.sound.field import SoundField, with_source_energy
 
 SCHEMA = "sonolux-field/3"
 #: Schemas this version reads: the current one and the two before it.
@@ -131,7 +135,15 @@ def _write_sound(f: Any, field: SoundField) -> None:
     g.attrs["radius_m"] = field.radius_m
     g.attrs["grid_spacing_m"] = field.grid_spacing_m if field.grid_spacing_m else np.nan
     g.attrs["quantum"] = field.quantum
-    _write_array(g, "energy", field.energy)
+    if field.per_source is None:
+        _write_source(g, field)
+    else:  # a field per source: /sound/sources/<k>/ as /sound holds one (docs/fieldfile.md)
+        sources = g.create_group("sources")
+        sources.attrs["names"] = _json(field.source_names)
+        for k, name in enumerate(field.source_names):
+            h = sources.create_group(str(k))
+            h.attrs["name"] = name
+            _write_source(h, field.for_source(k))
     g["bin_start_s"] = field.bin_start_s
     g["bin_width_s"] = field.bin_width_s
     g["bands_hz"] = field.bands_hz
@@ -141,12 +153,6 @@ def _write_sound(f: Any, field: SoundField) -> None:
         g["grid_index"] = np.asarray(field.grid_index, np.int64)
     g["sources_m"] = field.source_positions_m
     g["source_powers_w"] = field.source_powers_w
-    if field.counts is not None:
-        _write_array(g, "counts", field.counts)
-    if field.early is not None:
-        early = g.create_group("early")
-        for name, values in field.early.items():
-            early.create_dataset(name, data=values, compression="gzip", shuffle=True)
     if field.waves is not None:
         w = g.create_group("waves")
         p = np.asarray(field.waves["pressure"], np.float32)
@@ -154,6 +160,17 @@ def _write_sound(f: Any, field: SoundField) -> None:
                          chunks=(1, p.shape[1]) if p.size else None)
         for k in WAVE_ATTRS:
             w.attrs[k] = field.waves[k]
+
+
+def _write_source(g: Any, field: SoundField) -> None:
+    """One source's (or all sources') energy, counts and early arrivals into group ``g``."""
+    _write_array(g, "energy", field.energy)
+    if field.counts is not None:
+        _write_array(g, "counts", field.counts)
+    if field.early is not None:
+        early = g.create_group("early")
+        for name, values in field.early.items():
+            early.create_dataset(name, data=values, compression="gzip", shuffle=True)
 
 
 def _write_array(g: Any, name: str, a: Any) -> None:
@@ -165,6 +182,8 @@ def _write_array(g: Any, name: str, a: Any) -> None:
         c.attrs["late_split"] = a.late_split
         c.attrs["envelope_split"] = a.envelope_split
         c.attrs["reduced"] = a.envelope is not None
+        if a.late_groups is not None:
+            c.attrs["late_groups"] = np.asarray(a.late_groups, np.int64)
         if a.onset is not None:
             c.create_dataset("onset", data=a.onset, compression="gzip", shuffle=True)
         if a.envelope is not None:
@@ -221,9 +240,17 @@ def _read_array(c: Checker, g: Any, name: str) -> Any:
     if onset is not None and (onset.shape != (late.shape[0],) or onset.size
                               and (np.min(onset) < 0 or np.max(onset) >= max(early_bins, 1))):
         raise c.fail(f"{name}/onset", "is not one early sample per receiver")
+    groups = h.attrs.get("late_groups")
+    if groups is not None:
+        groups = np.asarray(groups)
+        if groups.shape != (late.shape[2],) or groups.dtype.kind not in "iu" \
+                or np.any(groups < 1) or not reduced:
+            raise c.fail(f"{name}", f"has late_groups {groups.tolist()}: one whole number ≥ 1 a "
+                                    f"band ({late.shape[2]}) of a reduced field expected")
+        groups = groups.astype(np.int64)
     return CompactArray(early_bins, offset.astype(np.int64), cell.astype(np.uint32), early, late,
                         late_split, envelope, split,
-                        None if onset is None else onset.astype(np.int64))
+                        None if onset is None else onset.astype(np.int64), groups)
 
 
 def _write_light(f: Any, field: LightField) -> None:
@@ -326,12 +353,9 @@ def _read_sound(f: Any, path: str) -> SoundField:
     c = Checker(path, "sound")
     try:
         spacing = float(g.attrs["grid_spacing_m"])
-        counts = _read_array(c, g, "counts") if "counts" in g else None
-        if counts is not None and f.attrs["schema"] == "sonolux-field/1":
-            counts = np.ascontiguousarray(counts.transpose(1, 2, 3, 0))  # was [time, r, d, b]
         theory = g.attrs.get("theory")
         arrays = dict(
-            energy=_read_array(c, g, "energy"), bin_start_s=c.dataset(g, "bin_start_s"),
+            energy=None, bin_start_s=c.dataset(g, "bin_start_s"),
             bin_width_s=c.dataset(g, "bin_width_s"), bands_hz=c.dataset(g, "bands_hz"),
             positions_m=c.dataset(g, "receivers_m"), radius_m=float(g.attrs["radius_m"]),
             grid_index=c.dataset(g, "grid_index") if "grid_index" in g else None,
@@ -339,20 +363,65 @@ def _read_sound(f: Any, path: str) -> SoundField:
             source_positions_m=c.dataset(g, "sources_m"),
             source_powers_w=c.dataset(g, "source_powers_w"),
             settings=json.loads(g.attrs["settings"]), stats=json.loads(g.attrs["stats"]),
-            counts=counts, quantum=float(g.attrs["quantum"]),
+            counts=None, quantum=float(g.attrs["quantum"]),
             theory=json.loads(theory) if theory is not None else None)
-        check_sound(path, arrays)
-        early = {k: g["early"][k][...] for k in g["early"]} if "early" in g else None
-        waves = _read_waves(c, g, arrays) if "waves" in g else None
-        return SoundField(**arrays, scene_name=str(f.attrs.get("scene_name", "")),
-                          scene_origin=str(f.attrs.get("scene_origin", "")), path=path,
-                          early=early, waves=waves)
+        if "sources" in g:
+            stacked, arrays["counts"], early = _read_sources(c, g["sources"], arrays)
+        else:
+            arrays["counts"] = _read_array(c, g, "counts") if "counts" in g else None
+            if arrays["counts"] is not None and f.attrs["schema"] == "sonolux-field/1":
+                # was [time, r, d, b]
+                arrays["counts"] = np.ascontiguousarray(arrays["counts"].transpose(1, 2, 3, 0))
+            arrays["energy"] = stacked = _read_array(c, g, "energy")
+            check_sound(path, arrays)
+            early = {k: g["early"][k][...] for k in g["early"]} if "early" in g else None
+        waves = _read_waves(c, g, dict(arrays, energy=stacked)) if "waves" in g else None
+        field = SoundField(**dict(arrays, energy=stacked),
+                           scene_name=str(f.attrs.get("scene_name", "")),
+                           scene_origin=str(f.attrs.get("scene_origin", "")), path=path,
+                           early=early, waves=waves)
+        return with_source_energy(field, stacked)
     except KeyError as exc:
         raise FieldFileError(f"{path}: the sound field is incomplete ({exc.args[0]} is "
                              "missing)") from None
     except (ValueError, TypeError, OSError) as exc:  # JSON, attributes, truncated chunks
         raise FieldFileError(f"{path}: the sound field cannot be read "
                              f"({' '.join(str(exc).split())})") from None
+
+
+def _read_sources(c: Checker, s: Any, arrays: dict[str, Any]) -> tuple[Any, Any, Any]:
+    """/sound/sources/<k>/: each source's energy, counts and early arrivals, each checked
+    as a field of its own, stacked along the receiver axis (source k's rows k × receivers …)."""
+    names = json.loads(s.attrs["names"])
+    if not (isinstance(names, list) and names and all(isinstance(n, str) for n in names)) \
+            or [str(k) for k in range(len(names))] != sorted(s, key=lambda n: int(n)
+                                                             if n.isdigit() else -1):
+        raise c.fail("sources", f"has groups {sorted(s)} for the names {names!r}: one group "
+                                "0, 1, … per name expected")
+    if arrays["settings"].get("source_names") != names:
+        raise c.fail("sources", f"names {names!r} differ from settings.source_names")
+    energies, counts, early = [], [], []
+    n = len(arrays["positions_m"])
+    for k in range(len(names)):
+        h = s[str(k)]
+        part = dict(arrays, energy=_read_array(c, h, "energy"),
+                    counts=_read_array(c, h, "counts") if "counts" in h else None)
+        check_sound(c.path, part)
+        energies.append(part["energy"])
+        counts.append(part["counts"])
+        if "early" in h:
+            e = {key: h["early"][key][...] for key in h["early"]}
+            e["receiver"] = e["receiver"] + k * n
+            e["source"] = np.full_like(e["source"], k)
+            early.append(e)
+    if any(c_ is None for c_ in counts) and any(c_ is not None for c_ in counts):
+        raise c.fail("sources", "hold counts for some sources and not for others")
+    join = CompactArray.concatenate if isinstance(energies[0], CompactArray) else np.concatenate
+    if len({type(e) for e in energies}) != 1 or len({type(e) for e in counts}) != 1:
+        raise c.fail("sources", "mix compact and full storage")
+    arrivals = None if not early else {key: np.concatenate([e[key] for e in early])
+                                       for key in early[0]}
+    return join(energies), None if counts[0] is None else join(counts), arrivals
 
 
 def _read_waves(c: Checker, g: Any, arrays: dict[str, Any]) -> dict[str, Any]:

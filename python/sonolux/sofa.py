@@ -31,9 +31,10 @@ The file is written beside its target and renamed into place, with the umask's p
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -69,10 +70,12 @@ def direction_centres_deg(azimuth_bands: int, elevation_bands: int) -> np.ndarra
 
 
 def export_sofa(field_path: str | Path, out_path: str | Path, receiver: int | None = None,
-                seed: int = 0, log: Callable[[str], None] | None = None) -> SofaSummary:
+                seed: int = 0, log: Callable[[str], None] | None = None,
+                sources: Sequence[Any] = ()) -> SofaSummary:
     """Writes the responses of one receiver (``receiver``) or of all (None) of the field file
     ``field_path`` to ``out_path`` (a .sofa file). Raises :class:`SonoluxError` for a path,
-    receiver or seed that is not allowed, before anything is synthesised."""
+    receiver or seed that is not allowed, before anything is synthesised. ``sources``: which
+    of the field's sources (:func:`sonolux.sound.pick.pick_sources`; default all, summed)."""
     import sofar
 
     from sonolux.fieldfile import open_field
@@ -85,7 +88,9 @@ def export_sofa(field_path: str | Path, out_path: str | Path, receiver: int | No
     if out_path.suffix.lower() != ".sofa":
         raise SonoluxError(f"{out_path}: a SOFA file must end in .sofa")
     seed = check_number("seed", seed, 0, MAX_SEED, integer=True)
-    field = open_field(field_path)
+    from sonolux.sound.pick import pick_sources
+
+    field = pick_sources(open_field(field_path), sources)
     if field.n_receivers == 0:
         raise SonoluxError(f"{field_path}: the field has no receivers, so no responses to export")
     chosen = list(range(field.n_receivers)) if receiver is None else [field.receiver_index(receiver)]

@@ -205,6 +205,7 @@ fn settings(rays: u64, threads: usize) -> SoundSettings {
         rays,
         first_ray: 0,
         first_receiver: 0,
+        only_source: None,
         end_ray: rays,
         seed: 5,
         threads,

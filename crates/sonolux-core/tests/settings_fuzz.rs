@@ -68,6 +68,7 @@ fn one_case(cases: &mut Cases) -> bool {
         rays,
         first_ray,
         first_receiver: 0,
+        only_source: None,
         end_ray,
         seed: cases.next(),
         threads: if odd(cases) { cases.pick(&[1025usize, 100_000, usize::MAX]) } else { cases.pick(&[0usize, 1, 2, 3]) },

@@ -32,6 +32,7 @@ fn settings(rays: u64, estimator: Estimator, max_time_s: f64) -> SoundSettings {
         rays,
         first_ray: 0,
         first_receiver: 0,
+        only_source: None,
         end_ray: rays,
         seed: 7,
         threads: 2,

@@ -31,6 +31,7 @@ fn settings(bands: usize, air: &[f64], estimator: Estimator) -> SoundSettings {
         rays: 3_000,
         first_ray: 0,
         first_receiver: 0,
+        only_source: None,
         end_ray: 3_000,
         seed: 11,
         threads: 2,

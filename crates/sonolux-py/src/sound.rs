@@ -252,7 +252,8 @@ impl Receivers {
 /// How to trace and bin a sound bake (keyword arguments only; see `sonolux_core::sound::
 /// SoundSettings`). `keep_counts` also returns the exact fixed-point counts, for merging ray
 /// ranges; `max_field_bytes` is the largest field the caller accepts; `first_receiver` is the
-/// index of the first receiver in the whole bake when it is traced in tiles of receivers.
+/// index of the first receiver in the whole bake when it is traced in tiles of receivers;
+/// `only_source` traces that source alone (a field per source).
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct SoundSettings {
     inner: core::SoundSettings,
@@ -265,7 +266,7 @@ impl SoundSettings {
     #[pyo3(signature = (
         *, rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound_m_s, air_attenuation_per_m,
         energy_drop_db, max_time_s, sample_rate_hz, early_s, late_bin_s, azimuth_bands, elevation_bands,
-        max_field_bytes, keep_counts = false, first_receiver = 0
+        max_field_bytes, keep_counts = false, first_receiver = 0, only_source = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -287,6 +288,7 @@ impl SoundSettings {
         max_field_bytes: u64,
         keep_counts: bool,
         first_receiver: u64,
+        only_source: Option<usize>,
     ) -> PyResult<Self> {
         let estimator = match estimator {
             "paper" => core::Estimator::Paper,
@@ -298,6 +300,7 @@ impl SoundSettings {
             first_ray,
             end_ray,
             first_receiver,
+            only_source,
             seed,
             threads,
             estimator,

@@ -21,7 +21,7 @@ import numpy as np
 
 from sonolux.acoustics.bands import OCTAVE, THIRD_OCTAVE, octave_grouping
 from sonolux.errors import AnalysisError
-from sonolux.sound.field import SoundField
+from sonolux.sound.field import SoundField, with_source_energy
 
 #: Receivers summed at once.
 _CHUNK = 32
@@ -42,12 +42,14 @@ def octave_field(field_: SoundField) -> SoundField:
         octaves, groups = octave_grouping(bands)
     except ValueError as exc:
         raise AnalysisError(str(exc)) from None
-    shape = tuple(field_.energy.shape)
+    # A field of several sources: each source's octaves (their sum shown as the energy).
+    source = field_.energy if field_.per_source is None else field_.per_source
+    shape = tuple(source.shape)
     energy = np.empty(shape[:2] + (octaves.n_bands,) + shape[3:], dtype=np.float32)
     # A few receivers at a time, each read whole (``energy[lo:hi]``): bounded float64 copies,
     # and the one kind of indexing every field's energy supports (dense or compact).
     for lo in range(0, shape[0], _CHUNK):
-        block = np.asarray(field_.energy[lo:lo + _CHUNK])
+        block = np.asarray(source[lo:lo + _CHUNK])
         for k, g in enumerate(groups):
             energy[lo:lo + _CHUNK, :, k] = block[:, :, g].sum(axis=2, dtype=np.float64)
     settings = dict(field_.settings, bands=OCTAVE, octaves_from="third-octave")
@@ -55,11 +57,12 @@ def octave_field(field_: SoundField) -> SoundField:
         # The octave's exact mid-band frequency is its centre third's.
         settings["air_attenuation_per_m"] = [settings["air_attenuation_per_m"][g[1]]
                                              for g in groups.tolist()]
-    return SoundField(**{**field_.__dict__, "energy": energy,
-                         "bands_hz": np.array(octaves.nominal_hz, dtype=np.float64),
-                         "counts": None, "settings": settings, "early": None, "path": None,
-                         "theory": _octave_theory(field_.theory, groups.tolist(),
-                                                  list(octaves.nominal_hz))})
+    return with_source_energy(SoundField(**{
+        **field_.__dict__, "energy": energy, "per_source": None,
+        "bands_hz": np.array(octaves.nominal_hz, dtype=np.float64),
+        "counts": None, "settings": settings, "early": None, "path": None,
+        "theory": _octave_theory(field_.theory, groups.tolist(), list(octaves.nominal_hz))}),
+        energy)
 
 
 def _octave_theory(theory: dict[str, Any] | None, groups: list[list[int]],

@@ -9,6 +9,7 @@ warning where that goes above full scale.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -76,15 +77,41 @@ class Output:
         return self
 
 
-def auralize_to_file(field: SoundField, dry: str, output: str | Path, listening: Listening,
-                     settings: AuralizeSettings | None = None,
+def auralize_to_file(field: SoundField, dry: str | Mapping[str, str], output: str | Path,
+                     listening: Listening, settings: AuralizeSettings | None = None,
                      out: Output | None = None, channel: int | None = None) -> dict[str, Any]:
     """Auralizes the dry signal (a sound file or ``builtin:NAME``) and writes ``output``:
     a dict with what (the dry signal), where (the listener), the renderer's info, the peak in
-    dBFS and the scaling applied."""
+    dBFS and the scaling applied. ``dry`` may also map source names to dry signals: each
+    source of the field plays its own (through its own field, :meth:`SoundField.for_source`),
+    and what the listener hears is their sum."""
     listening = listening.validate()
     settings = (settings or AuralizeSettings()).validate()
     out = (out or Output()).validate()
+    fs = field.sample_rate_hz
+    if isinstance(dry, Mapping):
+        if not dry:
+            raise SonoluxError("no dry signal given: one per source, or one for all")
+        parts = [_render(field.for_source(name), d, output, listening, settings, channel)
+                 for name, d in dry.items()]
+        n = max(p[0].shape[0] for p in parts)
+        y = np.zeros((n, parts[0][0].shape[1]))
+        for p in parts:
+            y[: p[0].shape[0]] += p[0]
+        _, info, _, where, notes = parts[0]
+        what = "; ".join(f"{name}: {p[2]}" for name, p in zip(dry, parts))
+        notes = [note for p in parts for note in p[4]]
+        notes = list(dict.fromkeys(notes))
+    else:
+        y, info, what, where, notes = _render(field, dry, output, listening, settings, channel)
+    return _write(y, info, what, where, notes, output, out, fs)
+
+
+def _render(field: SoundField, dry: str, output: str | Path, listening: Listening,
+            settings: AuralizeSettings,
+            channel: int | None) -> tuple[np.ndarray, dict[str, Any], str, str, list[str]]:
+    """(channels float[sample, channel], the renderer's info, what, where, notes) of one dry
+    signal heard through ``field``."""
     fs = field.sample_rate_hz
     notes: list[str] = []
     if listening.path_file is None:
@@ -119,6 +146,12 @@ def auralize_to_file(field: SoundField, dry: str, output: str | Path, listening:
         where = (f"along {listening.path_file} ({path.duration_s:.2f} s, "
                  f"{len(info['events'])} cells: {' '.join(f'#{r}' for r in info['receivers'])}; "
                  f"plan view -> {png})")
+    return y, info, what, where, notes
+
+
+def _write(y: np.ndarray, info: dict[str, Any], what: str, where: str, notes: list[str],
+           output: str | Path, out: Output, fs: int) -> dict[str, Any]:
+    """Sets the level of ``y``, writes it, and says what was done."""
     y, gain_db, level_notes = set_level(y, out.gain_db, out.is_calibrated)
     peak = float(np.max(np.abs(y))) if y.size else 0.0
     scaled = (f"calibrated, gain {gain_db:+.1f} dB" if out.is_calibrated

@@ -199,3 +199,24 @@ def octave_levels_db(text: str) -> tuple[float, ...]:
             f"{text!r} is not a noise level: one level in dB SPL from -50 to 150 for every "
             "octave 125 Hz … 8 kHz, or seven separated by commas (e.g. 45,40,35,30,25,20,15)")
     return values * 7 if len(values) == 1 else values
+
+
+def source(text: str) -> tuple[str, float | None]:
+    """``--source NAME|INDEX[=GAIN_DB]`` (:func:`sonolux.sound.pick.parse_spec`); whether the
+    name is in the field is checked once the field is open."""
+    from sonolux.errors import SonoluxError
+    from sonolux.sound.pick import parse_spec
+
+    try:
+        return parse_spec(text)
+    except SonoluxError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_source_option(p: argparse.ArgumentParser) -> None:
+    """``--source``: which of a field's sources to use (repeat it to mix)."""
+    p.add_argument("--source", type=source, action="append", default=[],
+                   metavar="NAME[=DB]",
+                   help="the source to hear, by name or index (default: every source, as "
+                        "baked); repeat it, with NAME=GAIN_DB, to mix sources (those not named "
+                        "are left out)")

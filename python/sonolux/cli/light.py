@@ -49,6 +49,11 @@ def cmd_export(args: argparse.Namespace) -> int:
         args.parser.error("give --gltf PATH.glb, --web DIR, --sofa OUT.sofa, or several")
     if args.sofa and not str(args.sofa).lower().endswith(".sofa"):
         args.parser.error(f"--sofa {args.sofa}: a SOFA file must end in .sofa")
+    if args.source and not args.sofa:
+        from sonolux.errors import SettingError
+
+        raise SettingError("--source chooses what --sofa exports (the web bundle holds every "
+                           "source): give --sofa OUT.sofa too")
     if args.receiver is not None and not args.sofa:
         args.parser.error("--receiver chooses what --sofa exports: give --sofa OUT.sofa too")
     bundle_only = [flag for flag, given in (
@@ -80,7 +85,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.sofa:
         from sonolux.sofa import export_sofa
 
-        done = export_sofa(args.field, args.sofa, receiver=args.receiver, seed=args.seed, log=log)
+        done = export_sofa(args.field, args.sofa, receiver=args.receiver, seed=args.seed, log=log,
+                           sources=args.source)
         print(done.describe())
     return 0
 
@@ -182,6 +188,7 @@ def add_commands(sub) -> None:
     e.add_argument("--sofa", metavar="OUT.sofa",
                    help="write the synthesised responses per receiver and direction as an "
                         "AES69 SOFA file (SingleRoomSRIR; see docs/export.md)")
+    parse.add_source_option(e)
     e.add_argument("--receiver", type=_receiver, default=None, metavar="N|all",
                    help="SOFA: the receiver to export (its index, as `sonolux info` lists "
                         "them), or all (default)")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 from sonolux.auralize.render import LAYOUT_NAMES
 from sonolux.auralize.to_file import SUBTYPES
@@ -22,9 +23,27 @@ from sonolux.cli.light import add_bundle_options, log, web_options
 def cmd_auralize(args: argparse.Namespace) -> int:
     from sonolux.auralize.offline import AuralizeSettings
     from sonolux.auralize.to_file import Listening, Output, auralize_to_file
+    from sonolux.errors import SettingError
     from sonolux.fieldfile import open_field
+    from sonolux.sound.pick import pick_sources
 
+    if args.dry_of:
+        if args.dry is not None or args.source:
+            raise SettingError("--dry NAME=DRY gives each source its own signal: leave out "
+                               "the positional DRY and --source")
+        names = [name for name, _ in args.dry_of]
+        if len(set(names)) != len(names):
+            raise SettingError(f"--dry names a source twice: {', '.join(names)}")
+    elif args.dry is None:
+        raise SettingError("give a DRY signal (every source plays it), or --dry NAME=DRY once "
+                           "per source")
     field = open_field(args.field)
+    if args.dry_of:
+        for name, _ in args.dry_of:
+            field.source_index(name)  # unknown names: an error naming the field's sources
+        dry: Any = dict(args.dry_of)
+    else:
+        field, dry = pick_sources(field, args.source), args.dry
     settings = AuralizeSettings(layout=args.layout, order=args.order, hrtf=args.hrtf,
                                 fade_s=args.fade_ms / 1000.0, block=args.block, seed=args.seed,
                                 tail_s=args.tail_s)
@@ -33,7 +52,7 @@ def cmd_auralize(args: argparse.Namespace) -> int:
                           png=args.png)
     out = Output(gain_db=args.gain_db, normalize=args.normalize, calibrated=args.calibrated,
                  allow_over_full_scale=args.allow_over_full_scale, subtype=args.subtype)
-    done = auralize_to_file(field, args.dry, args.output, listening, settings, out,
+    done = auralize_to_file(field, dry, args.output, listening, settings, out,
                             channel=args.channel)
     info = done["info"]
     scaled = f" ({done['scaled']})" if done["scaled"] else ""
@@ -50,6 +69,15 @@ def cmd_auralize(args: argparse.Namespace) -> int:
     for note in done["notes"]:
         print(f"sonolux: {'' if note.startswith('warning:') else 'note: '}{note}", file=sys.stderr)
     return 0
+
+
+def _dry_of(text: str) -> tuple[str, str]:
+    """--dry NAME=DRY."""
+    name, eq, dry = text.partition("=")
+    if not (name and eq and dry):
+        raise argparse.ArgumentTypeError(f"{text!r} is not NAME=DRY (a source's name or index, "
+                                         "then its dry signal: a sound file or builtin:NAME)")
+    return name, dry
 
 
 def cmd_film(args: argparse.Namespace) -> int:
@@ -111,10 +139,15 @@ def add_commands(sub) -> None:
                     "By default the peak is normalised to -1 dBFS and the gain printed; "
                     "--calibrated or --gain-db keep absolute levels.")
     p.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
-    p.add_argument("dry", metavar="DRY",
+    p.add_argument("dry", metavar="DRY", nargs="?", default=None,
                    help="a sound file (WAV, FLAC, ...; any rate, resampled) or a built-in "
                         "signal: builtin:speech, builtin:melody, builtin:clicks, builtin:noise, "
                         "builtin:sweep (optionally :SECONDS)")
+    p.add_argument("--dry", dest="dry_of", type=_dry_of, action="append", default=[],
+                   metavar="NAME=DRY",
+                   help="a field of several sources: source NAME plays DRY (repeat it, once per "
+                        "source heard; sources not named are silent), instead of one DRY for all")
+    parse.add_source_option(p)
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--at", type=parse.xy, metavar="X,Y", help="the listener's position in metres")
     where.add_argument("--path", metavar="FILE",

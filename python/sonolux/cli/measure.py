@@ -19,9 +19,12 @@ def cmd_params(args: argparse.Namespace) -> int:
     from sonolux.analysis.sti import speech_settings_of
     from sonolux.analysis.tables import format_cell, format_grid, to_json
     from sonolux.fieldfile import open_field
+    from sonolux.sound.pick import heard, pick_sources
 
-    field = open_field(args.field)
+    field = pick_sources(open_field(args.field), args.source)
     title = f"ISO 3382-1 parameters of {field.scene_name} ({args.field})"
+    if args.source:
+        title += f", {heard(field)}"
     speech = speech_settings_of(field, args.speech_dba, args.noise_db)
     if args.octaves:
         from sonolux.analysis.octaves import octave_field
@@ -109,7 +112,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     options = ReportOptions(at=args.at, light_images=[Path(p) for p in args.light_image],
                             audio=[Path(p) for p in args.audio], auralize=args.auralize,
-                            title=args.title)
+                            title=args.title, sources=args.source)
     index = build_report([Path(f) for f in args.fields], Path(args.output), options,
                          log=lambda m: print(f"sonolux: {m}", file=sys.stderr))
     print(f"report -> {index}  (open it in any browser: file://{index.resolve()})")
@@ -146,6 +149,7 @@ def add_commands(sub) -> None:
                         help="of a third-octave field: the octaves its thirds make whole, each "
                              "the sum of its three thirds' energies (never averaged times)")
     _speech_options(params)
+    parse.add_source_option(params)
     params.set_defaults(func=cmd_params)
 
     maps = sub.add_parser(
@@ -184,4 +188,5 @@ def add_commands(sub) -> None:
     report.add_argument("--auralize", action="store_true",
                         help="auralize a built-in dry signal at the cell (binaural, cube8)")
     report.add_argument("--title", default=None, help="the page's title")
+    parse.add_source_option(report)
     report.set_defaults(func=cmd_report)

@@ -57,6 +57,7 @@ def cmd_bake(args: argparse.Namespace) -> int:
                                        elevation_bands=args.elevation_bands, ray_range=args.range,
                                        air_absorption=not args.no_air, storage=args.storage,
                                        memory_bytes=args.memory,
+                                       sources=tuple(args.bake_source) or None,
                                        **({} if args.late_bin_ms is None
                                           else {"late_bin_s": args.late_bin_ms / 1e3}),
                                        waves=args.waves, crossover_hz=args.crossover_hz,
@@ -83,9 +84,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     from sonolux.light.info import format_info as format_light
     from sonolux.light.info import info as light_info
     from sonolux.sound.info import format_info, info
+    from sonolux.sound.pick import pick_sources
 
     has = contents(args.field)
-    sound = open_field(args.field) if has["sound"] else None
+    sound = pick_sources(open_field(args.field), args.source) if has["sound"] else None
     light = open_light_field(args.field) if has["light"] else None
     if args.json:
         out = info(sound) if sound is not None else {}
@@ -194,6 +196,9 @@ def add_commands(sub) -> None:
                       default=8, help="azimuth sectors (default 8)")
     bake.add_argument("--elevation-bands", type=parse.number(1, 90, integer=True), default=1,
                       help="elevation bands of equal solid angle (1, or 3 = below/level/above)")
+    bake.add_argument("--source", dest="bake_source", action="append", default=[],
+                      metavar="NAME", help="bake this source of the scene only (repeatable; "
+                      "default: every source, each keeping its own field)")
     bake.add_argument("--storage", choices=("compact", "full"), default="compact",
                       help="compact (default): the early part's non-zero one-sample cells and "
                            "the late part at the late bin width; full: every cell dense")
@@ -242,6 +247,7 @@ def add_commands(sub) -> None:
                                      "patches, statistics and the energy and flux balance.")
     inf.add_argument("field", metavar="FIELD", help="a field file written by sonolux bake")
     inf.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    parse.add_source_option(inf)
     inf.set_defaults(func=cmd_info)
 
     ir = sub.add_parser("ir", help="write a receiver's pressure impulse response as WAV",

@@ -16,6 +16,7 @@ import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +35,7 @@ from sonolux.report import extras
 from sonolux.report import html as h
 from sonolux.sound.field import SoundField
 from sonolux.sound.info import info
+from sonolux.sound.pick import pick_sources
 
 
 @dataclass
@@ -48,6 +50,9 @@ class ReportOptions:
     light_images: list[Path] = field(default_factory=list)
     audio: list[Path] = field(default_factory=list)
     auralize: bool = False
+    #: Which sources of each field (:func:`sonolux.sound.pick.pick_sources`): specs such as
+    #: "desk" or ("door", -6.0); empty: every source as baked.
+    sources: list[Any] = field(default_factory=list)
     title: str | None = None
     texts: list[tuple[str, str]] = field(default_factory=list)
     figures: list[tuple[Path, str]] = field(default_factory=list)
@@ -65,7 +70,8 @@ def build_report(field_paths: list[Path], out_dir: Path, options: ReportOptions 
     options = (options or ReportOptions()).validate()
     out_dir = Path(out_dir)
     _check_target(out_dir)
-    fields = [open_field(p) for p in field_paths]  # every error before anything is written
+    # every error before anything is written
+    fields = [pick_sources(open_field(p), options.sources) for p in field_paths]
     with atomic_folder(out_dir) as tmp:
         (tmp / "img").mkdir()
         (tmp / "audio").mkdir()

@@ -40,9 +40,10 @@ from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.compact import CompactArray
-from sonolux.sound.field import SoundField
+from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.receiver_patterns import channels_record, receiver_patterns
+from sonolux.sound.stats import combine_stats
 
 #: A compact field's stored late bins: the shortest T60 over this many (0.6 dB of decay a bin),
 #: at most MAX_COMPACT_LATE_BIN_S. Measured to keep EDT, T20 and T30 within 0.5 % of the full
@@ -175,7 +176,11 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
     early_s, stored_late_s, split = stored_axis(scene, options, arrays)
-    src = scene.sources
+    groups = late_groups(scene, options, arrays, stored_late_s)
+    picked = traced_sources(scene, options)
+    # Each source traced alone (its own field), unless waves join them (one field, "all").
+    runs: list[int | None] = [None] if options.waves and len(scene.sources) > 1 else picked
+    src = [scene.sources[k] for k in picked]
     callback = ProgressLine(f"sound {scene.name}") if progress is True else (progress or None)
     base = dict(
         rays=rays, first_ray=first, end_ray=end, seed=scene.settings.seed,
@@ -191,7 +196,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"])
     edges_hz = scene.settings.band_set.edges_hz
     sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, edges_hz))
-               for s in src]
+               for s in scene.sources]
     patterns = receiver_patterns(scene)
     receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
                                  scene.receivers.radius_m, patterns)
@@ -204,15 +209,17 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         # that starts at ray 0 computes and stores them once (docs/early-sound.md).
         found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
                                       settings)
-        arrivals = early_sound.arrival_table(found)
+        arrivals = _stacked_arrivals(early_sound.arrival_table(found), runs,
+                                     scene.receivers.count)
         early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
     memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s))
     if log:
         log(memory.describe())
-    out = _trace_tiles(scene, geometry_args=(acoustics, sources), base=base, memory=memory,
+    out = _trace_tiles(scene, geometry_args=(acoustics, sources), runs=runs, base=base,
+                       memory=memory,
                        early=early, callback=callback, split=split,
                        keep_counts=options.ray_range is not None,
-                       reduce=reduction(options, scene.settings.sample_rate_hz))
+                       reduce=(*reduction(options, scene.settings.sample_rate_hz), groups))
     seconds = time.perf_counter() - started
     stats = dict(out["stats"])
     stats.update(seconds=seconds, rays_per_second=stats["rays"] / seconds if seconds > 0 else None,
@@ -236,8 +243,10 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "late_bin_s": options.late_bin_s, "storage": options.storage,
         "compact_arrivals": options.compact_arrivals,
         "compact_envelope_s": options.compact_envelope_s,
-        "stored_late_bin_s": stored_late_s, "early_s": early_s, "azimuth_bands": options.azimuth_bands,
+        "stored_late_bin_s": stored_late_s, "compact_late_groups": groups, "early_s": early_s,
+        "azimuth_bands": options.azimuth_bands,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
+        "source_names": None if runs == [None] else [scene.sources[k].name for k in picked],
         "bands": scene.settings.bands,
         "speech": None if scene.speech is None else scene.speech.as_dict(),
         "receiver_channels": channels_record(scene),
@@ -253,7 +262,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                 "pressure_kpa": scene.settings.air.pressure_kpa},
     }
     field = SoundField(
-        energy=energy, bin_start_s=out["bin_start_s"], bin_width_s=out["bin_width_s"],
+        energy=np.zeros((0,), np.float32), bin_start_s=out["bin_start_s"], bin_width_s=out["bin_width_s"],
         bands_hz=np.asarray(scene.settings.bands_hz, float),
         positions_m=np.asarray(scene.receivers.positions_m, float), radius_m=scene.receivers.radius_m,
         grid_index=scene.receivers.grid_index, grid_spacing_m=scene.receivers.spacing_m,
@@ -262,6 +271,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         settings=record, stats=stats, scene_name=scene.name, scene_origin=scene.origin,
         counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene),
         early=arrivals)
+    field = with_source_energy(field, energy)
     return add_waves(scene, options, field, progress=progress, log=log) if options.waves else field
 
 
@@ -354,6 +364,24 @@ def stored_axis(scene: Scene, options: SoundOptions,
     return early_s, split * options.late_bin_s, split
 
 
+def late_groups(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray],
+                stored_late_s: float) -> list[int] | None:
+    """A compact field's late bins per band: band b's stored bins summed in groups of
+    floor(T60_b / LATE_BINS_PER_T60 / stored width) (at most MAX_COMPACT_LATE_BIN_S wide), so
+    that every band's late bin spans the same decay, 60 dB / LATE_BINS_PER_T60 (0.6 dB), as the
+    shortest T60's does (T60_b: Sabine's, air included). None for full storage, a given
+    ``compact_late_bin_s``, or when no band's bins would widen."""
+    if options.storage == "full" or options.compact_late_bin_s != "auto":
+        return None
+    t60 = sabine_t60(scene.volume_m3, _absorption_area(scene, arrays["absorption"]),
+                     arrays["air"], scene.settings.speed_of_sound_m_s)
+    if not np.all(np.isfinite(t60)):
+        return None
+    width = np.minimum(np.asarray(t60, float) / LATE_BINS_PER_T60, MAX_COMPACT_LATE_BIN_S)
+    groups = [max(1, math.floor(w / stored_late_s + 1e-9)) for w in width]
+    return groups if max(groups) > 1 else None
+
+
 def field_shape(scene: Scene, options: SoundOptions, max_time_s: float,
                 arrays: dict[str, np.ndarray]) -> sound_budget.FieldShape:
     """The bake's field, as the core lays it out (``SoundSettings::layout``)."""
@@ -379,29 +407,41 @@ def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
         sample_rate_hz=float(scene.settings.sample_rate_hz),
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s, volume_m3=scene.volume_m3,
         area_m2=scene.area_m2, radius_m=scene.receivers.radius_m)
+    fields = 1 if options.waves else len(traced_sources(scene, options))
+    if fields > 1:  # each source's field holds its own crossings only
+        cells = sound_budget.early_cells_estimate(
+            shape, rays=traced, sources=1, estimator=options.estimator,
+            sample_rate_hz=float(scene.settings.sample_rate_hz),
+            speed_of_sound_m_s=scene.settings.speed_of_sound_m_s, volume_m3=scene.volume_m3,
+            area_m2=scene.area_m2, radius_m=scene.receivers.radius_m)
     partial = options.ray_range is not None and tuple(options.ray_range) != (0, options.rays)
     return sound_budget.plan(shape, options.memory_bytes or budget_bytes(), compact=compact,
                              keep_counts=options.ray_range is not None, early_cells=cells,
+                             fields=fields,
                              reduced=None if partial else
                              reduction(options, scene.settings.sample_rate_hz))
 
 
-def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str, Any],
-                 memory: sound_budget.MemoryPlan, early: Any, callback: Any, split: int,
-                 keep_counts: bool, reduce: tuple[int, int]) -> dict[str, Any]:
+def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], runs: list[int | None],
+                 base: dict[str, Any], memory: sound_budget.MemoryPlan, early: Any,
+                 callback: Any, split: int, keep_counts: bool,
+                 reduce: tuple[int, int]) -> dict[str, Any]:
     """Traces the receivers tile by tile (each tile every ray: the same bits as all at once),
-    keeping each tile's field compact, its stored late bins shown ``split`` to a bin (or
-    dense for ``storage="full"``). The time axis returned is the one shown."""
+    and in each tile the sources of ``runs`` one by one (None: all sources together), on the
+    one geometry (its BVH built once). Each tile's field is kept compact, its stored late bins
+    shown ``split`` to a bin (or dense for ``storage="full"``). The fields of the runs come
+    back one after the other along the receiver axis; the time axis returned is the one shown."""
     compact = memory.compact
     partial = (base["first_ray"], base["end_ray"]) != (0, base["rays"])
     acoustics, sources = geometry_args
     positions = np.ascontiguousarray(scene.receivers.positions_m, float)
     patterns = receiver_patterns(scene)
     n, size = positions.shape[0], memory.tile_receivers
-    tiles = memory.tiles
-    energies: list[Any] = []
-    counts: list[Any] = []
+    steps = memory.tiles * len(runs)
+    energies: list[list[Any]] = [[] for _ in runs]
+    counts: list[list[Any]] = [[] for _ in runs]
     out: dict[str, Any] = {}
+    stats: dict[str, Any] | None = None
     deposits = 0
     t0 = time.perf_counter()
     for k, lo in enumerate(range(0, n, size)):
@@ -409,29 +449,37 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str
         receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
                                      scene.receivers.radius_m,
                                      None if patterns is None else patterns[lo:hi])
-        settings = engine.SoundSettings(**dict(base, first_receiver=lo))
-        progress = None if callback is None else _tile_progress(callback, k, tiles, t0)
-        out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings,
-                                 progress, early)
-        deposits += int(out["stats"]["deposits"])
-        early_bins = int(out["early_bins"])
-        energy = out.pop("energy")
-        if compact:
-            # A part of a bake keeps every early cell (parts add up exactly); a whole bake
-            # keeps its strongest early arrivals and an envelope of the rest.
-            energy = CompactArray.of(energy, early_bins, split)
-            energy = energy if partial else energy.reduce(*reduce)
-        energies.append(energy)
-        if keep_counts:
-            counts.append(CompactArray.of(out.pop("counts"), early_bins, split) if compact
-                          else out.pop("counts"))
+        for j, only in enumerate(runs):
+            settings = engine.SoundSettings(**dict(base, first_receiver=lo, only_source=only))
+            step = k * len(runs) + j
+            progress = None if callback is None else _tile_progress(callback, step, steps, t0)
+            out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings,
+                                     progress, early)
+            deposits += int(out["stats"]["deposits"])
+            if k == 0:  # every tile retraces the same rays: the first tile's are the bake's
+                stats = out["stats"] if stats is None else combine_stats(stats, out["stats"])
+            early_bins = int(out["early_bins"])
+            energy = out.pop("energy")
+            if compact:
+                # A part of a bake keeps every early cell (parts add up exactly); a whole bake
+                # keeps its strongest early arrivals and an envelope of the rest.
+                energy = CompactArray.of(energy, early_bins, split)
+                energy = energy if partial else energy.reduce(*reduce)
+            energies[j].append(energy)
+            if keep_counts:
+                counts[j].append(CompactArray.of(out.pop("counts"), early_bins, split)
+                                 if compact else out.pop("counts"))
+            if out["cancelled"] or out["saturated"]:
+                break
         if out["cancelled"] or out["saturated"]:
             break
     join = CompactArray.concatenate if compact else np.concatenate
-    out["energy"] = energies[0] if len(energies) == 1 else join(energies)
+    pieces = [e for per in energies for e in per]
+    out["energy"] = pieces[0] if len(pieces) == 1 else join(pieces)
     if keep_counts:
-        out["counts"] = counts[0] if len(counts) == 1 else join(counts)
-    out["stats"] = dict(out["stats"], deposits=deposits)
+        pieces = [c for per in counts for c in per]
+        out["counts"] = pieces[0] if len(pieces) == 1 else join(pieces)
+    out["stats"] = dict(stats or out["stats"], deposits=deposits)
     if split > 1:
         eb = int(out["early_bins"])
         start, width = np.asarray(out["bin_start_s"]), np.asarray(out["bin_width_s"])
@@ -440,6 +488,39 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], base: dict[str
         late0 = float(start[eb]) if n_late else 0.0
         out["bin_start_s"] = np.concatenate([start[:eb], late0 + fine * np.arange(n_late)])
         out["bin_width_s"] = np.concatenate([width[:eb], np.full(n_late, fine)])
+    return out
+
+
+def traced_sources(scene: Scene, options: SoundOptions) -> list[int]:
+    """The indices of the scene's sources the bake traces: ``options.sources`` by name (in the
+    scene's order), or all; an unknown name is an error naming the scene's sources."""
+    names = [s.name for s in scene.sources]
+    if options.sources is None:
+        return list(range(len(names)))
+    unknown = [n for n in options.sources if n not in names]
+    if unknown:
+        raise SonoluxError(f"sources: {', '.join(map(repr, unknown))} not in {scene.origin}; "
+                           f"its sources are {', '.join(names)}")
+    if options.waves and len(options.sources) < len(names):
+        raise SonoluxError("sources: a bake with waves bakes every source of the scene "
+                           "together (the wave solver does not bake sources apart yet)")
+    return [k for k, n in enumerate(names) if n in options.sources]
+
+
+def _stacked_arrivals(arrivals: dict[str, np.ndarray], runs: list[int | None],
+                      n_receivers: int) -> dict[str, np.ndarray]:
+    """A hybrid's early arrivals of the traced sources, each run's receivers offset as the
+    fields are stacked (run j's receiver r is row j × n_receivers + r) and its ``source`` the
+    run's index (into the field's ``source_names``)."""
+    if runs == [None]:
+        return arrivals
+    source = np.asarray(arrivals["source"])
+    keep = np.isin(source, [k for k in runs if k is not None])
+    out = {k: np.asarray(v)[keep] for k, v in arrivals.items()}
+    slot = {k: j for j, k in enumerate(runs)}
+    run = np.array([slot[int(k)] for k in out["source"]], dtype=np.int64)
+    out["source"] = run.astype(source.dtype)  # the index into the field's source_names
+    out["receiver"] = out["receiver"] + (n_receivers * run).astype(out["receiver"].dtype)
     return out
 
 

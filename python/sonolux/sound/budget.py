@@ -60,6 +60,7 @@ class MemoryPlan:
     tile_receivers: int
     tile_bytes: int
     compact: bool
+    fields: int = 1
 
     @property
     def tiles(self) -> int:
@@ -74,7 +75,8 @@ class MemoryPlan:
         passes = "one pass over the rays" if self.tiles == 1 else \
             f"{self.tiles} tiles of {self.tile_receivers:,} receivers (one pass over the rays each)"
         return (f"memory: about {gb(self.total_bytes)} of a {gb(self.budget_bytes)} budget: "
-                f"{gb(self.kept_bytes)} for the {'compact' if self.compact else 'full'} field of "
+                f"{gb(self.kept_bytes)} for the {'compact' if self.compact else 'full'} field"
+                f"{f's of {self.fields} sources' if self.fields > 1 else ''} of "
                 f"{s.receivers:,} receivers, {gb(self.tile_bytes)} while tracing; {passes}")
 
 
@@ -98,12 +100,15 @@ def flag_size(n: float) -> str:
 
 
 def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bool,
-         early_cells: int, reduced: tuple[int, int] | None = None) -> MemoryPlan:
+         early_cells: int, reduced: tuple[int, int] | None = None,
+         fields: int = 1) -> MemoryPlan:
     """The tile size that fits ``budget_bytes``, or :class:`MemoryLimitError` saying what would
     fit. Kept per receiver: float32 energies (and u64 counts for a ray range) of the late part
     and of the early part: dense when full; when compact its non-zero cells (each with a u32
     index), or, ``reduced`` = (arrivals, samples per envelope bin) for a whole bake, its
-    envelope and the cells of its strongest arrivals (twice as many, for the onset's)."""
+    envelope and the cells of its strongest arrivals (twice as many, for the onset's).
+    ``fields``: fields kept per receiver (one per source of a bake of several sources, each
+    traced alone: the tracer holds one at a time)."""
     value = 4 + (8 if keep_counts else 0)
     late = shape.directions * shape.bands * shape.late_bins
     early_dense = shape.directions * shape.bands * shape.early_bins
@@ -112,7 +117,7 @@ def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bo
         arrivals, split = reduced
         envelope = shape.directions * shape.bands * -(-shape.early_bins // split) * 4
         early = min(early, envelope + 2 * arrivals * shape.bands * (value + 4) + 16)
-    kept = shape.receivers * (late * value + early)
+    kept = fields * shape.receivers * (late * value + early)
     per_receiver = shape.cells_per_receiver * TRACE_BYTES_PER_CELL
     room = budget_bytes - BASE_BYTES - kept
     tile = min(shape.receivers, room // per_receiver) if room > 0 else 0
@@ -125,4 +130,4 @@ def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bo
             f"rest), more than the budget of {gb(budget_bytes)}: give --memory {flag_size(need * 1.05)} "
             "or more, or fewer receivers, a shorter max_time_s or wider late bins")
     tile = int(tile)
-    return MemoryPlan(shape, budget_bytes, kept, tile, tile * per_receiver, compact)
+    return MemoryPlan(shape, budget_bytes, kept, tile, tile * per_receiver, compact, fields)

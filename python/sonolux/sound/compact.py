@@ -12,8 +12,10 @@ dense and smooth. So :class:`CompactArray` keeps, per receiver,
 - the late part dense: ``late`` [receiver, direction, band, late time].
 
 It reads like the dense array it stands for (``a[r]``, ``a[r, d]``, ``a[sel]`` with a slice or
-an index array, ``shape``, ``dtype``, ``np.asarray(a)``): a receiver is made dense only when
-asked for, so the analysis, synthesis and auralization need not know the field is compact.
+an index array, ``shape``, ``dtype``, ``np.asarray(a)``, and the reductions ``sum``, ``max``,
+``min``, ``mean`` and ``astype`` of :class:`sonolux.sound.lazy.ReceiverWise`): a receiver is
+made dense only when asked for, so the analysis, synthesis and auralization need not know the
+field is compact.
 Nothing is lost: the dense array made from it is bit for bit the array it was made from.
 
 The same layout holds the exact fixed-point counts (uint64) of a ray-range bake, which add up
@@ -29,10 +31,11 @@ from typing import Any
 import numpy as np
 
 from sonolux.errors import SonoluxError
+from sonolux.sound.lazy import ReceiverWise
 
 
 @dataclass
-class CompactArray:
+class CompactArray(ReceiverWise):
     """A [receiver, direction, band, time] array as early non-zero cells + a dense late part."""
 
     early_bins: int
@@ -51,6 +54,12 @@ class CompactArray:
     #: int64[receiver]: each receiver's onset sample (a reduced array): the envelope is spread
     #: over samples from it on only, so that nothing seems to arrive before the direct sound.
     onset: np.ndarray | None = None
+    #: int64[band]: stored late bins summed per group in each band (a reduced array,
+    #: :meth:`reduce`): band b's late part is held as groups of ``late_groups[b]`` stored bins,
+    #: each group's sum in its first bin and zeros in the others (which the file's gzip takes
+    #: to almost nothing), shown spread over the group as its neighbours' decay says (the
+    #: stored bins past the last whole group are kept as they are); None: no groups.
+    late_groups: np.ndarray | None = None
 
     # --- what it stands for ----------------------------------------------------------------
     @property
@@ -63,26 +72,11 @@ class CompactArray:
         return self.late.dtype
 
     @property
-    def ndim(self) -> int:
-        return 4
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self.shape))
-
-    def __len__(self) -> int:
-        return self.shape[0]
-
-    @property
     def nbytes(self) -> int:
         """Bytes held (not the dense array's)."""
         env = 0 if self.envelope is None else self.envelope.nbytes
         return int(self.offset.nbytes + self.cell.nbytes + self.value.nbytes + self.late.nbytes
                    + env)
-
-    @property
-    def dense_bytes(self) -> int:
-        return self.size * self.dtype.itemsize
 
     def receiver(self, k: int) -> np.ndarray:
         """The dense [direction, band, time] block of receiver k."""
@@ -100,8 +94,21 @@ class CompactArray:
         else:
             early[di, bi, ti] = (early[di, bi, ti].astype(np.float64)
                                  + self.value[lo:hi]).astype(self.dtype)
-        out[:, :, self.early_bins:] = self.late[k] if self.late_split == 1 else \
-            spread_late(self.late[k], self.late_split)
+        out[:, :, self.early_bins:] = self._late_view(self.late[k])
+        return out
+
+    def _late_view(self, late: np.ndarray) -> np.ndarray:
+        """[direction, band, stored late bin] -> [direction, band, shown late bin]."""
+        if self.late_groups is None:
+            return late if self.late_split == 1 else spread_late(late, self.late_split)
+        n = late.shape[-1]
+        out = np.empty((*late.shape[:-1], n * self.late_split), late.dtype)
+        for b, m in enumerate(int(g) for g in self.late_groups):
+            whole = n // m * m
+            parts = [spread_late(late[:, b, :whole:m], m * self.late_split)] if whole else []
+            if whole < n:
+                parts.append(spread_late(late[:, b, whole:], self.late_split))
+            out[:, b] = np.concatenate(parts, axis=-1) if len(parts) > 1 else parts[0]
         return out
 
     def _unravel(self, cell: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -140,10 +147,6 @@ class CompactArray:
                 np.zeros((0, *self.shape[1:]), self.dtype)
             rest = (slice(None), *rest) if rest else rest  # the receiver axis is kept
         return out[rest] if rest else out
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        out = self[:]
-        return out if dtype is None else out.astype(dtype)
 
     # --- making and combining -------------------------------------------------------------
     @classmethod
@@ -219,8 +222,12 @@ class CompactArray:
         late = self.late.copy()
         is_late = t >= self.early_bins
         if np.any(is_late):
-            flat = np.ravel_multi_index((r[is_late], d[is_late], b[is_late],
-                                         t[is_late] - self.early_bins), late.shape)
+            tl = t[is_late] - self.early_bins
+            if self.late_groups is not None:  # a grouped band holds a group's sum in its first
+                m = np.asarray(self.late_groups, np.int64)[b[is_late]]
+                whole = late.shape[-1] // m * m
+                tl = np.where(tl < whole, tl // m * m, tl)
+            flat = np.ravel_multi_index((r[is_late], d[is_late], b[is_late], tl), late.shape)
             unique, slot = np.unique(flat, return_inverse=True)
             sums = np.zeros(unique.size, np.float64)
             np.add.at(sums, slot, v[is_late])
@@ -261,7 +268,8 @@ class CompactArray:
                        envelope=None if self.envelope is None else self.envelope[receivers],
                        onset=None if self.onset is None else self.onset[receivers])
 
-    def reduce(self, arrivals: int, envelope_split: int) -> CompactArray:
+    def reduce(self, arrivals: int, envelope_split: int,
+               late_groups: Any = None) -> CompactArray:
         """The early part as the ``arrivals`` strongest (direction, sample) arrivals of each
         receiver, exact in every band (with every cell up to its onset and at its peak), and
         the rest of it as an envelope of bins
@@ -269,6 +277,8 @@ class CompactArray:
         bin keeps its energy's sum, so energies over windows of whole envelope bins (and the
         total) are unchanged; the arrivals keep the exact times and directions of the
         strongest reflections. Ties are broken by the arrival's index: the same bits every time.
+        ``late_groups`` (int[band] or None): the late part of band b summed in groups of that
+        many stored bins (see the attribute).
         """
         if self.envelope is not None:
             raise SonoluxError("this field is reduced already")
@@ -297,14 +307,73 @@ class CompactArray:
         peak = np.argmax(omni, axis=1)
         onset = np.argmax(omni >= 0.01 * omni[np.arange(n_r), peak][:, None], axis=1)
         keep |= (t <= onset[rows]) | (t == peak[rows])
+        keep |= self._crossing_bins(rows, b, t, onset, envelope_split)
         envelope = np.zeros((n_r, n_d, n_b, n_env), np.float64)
         np.add.at(envelope, (rows[~keep], d[~keep], b[~keep], t[~keep] // envelope_split),
                   self.value[~keep].astype(np.float64))
         offset = np.zeros(n_r + 1, np.int64)
         np.cumsum(np.bincount(rows[keep], minlength=n_r), out=offset[1:])
+        late, groups = self.late, None
+        if late_groups is not None and np.any(np.asarray(late_groups) > 1):
+            groups = np.asarray(late_groups, np.int64)
+            late = grouped(self.late, groups)
         return replace(self, offset=offset, cell=self.cell[keep], value=self.value[keep],
                        envelope=envelope.astype(self.dtype), envelope_split=envelope_split,
-                       onset=onset.astype(np.int64))
+                       onset=onset.astype(np.int64), late=late, late_groups=groups)
+
+
+    def _crossing_bins(self, rows: np.ndarray, band: np.ndarray, t: np.ndarray,
+                       onset: np.ndarray, split: int) -> np.ndarray:
+        """bool[cell]: the early cells in the envelope bins where a band's decay curve (the
+        backward integral from the receiver's onset, ISO 3382-1 5.3.3, all directions) falls
+        through the levels that start or end a decay fit: -5 dB (T20, T30) and -10 dB (EDT).
+
+        Near a source the curve falls in steps: the direct sound, then single reflections with
+        gaps between them, so where it crosses -10 dB is a sample that a reflection sets.
+        Spread evenly over its envelope bin, that reflection's energy would move the crossing
+        to the bin's start (paper-large, 8 kHz, a receiver 1 m from the source: EDT 0.645 →
+        0.637 s, 1.2 %). Kept exact, every bin before it and the late part keep their sums,
+        so the curve is exact through that bin and crosses at the same sample."""
+        n_r, _, n_b, _ = self.shape
+        v = self.value.astype(np.float64)
+        group = rows * n_b + band
+        late = self.late.sum(axis=(1, 3), dtype=np.float64).reshape(-1)  # [receiver × band]
+        after_onset = t >= onset[rows]
+        start = late + np.bincount(group[after_onset], v[after_onset], n_r * n_b)
+        # Energy from each cell's sample on (cells of one sample in any order: one bin).
+        order = np.lexsort((t, group))
+        g, vo = group[order], v[order]
+        total = np.bincount(g, vo, n_r * n_b)
+        before = np.cumsum(vo) - vo
+        first = np.searchsorted(g, np.arange(n_r * n_b))
+        before -= np.concatenate([[0.0], np.cumsum(vo)])[first][g]
+        from_here = late[g] + total[g] - before
+        after = from_here - vo
+        cross = np.zeros(g.size, bool)
+        for level_db in (-5.0, -10.0):
+            limit = start[g] * 10.0 ** (level_db / 10.0)
+            cross |= (from_here > limit) & (after <= limit) & after_onset[order]
+        # The envelope bins holding a crossing, per (receiver, band).
+        binned = group * np.int64(-(-self.early_bins // split)) + t // split
+        held = np.unique(binned[order][cross])
+        return np.isin(binned, held)
+
+
+def grouped(late: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """[receiver, direction, band, stored bin] with band b's bins summed in groups of
+    ``groups[b]`` (float64 sums rounded once), each sum in its group's first bin, zeros in the
+    others; the bins past the last whole group as they were."""
+    out = np.array(late, copy=True)
+    n = late.shape[-1]
+    for b, m in enumerate(int(g) for g in groups):
+        whole = n // m * m
+        if m <= 1 or whole == 0:
+            continue
+        block = late[:, :, b, :whole].astype(np.float64)
+        sums = block.reshape(*block.shape[:-1], whole // m, m).sum(-1)
+        out[:, :, b, :whole] = 0
+        out[:, :, b, :whole:m] = sums.astype(late.dtype)
+    return out
 
 
 def is_compact(array: Any) -> bool:
@@ -386,4 +455,5 @@ def reduced(energy: Any, settings: dict[str, Any]) -> Any:
     if not isinstance(energy, CompactArray) or energy.envelope is not None:
         return energy
     split = max(1, round(float(settings["compact_envelope_s"]) * float(settings["sample_rate_hz"])))
-    return energy.reduce(int(settings["compact_arrivals"]), split)
+    return energy.reduce(int(settings["compact_arrivals"]), split,
+                         settings.get("compact_late_groups"))

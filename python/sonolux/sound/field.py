@@ -14,11 +14,17 @@ Axes and units (the same in memory, from the engine and in the file, see
   seen from above (the third of eight, centred on +90°, is "left"), times ``elevation_bands``
   bands of equal solid angle from below to above: index = elevation × azimuth_bands + azimuth.
 - receivers: ``positions_m`` float64[receiver, 3]; a grid also has ``grid_index`` int[receiver, 2].
+- sources: a bake of several sources keeps a field per source (``source_names``,
+  :meth:`SoundField.for_source`, :meth:`SoundField.mixed`); ``energy`` is then their sum, made
+  one receiver at a time, and ``per_source`` the sources' fields one after the other along the
+  receiver axis, [source × receiver, direction, band, time] (source k's receivers are rows
+  k × n_receivers … (k + 1) × n_receivers - 1; so are ``counts`` and the ``receiver`` of
+  ``early``). A field of one source, or of a file from before, has ``per_source`` None.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -27,6 +33,7 @@ from sonolux.acoustics.bands import BandSet, band_set_of
 from sonolux.errors import SonoluxError, check_number
 from sonolux.limits import MAX_SEED
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
+from sonolux.sound.lazy import SourceMix
 
 EIGHT_NAMES = ("front", "front-left", "left", "back-left", "back", "back-right", "right",
                "front-right")
@@ -98,6 +105,9 @@ class SoundField:
     #: ``wave_bands`` (bands [0, wave_bands) of ``energy`` came from the waves),
     #: ``max_frequency_hz``, ``schroeder_hz``; None for rays only.
     waves: dict[str, Any] | None = field(default=None, repr=False)
+    #: A bake of several sources: each source's energy, stacked along the receiver axis
+    #: ([source × receiver, direction, band, time], dense or compact); None for one source.
+    per_source: Any = field(default=None, repr=False)
 
     # --- shape -------------------------------------------------------------------------------
     @property
@@ -223,6 +233,86 @@ class SoundField:
                                        self.bin_start_s, self.bin_width_s, self.sample_rate_hz,
                                        length) for d in range(self.energy.shape[1])])
 
+    # --- sources -----------------------------------------------------------------------------
+    @property
+    def source_names(self) -> list[str]:
+        """The names of the sources whose fields this one holds, in order: the scene's source
+        names, or ["all"] for a field of every source summed (files from before fields per
+        source, a mix made by :meth:`mixed` is ["mix"])."""
+        names = self.settings.get("source_names")
+        return [str(n) for n in names] if names else ["all"]
+
+    def source_index(self, source: str | int) -> int:
+        """The index of a source given by name or index; an unknown one is an error that
+        names the sources there are."""
+        names = self.source_names
+        if isinstance(source, (int, np.integer)) and not isinstance(source, bool):
+            if 0 <= source < len(names):
+                return int(source)
+        elif isinstance(source, str):
+            if source in names:
+                return names.index(source)
+            if source.isdigit() and int(source) < len(names) and source not in names:
+                return int(source)
+        raise SonoluxError(f"source {source!r} is not in this field: its sources are "
+                           + ", ".join(f"{k} = {n!r}" for k, n in enumerate(names)))
+
+    def source_energies(self) -> list[Any]:
+        """Each source's energy [receiver, direction, band, time], in ``source_names`` order."""
+        if self.per_source is None:
+            return [self.energy]
+        return [source_rows(self.per_source, k, self.n_receivers) for k in range(len(self.source_names))]
+
+    def for_source(self, source: str | int) -> SoundField:
+        """The field of one source alone (by name or index): bit for bit what a bake of that
+        source alone (``SoundOptions(sources=[name])``) gives."""
+        k = self.source_index(source)
+        if self.per_source is None:
+            return self
+        n = self.n_receivers
+        early = None
+        if self.early is not None:
+            keep = np.asarray(self.early["source"]) == k
+            early = {key: np.asarray(v)[keep] for key, v in self.early.items()}
+            early["receiver"] = early["receiver"] - k * n
+            early["source"] = np.zeros_like(early["source"])  # its field's one source
+        settings = dict(self.settings, source_names=[self.source_names[k]])
+        for key in ("source_directivity", "source_axis_gain"):  # per source, as source_names
+            per = self.settings.get(key)
+            if isinstance(per, list) and len(per) == len(self.source_names):
+                settings[key] = [per[k]]
+        return SoundField(**{**self.__dict__, "energy": source_rows(self.per_source, k, self.n_receivers),
+                             "counts": None if self.counts is None
+                             else source_rows(self.counts, k, n),
+                             "per_source": None, "early": early, "settings": settings,
+                             "source_positions_m": self.source_positions_m[k:k + 1],
+                             "source_powers_w": self.source_powers_w[k:k + 1], "path": None})
+
+    def mixed(self, gains: Any) -> SoundField:
+        """The field of the sources played together, each scaled by an energy gain (a power
+        ratio: 1 as baked, 0.5 for -3 dB, 0 off): ``gains`` is one number per source in
+        ``source_names`` order, or a mapping {name: gain} (sources left out: 0). The result
+        has one source, "mix"; its energy is made one receiver at a time."""
+        names = self.source_names
+        if isinstance(gains, dict):
+            values = [0.0] * len(names)
+            for name, g in gains.items():
+                values[self.source_index(name)] = g
+        else:
+            values = list(np.atleast_1d(np.asarray(gains, dtype=object)))
+            if len(values) != len(names):
+                raise SonoluxError(f"gains: {len(values)} given for {len(names)} sources "
+                                   f"({', '.join(names)})")
+        g = [check_number(f"gain of source {names[k]!r}", v, 0.0, 1e12)
+             for k, v in enumerate(values)]
+        settings = dict(self.settings, source_names=["mix"],
+                        mix={n: float(v) for n, v in zip(names, g)})
+        powers = self.source_powers_w * np.asarray(g) if self.source_powers_w.size == len(g) \
+            else self.source_powers_w
+        return SoundField(**{**self.__dict__, "energy": SourceMix(self.source_energies(), g),
+                             "counts": None, "per_source": None, "early": None,
+                             "settings": settings, "source_powers_w": powers, "path": None})
+
     # --- ranges ------------------------------------------------------------------------------
     def merge(self, other: SoundField) -> SoundField:
         """Adds the field of another ray range of the same bake: exact (integer counts), so
@@ -262,6 +352,29 @@ class SoundField:
             energy = reduced(energy, self.settings)
         if early is not None:
             energy = add_arrivals(energy, early)
-        return SoundField(**{**self.__dict__, "energy": energy,
-                             "counts": counts, "stats": stats, "settings": settings, "path": None,
-                             "early": early})
+        return with_source_energy(
+            SoundField(**{**self.__dict__, "counts": counts, "stats": stats,
+                          "settings": settings, "path": None, "early": early}), energy)
+
+
+def with_source_energy(field: SoundField, stacked: Any) -> SoundField:
+    """``field`` with its energy from ``stacked``: the sources' fields one after the other
+    along the receiver axis (one source: the field's energy itself). Several sources keep it as
+    ``per_source`` and show their sum as ``energy``."""
+    n_sources = len(field.settings.get("source_names") or ["all"])
+    if n_sources == 1:
+        return replace(field, energy=stacked, per_source=None)
+    n = stacked.shape[0] // n_sources
+    if n * n_sources != stacked.shape[0]:
+        raise SonoluxError(f"a field of {n_sources} sources has {stacked.shape[0]} rows, not a "
+                           "multiple of them")
+    parts = [source_rows(stacked, k, n) for k in range(n_sources)]
+    return replace(field, energy=SourceMix(parts, [1.0] * n_sources), per_source=stacked)
+
+
+def source_rows(array: Any, k: int, n_receivers: int) -> Any:
+    """Source k's rows of an array stacked per source (dense: a view)."""
+    n = n_receivers
+    if isinstance(array, CompactArray):
+        return array.select(np.arange(k * n, (k + 1) * n))
+    return array[k * n:(k + 1) * n]

@@ -22,6 +22,7 @@ def info(field: SoundField) -> dict[str, Any]:
     return {
         "scene": field.scene_name, "origin": field.scene_origin, "path": field.path,
         "receivers": field.n_receivers, "radius_m": field.radius_m,
+        "sources": field.source_names, "mix": se.get("mix"),
         "directions": field.direction_names, "bands_hz": field.bands_hz.tolist(),
         "bands": None if field.band_set is None else field.band_set.kind,
         "duration_s": float(field.bin_start_s[-1] + field.bin_width_s[-1]) if field.bin_start_s.size else 0.0,
@@ -35,6 +36,20 @@ def info(field: SoundField) -> dict[str, Any]:
     }
 
 
+def _sources_line(field: SoundField) -> str:
+    names = field.source_names
+    mix = field.settings.get("mix")
+    if mix:
+        return "a mix: " + ", ".join(f"{n} {10 * np.log10(g):+.1f} dB" for n, g in mix.items()
+                                     if g > 0)
+    if names == ["all"]:
+        return f"{field.source_positions_m.shape[0]}, one field of their sum"
+    if len(names) == 1:
+        return f"{names[0]}"
+    return (f"{len(names)}, a field each: " + ", ".join(f"{k} = {n}" for k, n in enumerate(names))
+            + " (pick one with --source NAME, mix with --source NAME=DB ...)")
+
+
 def format_info(field: SoundField, path: str | Path | None = None) -> str:
     d = info(field)
     st, se = field.stats, field.settings
@@ -46,6 +61,7 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
     lines = [
         f"sound field of {d['scene']}" + (f"  ({path})" if path else ""),
         f"  receivers   {d['receivers']}, spheres of radius {d['radius_m']:g} m",
+        f"  sources     {_sources_line(field)}",
         f"  directions  {len(d['directions'])}: {', '.join(d['directions'])}",
         f"  bands       {', '.join(f'{b:g}' for b in d['bands_hz'])} Hz"
         + (f" ({len(d['bands_hz'])} {d['bands']}s)" if d["bands"] else ""),

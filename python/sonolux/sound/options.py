@@ -58,6 +58,9 @@ class SoundOptions:
     crossover_hz: where the waves hand over to the rays (snapped to the nearest band edge);
         None = automatic, from the room's Schroeder frequency and the grid's budget.
     wave_time_budget_s: the planned wave run time the automatic crossover may spend.
+    sources: the names of the scene's sources to bake (None: all). Each source is traced
+        alone and keeps its own field (docs/fieldfile.md); a bake of some of them gives each
+        the bits it has in a bake of all.
     """
 
     rays: int | str = "auto"
@@ -78,6 +81,7 @@ class SoundOptions:
     waves: bool = False
     crossover_hz: float | None = None
     wave_time_budget_s: float = 600.0
+    sources: tuple[str, ...] | None = None
 
     def validate(self) -> SoundOptions:
         """Every option checked by :func:`sonolux.errors.check_number` (the test shared with
@@ -103,6 +107,11 @@ class SoundOptions:
                 raise bad("ray_range", self.ray_range, "(first, end) with 0 ≤ first < end")
         check_number("sound option max_field_bytes", self.max_field_bytes, 1, none_ok=True,
                      integer=True)
+        if self.sources is not None and not (
+                isinstance(self.sources, (tuple, list)) and self.sources
+                and all(isinstance(n, str) and n for n in self.sources)
+                and len(set(self.sources)) == len(self.sources)):
+            raise bad("sources", self.sources, "a list of distinct source names of the scene")
         if self.storage not in STORAGES:
             raise bad("storage", self.storage, " or ".join(STORAGES))
         if self.compact_late_bin_s != "auto":

@@ -27,12 +27,11 @@ from sonolux.sound.bake import add_waves, ray_count
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
-from sonolux.sound.field import SoundField
+from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.stats import combine_stats
 from sonolux.version import __version__
 
-#: Statistics that add up over ranges; ``energy_*`` arrays add up too.
-SUMMED_STATS = ("rays", "segments", "surface_hits", "escaped_rays", "deposits", "seconds")
 #: The SoundField arrays a sum carries besides the counts (small: bins, bands, points).
 SMALL_ARRAYS = ("bin_start_s", "bin_width_s", "bands_hz", "positions_m", "source_positions_m",
                 "source_powers_w")
@@ -50,7 +49,8 @@ class SoundSum:
     def of(cls, field: SoundField) -> SoundSum:
         if field.counts is None:
             raise SonoluxError("a sound field without counts cannot be summed (bake a ray range)")
-        template = replace(field, energy=np.zeros((0,), np.float32), counts=None, path=None)
+        template = replace(field, energy=np.zeros((0,), np.float32), counts=None, path=None,
+                           per_source=None)
         counts = field.counts if isinstance(field.counts, CompactArray) else \
             np.ascontiguousarray(field.counts, np.uint64)
         return cls(counts, dict(field.stats), template)
@@ -67,27 +67,6 @@ class SoundSum:
         self.counts = add_counts(self.counts, other.counts)
         self.stats = combine_stats(self.stats, other.stats)
         return self
-
-
-def combine_stats(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
-    """The statistics of two ranges together: counts and energies add, the maximum of the
-    reflections is kept, the mean free path is weighted by the surface hits."""
-    out = dict(a)
-    for k, v in a.items():
-        if k in SUMMED_STATS or k.startswith("energy_"):
-            out[k] = np.add(v, b.get(k, 0)).tolist() if isinstance(v, (list, np.ndarray)) \
-                else v + b.get(k, 0)
-    out["max_reflections"] = max(a.get("max_reflections", 0), b.get("max_reflections", 0))
-    wa, wb = a.get("surface_hits", 0), b.get("surface_hits", 0)
-    for k in ("mean_free_path_m", "free_path_relative_variance"):
-        if k in a and k in b and wa + wb > 0:
-            out[k] = (a[k] * wa + b[k] * wb) / (wa + wb)
-    if "early" not in out and "early" in b:
-        out["early"] = b["early"]
-    out["escapes"] = (list(a.get("escapes", [])) + list(b.get("escapes", [])))[:20]
-    out["saturated"] = bool(a.get("saturated")) or bool(b.get("saturated"))
-    out["cancelled"] = bool(a.get("cancelled")) or bool(b.get("cancelled"))
-    return out
 
 
 class SoundRanges:
@@ -220,8 +199,8 @@ def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
         energy = reduced(energy, t.settings)
         if t.early is not None:  # the exact early arrivals of a hybrid, as a whole bake has
             energy = add_arrivals(energy, t.early)
-    return replace(t, energy=energy,
-                   counts=None if whole else total.counts, settings=settings, stats=stats)
+    return with_source_energy(replace(t, counts=None if whole else total.counts,
+                                      settings=settings, stats=stats), energy)
 
 
 def _jsonable(value: Any) -> Any:

@@ -141,6 +141,11 @@ pub struct SoundSettings {
     /// whole bake, so every tile gives its receivers the bits of the whole bake. 0 for a run of
     /// every receiver.
     pub first_receiver: u64,
+    /// Trace this source alone (its index in the sources given), or every source (None). The
+    /// other sources still set the fixed-point quantum and the sources' keys stay their indices,
+    /// so the field of each source traced alone is, bit for bit, its share of a bake that
+    /// traces them one by one (a field per source, docs/fieldfile.md).
+    pub only_source: Option<usize>,
     /// Worker threads, 0 = all cores, at most [`MAX_THREADS`]. Does not change the result.
     pub threads: usize,
     pub estimator: Estimator,
@@ -373,6 +378,11 @@ pub fn trace_sound_hybrid(
     if sources.is_empty() {
         return Err(CoreError::invalid("sources", "a sound bake needs at least one source"));
     }
+    if let Some(k) = settings.only_source {
+        if k >= sources.len() {
+            return Err(CoreError::invalid("only_source", format!("source {k} asked for, but there are {} sources", sources.len())));
+        }
+    }
     for (i, s) in sources.iter().enumerate() {
         if !(s.position.is_finite() && s.power_w > 0.0 && s.power_w.is_finite()) {
             return Err(CoreError::invalid("sources", format!("source {i}: position must be finite and power positive")));
@@ -416,7 +426,7 @@ pub fn trace_sound_hybrid(
         settings.threads,
         || trace::Worker::new(nb, receivers.len()),
         |worker, range| {
-            for s in 0..sources.len() {
+            for s in (0..sources.len()).filter(|&s| settings.only_source.is_none_or(|k| k == s)) {
                 for i in range.clone() {
                     trace::trace_ray(&scene, s, settings.first_ray + i, &field, worker);
                 }

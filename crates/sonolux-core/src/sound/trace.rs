@@ -295,6 +295,9 @@ pub(crate) fn direct_sound(scene: &Scene, acc: &Accumulator) {
     let mut receiver_gain = vec![1.0f64; nb];
     let mut buf = Deposits::new();
     for (s, src) in scene.sources.iter().enumerate() {
+        if set.only_source.is_some_and(|k| k != s) {
+            continue;
+        }
         for (r, c) in scene.receivers.centres.iter().enumerate() {
             let receiver_key = set.first_receiver + r as u64;
             let to = *c - src.position;
