@@ -6,7 +6,9 @@ Run with ``make bench`` or ``.venv/bin/python benchmarks/converge.py``. Each bak
 threads with a time cap (``--cap-seconds``, default 300 s); a bake that reaches the cap reports
 the error it reached instead. The estimators are measured one after the other in the same run:
 the ratio of their times (or of their errors at the cap, converted to time by 1/√n) says which
-converges sooner for that scene, and whether the default ("paper") is the right choice there.
+converges sooner for that scene. ``auto`` is then run as a user would: its pilots
+(sonolux.sound.progressive.choose_estimator) pick an estimator and the bake goes on with it; the
+benchmark checks that the pick is the estimator measured fastest, and reports the pilots' cost.
 Results go to benchmarks/results/converge.json.
 """
 
@@ -24,7 +26,7 @@ from sonolux.sound import progressive
 
 HERE = Path(__file__).resolve().parent
 SCENES = {"paper-medium": "paper-medium", "l-room": str(HERE.parent / "examples/l-room/l-room.toml")}
-ESTIMATORS = ("paper", "rain")
+ESTIMATORS = ("paper", "rain", "nee")
 
 
 def log(msg: str) -> None:
@@ -43,7 +45,9 @@ def converge(scene, estimator: str, accuracy: float, cap_s: float) -> dict:
     projected = seconds * max(worst, 1.0) ** 2 if worst == worst else float("inf")
     return {"seconds": seconds, "rays": field.settings["rays"], "stopped": p["stopped"],
             "rounds": len(p["rounds"]), "worst_over_target": worst,
-            "projected_seconds": projected, "errors": p["errors"]}
+            "projected_seconds": projected, "errors": p["errors"],
+            "estimator": field.settings["estimator"],
+            "estimator_choice": field.settings.get("estimator_choice")}
 
 
 def main() -> None:
@@ -66,12 +70,20 @@ def main() -> None:
                 f"(worst SE / target {r['worst_over_target']:.2f}; projected "
                 f"{r['projected_seconds']:.0f} s to converge)")
         fastest = min(ESTIMATORS, key=lambda e: row[e]["projected_seconds"])
-        row["fastest"] = fastest
-        row["default_is_fastest"] = fastest == "paper"
-        row["rain_over_paper_time"] = (row["rain"]["projected_seconds"]
-                                       / row["paper"]["projected_seconds"])
-        log(f"{name}: fastest to converge: {fastest} (rain / paper projected time "
-            f"{row['rain_over_paper_time']:.2f})")
+        log(f"{name}: auto (pilots, then the chosen estimator)")
+        row["auto"] = r = converge(scene, "auto", a.accuracy, a.cap_seconds)
+        choice = r["estimator_choice"]
+        pilots_s = sum(p["seconds"] for p in choice["pilots"].values())
+        log(f"  chose {r['estimator']} after {pilots_s:.1f} s of pilots; {r['stopped']} in "
+            f"{r['seconds']:.1f} s (projected {r['projected_seconds']:.0f} s)")
+        row.update(fastest=fastest, auto_chose=r["estimator"],
+                   auto_is_fastest=r["estimator"] == fastest, pilot_seconds=pilots_s,
+                   time_over_fastest={e: row[e]["projected_seconds"]
+                                      / row[fastest]["projected_seconds"]
+                                      for e in (*ESTIMATORS, "auto")})
+        log(f"{name}: fastest to converge: {fastest}; auto chose {r['estimator']}; projected "
+            "time / fastest: " + ", ".join(f"{e} {v:.2f}"
+                                           for e, v in row["time_over_fastest"].items()))
         results["scenes"][name] = row
     results["machine"] = machine_and_load(busy_start, other_cpu_use())
     write_json(a.out, results)

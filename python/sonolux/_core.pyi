@@ -129,6 +129,7 @@ class SoundSettings:
         max_field_bytes: int,
         keep_counts: bool = False,
         first_receiver: int = 0,
+        nee_receivers: int = 8,
     ) -> SoundSettings: ...
 
 def trace_sound(
