@@ -25,6 +25,12 @@ How (docs/progressive.md has the derivation and the checks):
 - **JNDs** (ISO 3382-1:2009, Table A.1): EDT 5 % (relative), C80 1 dB. T30 has no entry there;
   the 5 % of reverberation time it gives for EDT is used for T30 too (the difference limen of
   reverberation time, e.g. Vorländer, *Auralization*, 2008, §13.2).
+- **Near the source** (:func:`near_source`): T30 and EDT nearer a source than ISO 3382's
+  d_min = 2 √(V / (c T)) are reported but not waited for: there the decay curve falls through the
+  start of their ranges within the direct sound, the parameter jumps between leave-out estimates
+  and the jackknife (valid for smooth statistics) reports the jump, not an error.
+- **Which estimator** (``estimator = "auto"``, :func:`choose_estimator`): measured by a short
+  pilot of each, not assumed.
 - **The next round.** A standard error falls as 1/√n, so the rays that the worst
   receiver and band need are n · (SE / target)²; the next round goes to 1.1 × that, at least
   1.25 n and at most 4 n (a round is never tiny and never overshoots by more than the

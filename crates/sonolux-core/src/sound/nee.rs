@@ -98,7 +98,8 @@ impl ReceiverTree {
             self.nodes[me as usize].left = ids[0];
             return me;
         }
-        let axis = (hi - lo).max_position();
+        let extent = hi - lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
         let mid = ids.len() / 2;
         // Ties broken by index: the tree does not depend on the sort's algorithm.
         ids.select_nth_unstable_by(mid, |a, b| centres[*a as usize][axis].total_cmp(&centres[*b as usize][axis]).then(a.cmp(b)));
@@ -171,6 +172,7 @@ impl ReceiverTree {
     /// The probability that [`ReceiverTree::sample`] draws `receiver` (for tests).
     pub fn probability(&self, x: DVec3, n: DVec3, receiver_radius: f64, centres: &[DVec3], receiver: u32) -> f64 {
         // Walk every path: small trees only.
+        #[allow(clippy::too_many_arguments)]
         fn walk(t: &ReceiverTree, i: u32, p: f64, x: DVec3, n: DVec3, rr: f64, c: &[DVec3], target: u32) -> f64 {
             let node = &t.nodes[i as usize];
             if node.leaf {
