@@ -50,11 +50,18 @@ def converge(scene, estimator: str, accuracy: float, cap_s: float) -> dict:
             "estimator_choice": field.settings.get("estimator_choice")}
 
 
+def _ratio(a: float, b: float) -> float | None:
+    """a / b, None where either is not finite (a bake that did not converge nor project)."""
+    return a / b if a == a and b == b and a < float("inf") and b < float("inf") and b > 0 else None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--accuracy", type=float, default=0.25)
     ap.add_argument("--cap-seconds", type=float, default=300.0)
     ap.add_argument("--scenes", nargs="*", default=list(SCENES))
+    ap.add_argument("--estimators", nargs="*", default=list(ESTIMATORS),
+                    help="the fixed estimators to measure beside auto")
     ap.add_argument("--out", type=Path, default=HERE / "results" / "converge.json")
     a = ap.parse_args()
     busy_start = other_cpu_use()
@@ -63,27 +70,27 @@ def main() -> None:
         scene = sonolux.load_scene(SCENES[name])
         scene = replace(scene, settings=replace(scene.settings, threads=2))
         row = {}
-        for est in ESTIMATORS:
+        for est in a.estimators:
             log(f"{name}: {est} estimator, until {a.accuracy:g} JND or {a.cap_seconds:g} s")
             row[est] = r = converge(scene, est, a.accuracy, a.cap_seconds)
             log(f"  {r['stopped']} after {r['rays']:,} rays in {r['seconds']:.1f} s "
                 f"(worst SE / target {r['worst_over_target']:.2f}; projected "
                 f"{r['projected_seconds']:.0f} s to converge)")
-        fastest = min(ESTIMATORS, key=lambda e: row[e]["projected_seconds"])
+        fastest = min(a.estimators, key=lambda e: row[e]["projected_seconds"]) \
+            if a.estimators else None
         log(f"{name}: auto (pilots, then the chosen estimator)")
         row["auto"] = r = converge(scene, "auto", a.accuracy, a.cap_seconds)
         choice = r["estimator_choice"]
-        pilots_s = sum(p["seconds"] for p in choice["pilots"].values())
+        pilots_s = sum(p.get("seconds", 0.0) for p in choice["pilots"].values())
         log(f"  chose {r['estimator']} after {pilots_s:.1f} s of pilots; {r['stopped']} in "
             f"{r['seconds']:.1f} s (projected {r['projected_seconds']:.0f} s)")
         row.update(fastest=fastest, auto_chose=r["estimator"],
                    auto_is_fastest=r["estimator"] == fastest, pilot_seconds=pilots_s,
-                   time_over_fastest={e: row[e]["projected_seconds"]
-                                      / row[fastest]["projected_seconds"]
-                                      for e in (*ESTIMATORS, "auto")})
+                   time_over_fastest={e: _ratio(row[e]["projected_seconds"],
+                                                row[fastest]["projected_seconds"])
+                                      for e in (*a.estimators, "auto")} if fastest else {})
         log(f"{name}: fastest to converge: {fastest}; auto chose {r['estimator']}; projected "
-            "time / fastest: " + ", ".join(f"{e} {v:.2f}"
-                                           for e, v in row["time_over_fastest"].items()))
+            "time / fastest: " + ", ".join(f"{e} {v}" for e, v in row["time_over_fastest"].items()))
         results["scenes"][name] = row
     results["machine"] = machine_and_load(busy_start, other_cpu_use())
     write_json(a.out, results)
