@@ -148,6 +148,7 @@ class SoundSettings:
         keep_counts: bool = False,
         first_receiver: int = 0,
         only_source: int | None = None,
+        nee_receivers: int = 8,
     ) -> SoundSettings: ...
 
 def trace_sound(

@@ -22,8 +22,8 @@ from sonolux.sound.field import SoundField
 from sonolux.sound.ranges import SoundSum, decode_sum, field_of_sum
 
 #: Settings that parts of one bake share (checked when a part has no fingerprint).
-SHARED_SETTINGS = ("rays", "seed", "estimator", "max_time_s", "early_bins", "late_bin_s",
-                   "azimuth_bands", "elevation_bands", "sample_rate_hz")
+SHARED_SETTINGS = ("rays", "seed", "estimator", "nee_receivers", "max_time_s", "early_bins",
+                   "late_bin_s", "azimuth_bands", "elevation_bands", "sample_rate_hz")
 
 
 @dataclass

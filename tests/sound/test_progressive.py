@@ -186,3 +186,47 @@ def test_the_reported_error_brackets_the_real_error_against_ten_times_the_rays()
     assert cases >= 130
     print(f"coverage {inside} of {cases}")
     assert inside / cases >= 0.90, f"{inside} of {cases}"
+
+
+def test_decay_times_near_the_source_are_reported_but_not_waited_for():
+    """ISO 3382's d_min = 2 √(V / (c T)): T30 and EDT of a receiver nearer the source are left
+    out of the rule (counted as near_source), C80 is not; the values and SEs stay as they were."""
+    value = {"t30": np.full((3, 2), 1.0), "edt": np.full((3, 2), 1.0), "c80": np.zeros((3, 2))}
+    se = {"t30": np.array([[0.001, 0.001], [0.5, 0.5], [0.001, 0.001]]),
+          "edt": np.array([[0.001, 0.001], [0.5, 0.5], [0.001, 0.001]]),
+          "c80": np.array([[0.01, 0.01], [0.01, 0.01], [0.01, 0.01]])}
+    errors = progressive.Errors(value, se)
+    # V = 343 m³, c = 343 m/s, T = 1 s: d_min = 2 m. Receiver 1 is 1 m from the source.
+    receivers = np.array([[5.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
+    out = progressive.near_source(errors, receivers, np.zeros((1, 3)), 343.0, 343.0)
+    assert errors.worst_over_target(0.25) == pytest.approx(0.5 / 0.0125)
+    assert out.worst_over_target(0.25) == pytest.approx(0.001 / 0.0125)
+    summary = out.summary()
+    assert summary["edt"]["near_source"] == 2 and summary["t30"]["near_source"] == 2
+    assert summary["c80"]["near_source"] == 0
+    assert np.array_equal(out.standard_error["edt"], se["edt"])
+    assert progressive.minimum_distance_m(343.0, 343.0, np.array([1.0]))[0] == pytest.approx(2.0)
+    # Nearer than d_min only for the band whose T makes d_min larger.
+    value2 = dict(value, t30=np.array([[4.0, 0.25]] * 3))
+    out2 = progressive.near_source(progressive.Errors(value2, se), receivers,
+                                   np.array([[2.5, 0.0, 0.0]]), 343.0, 343.0)
+    assert out2.excluded["edt"][1].tolist() == [False, True]  # d_min 1 m and 4 m, gap 1.5 m
+
+
+def test_the_automatic_estimator_is_measured_and_recorded(monkeypatch):
+    """estimator = "auto": a pilot of each candidate, the smallest projected time chosen, the
+    measurements kept in the field's settings."""
+    monkeypatch.setattr(progressive, "PILOT_BLOCKS", 1)
+    scene = room()
+    options, choice = progressive.choose_estimator(scene, sonolux.SoundOptions(nee_receivers=2))
+    assert options.estimator == choice["chosen"] in progressive.CANDIDATES
+    pilots = choice["pilots"]
+    assert set(pilots) == set(progressive.CANDIDATES)
+    best = min(p["projected_seconds"] for p in pilots.values())
+    assert pilots[choice["chosen"]]["projected_seconds"] == best
+    assert all(p["seconds"] > 0 for p in pilots.values())
+    # nee with at least as many draws as receivers is rain: not piloted twice.
+    _, again = progressive.choose_estimator(scene, sonolux.SoundOptions(nee_receivers=3))
+    assert again["pilots"]["nee"] == {"same_as": "rain", "projected_seconds": float("inf")}
+    field = bake(scene, rays=2048, estimator="auto")
+    assert field.settings["estimator"] == field.settings["estimator_choice"]["chosen"]

@@ -266,7 +266,7 @@ impl SoundSettings {
     #[pyo3(signature = (
         *, rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound_m_s, air_attenuation_per_m,
         energy_drop_db, max_time_s, sample_rate_hz, early_s, late_bin_s, azimuth_bands, elevation_bands,
-        max_field_bytes, keep_counts = false, first_receiver = 0, only_source = None
+        max_field_bytes, keep_counts = false, first_receiver = 0, only_source = None, nee_receivers = 8
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -289,11 +289,13 @@ impl SoundSettings {
         keep_counts: bool,
         first_receiver: u64,
         only_source: Option<usize>,
+        nee_receivers: u32,
     ) -> PyResult<Self> {
         let estimator = match estimator {
             "paper" => core::Estimator::Paper,
             "rain" => core::Estimator::Rain,
-            other => return Err(invalid(format!("estimator: '{other}' is not one of 'paper', 'rain'"))),
+            "nee" => core::Estimator::Nee { connections: nee_receivers },
+            other => return Err(invalid(format!("estimator: '{other}' is not one of 'paper', 'rain', 'nee'"))),
         };
         let inner = core::SoundSettings {
             rays,

@@ -49,10 +49,20 @@ def cmd_bake(args: argparse.Namespace) -> int:
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
+    estimator = args.estimator
+    if estimator == "auto" and args.rays != "auto" and args.sound is not False and scene.sources:
+        # A fixed ray count: the estimator is measured here (a progressive bake measures it
+        # itself, before its first round).
+        from sonolux.sound.progressive import choose_estimator
+
+        estimator = choose_estimator(scene, SoundOptions(nee_receivers=args.nee_receivers),
+                                     log=lambda m: print(f"sonolux: {m}", file=sys.stderr)
+                                     )[0].estimator
     with spread.bakers(args) as (sound_baker, light_baker, written):
         baked = bake_senses(
             scene, sound=args.sound, light=args.light, load_s=load_s,
-            sound_options=SoundOptions(rays=args.rays, estimator=args.estimator,
+            sound_options=SoundOptions(rays=args.rays, estimator=estimator,
+                                       nee_receivers=args.nee_receivers,
                                        azimuth_bands=args.azimuth_bands,
                                        elevation_bands=args.elevation_bands, ray_range=args.range,
                                        air_absorption=not args.no_air, storage=args.storage,
@@ -188,10 +198,15 @@ def add_commands(sub) -> None:
     bake.add_argument("--rays", type=parse.rays, default="auto",
                       help="rays per source, or 'auto': rounds of rays until T30, EDT and C80 "
                            "are known to --accuracy (default auto)")
-    bake.add_argument("--estimator", choices=("paper", "rain"), default="paper",
-                      help="paper: sphere receivers, as the paper (default, measured faster to "
-                           "a given accuracy on grids); rain: exact direct sound and diffuse rain "
-                           "to every receiver (better with few receivers and diffuse surfaces)")
+    bake.add_argument("--estimator", choices=("paper", "rain", "nee", "auto"), default="paper",
+                      help="paper: sphere receivers, as the paper (default); rain: exact direct "
+                           "sound and diffuse rain to every receiver (few receivers, diffuse "
+                           "surfaces); nee: rain to --nee-receivers receivers a reflection drawn "
+                           "by importance (grids); auto: a short pilot of each, the one that "
+                           "reaches --accuracy sooner (docs/progressive.md)")
+    bake.add_argument("--nee-receivers", type=parse.number(1, 256, integer=True), default=8,
+                      help="receivers each diffuse reflection connects to with --estimator nee "
+                           "(default 8)")
     bake.add_argument("--azimuth-bands", type=parse.number(1, 360, integer=True),
                       default=8, help="azimuth sectors (default 8)")
     bake.add_argument("--elevation-bands", type=parse.number(1, 90, integer=True), default=1,

@@ -162,6 +162,10 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     bool`` (False stops the bake). ``log`` receives one-line notes (ray count and why).
     """
     options = replace(options or SoundOptions(), **overrides).validate()
+    if options.estimator == "auto":
+        raise SonoluxError("estimator = 'auto' is chosen by sonolux.bake (a pilot of each "
+                           "estimator: sonolux.sound.progressive.choose_estimator); "
+                           "sound.bake.bake needs 'paper', 'rain' or 'nee'")
     if not scene.sources:
         raise SonoluxError(f"{scene.origin}: the scene has no sound source to bake")
     if scene.receivers.count == 0:
@@ -185,6 +189,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     base = dict(
         rays=rays, first_ray=first, end_ray=end, seed=scene.settings.seed,
         threads=scene.settings.threads, estimator=options.estimator,
+        nee_receivers=options.nee_receivers,
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s,
         air_attenuation_per_m=arrays["air"].tolist(), energy_drop_db=scene.settings.energy_drop_db,
         max_time_s=max_time_s, sample_rate_hz=float(scene.settings.sample_rate_hz),
@@ -237,6 +242,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                            "the scene)")
     record = {
         "rays": rays, "ray_range": [first, end], "estimator": options.estimator,
+        "nee_receivers": options.nee_receivers,
         "seed": scene.settings.seed, "speed_of_sound_m_s": scene.settings.speed_of_sound_m_s,
         "sample_rate_hz": scene.settings.sample_rate_hz, "energy_drop_db": scene.settings.energy_drop_db,
         "max_time_s": max_time_s, "early_bins": int(out["early_bins"]),

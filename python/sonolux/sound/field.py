@@ -319,7 +319,8 @@ class SoundField:
         the ranges of a bake merge to the same bits as the bake done at once."""
         if self.counts is None or other.counts is None:
             raise SonoluxError("only fields baked with a ray range carry the counts to merge")
-        same = ("rays", "seed", "estimator", "max_time_s", "early_bins", "late_bin_s", "early")
+        same = ("rays", "seed", "estimator", "nee_receivers", "max_time_s", "early_bins",
+                "late_bin_s", "early")
         if self.quantum != other.quantum or any(self.settings.get(k) != other.settings.get(k) for k in same) \
                 or self.counts.shape != other.counts.shape:
             raise SonoluxError("these two fields come from different bakes and cannot be merged")

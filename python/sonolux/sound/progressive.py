@@ -25,6 +25,12 @@ How (docs/progressive.md has the derivation and the checks):
 - **JNDs** (ISO 3382-1:2009, Table A.1): EDT 5 % (relative), C80 1 dB. T30 has no entry there;
   the 5 % of reverberation time it gives for EDT is used for T30 too (the difference limen of
   reverberation time, e.g. Vorländer, *Auralization*, 2008, §13.2).
+- **Near the source** (:func:`near_source`): T30 and EDT nearer a source than ISO 3382's
+  d_min = 2 √(V / (c T)) are reported but not waited for: there the decay curve falls through the
+  start of their ranges within the direct sound, the parameter jumps between leave-out estimates
+  and the jackknife (valid for smooth statistics) reports the jump, not an error.
+- **Which estimator** (``estimator = "auto"``, :func:`choose_estimator`): measured by a short
+  pilot of each, not assumed.
 - **The next round.** A standard error falls as 1/√n, so the rays that the worst
   receiver and band need are n · (SE / target)²; the next round goes to 1.1 × that, at least
   1.25 n and at most 4 n (a round is never tiny and never overshoots by more than the
@@ -115,6 +121,16 @@ class Errors:
 
     value: dict[str, np.ndarray]
     standard_error: dict[str, np.ndarray]
+    #: Entries reported but left out of the stopping rule: bool[receiver, band] per parameter
+    #: (decay times nearer a source than ISO 3382's minimum distance: :func:`near_source`).
+    excluded: dict[str, np.ndarray] | None = None
+
+    def counted(self, name: str) -> np.ndarray:
+        """SE in the JND's unit where the stopping rule counts it, NaN elsewhere."""
+        rel = self.relative(name)
+        if self.excluded is not None and name in self.excluded:
+            rel = np.where(self.excluded[name], np.nan, rel)
+        return rel
 
     def relative(self, name: str) -> np.ndarray:
         """The standard error in the unit of the JND (relative or dB)."""
@@ -126,7 +142,7 @@ class Errors:
         left out (0 when nothing is defined)."""
         worst = 0.0
         for name in PARAMETERS:
-            ratio = self.relative(name) / (fraction * JND[name][0])
+            ratio = self.counted(name) / (fraction * JND[name][0])
             ratio = ratio[~np.isnan(ratio)]
             if ratio.size:
                 worst = max(worst, float(ratio.max()))
@@ -137,9 +153,12 @@ class Errors:
         and how many entries are undefined."""
         out: dict[str, Any] = {}
         for name in PARAMETERS:
-            rel = self.relative(name)
+            rel = self.counted(name)
             ok = ~np.isnan(rel)
-            entry: dict[str, Any] = {"undefined": int((~ok).sum()),
+            near = (0 if self.excluded is None or name not in self.excluded
+                    else int((self.excluded[name] & ~np.isnan(self.relative(name))).sum()))
+            entry: dict[str, Any] = {"undefined": int((~ok).sum()) - near,
+                                     "near_source": near,
                                      "unit": "relative" if JND[name][1] == "relative" else "dB"}
             if ok.any():
                 worst = np.unravel_index(np.argmax(np.where(ok, rel, -1.0)), rel.shape)
@@ -190,6 +209,47 @@ def jackknife(total: np.ndarray, groups: np.ndarray, bin_start_s: np.ndarray,
     return Errors(value, se)
 
 
+#: The decay times that ISO 3382's minimum source distance applies to.
+DECAY_TIMES = ("t30", "edt")
+
+
+def minimum_distance_m(volume_m3: float, speed_of_sound_m_s: float, t_s: np.ndarray
+                       ) -> np.ndarray:
+    """ISO 3382-2:2008 §5.2.3, Eq. (1) (also ISO 3382-1:2009 §5.2.2): microphone positions for
+    decay times should be at least d_min = 2 √(V / (c T)) from any source, "to avoid too strong
+    an influence of the direct sound" (T: the expected reverberation time)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 2.0 * np.sqrt(volume_m3 / (speed_of_sound_m_s * t_s))
+
+
+def near_source(errors: Errors, receivers_m: np.ndarray, sources_m: np.ndarray,
+                volume_m3: float, speed_of_sound_m_s: float) -> Errors:
+    """``errors`` with T30 and EDT at receivers nearer a source than d_min
+    (:func:`minimum_distance_m`, T per band: the median T30 of the bake's receivers, else the
+    median EDT) marked as left out of the stopping rule; C80 is kept everywhere.
+
+    Why: there the direct sound carries most of the energy, and the decay curve falls through
+    the start of EDT's range (0 dB → −10 dB) or T30's (−5 dB) within the direct sound itself.
+    Whether the curve just after the direct sound lies above or below −10 dB (or −5 dB) flips
+    EDT between a decay of the reverberation (e.g. 0.81 s) and a fit through one sample (1e-4 s):
+    the parameter is a discontinuous function of the energies, the jackknife's leave-out estimates
+    land on both sides, and its SE (valid for smooth statistics only: Shao and Tu 1995 §2.3) is
+    the size of the jump (measured on paper-small, receiver 7 at 8 kHz: 128 %, then 5.7e5 %).
+    ISO 3382 itself places no decay-time measurement there. The values and their SE are still
+    reported; ``summary`` counts them as ``near_source``."""
+    t = np.asarray(errors.value["t30"], float)
+    if not np.isfinite(t).any():
+        t = np.asarray(errors.value["edt"], float)
+    with np.errstate(invalid="ignore"):
+        t_band = np.array([np.nanmedian(col) if np.isfinite(col).any() else np.nan
+                           for col in t.T])
+    d_min = minimum_distance_m(volume_m3, speed_of_sound_m_s, t_band)  # [band]
+    gaps = np.linalg.norm(np.asarray(receivers_m, float)[:, None, :]
+                          - np.asarray(sources_m, float)[None, :, :], axis=2).min(axis=1)
+    close = gaps[:, None] < np.where(np.isfinite(d_min), d_min, 0.0)[None, :]
+    return replace(errors, excluded={name: close for name in DECAY_TIMES})
+
+
 def next_total(done: int, worst_over_target: float, ceiling: int) -> int:
     """The rays the next round should reach (module doc): from 1/√n scaling of the worst error."""
     wanted = done * worst_over_target**2 * 1.1 if math.isfinite(worst_over_target) else 4 * done
@@ -211,6 +271,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     settings carry ``progressive``: the rounds, why the bake stopped, the error summary."""
     accuracy = (accuracy or Accuracy()).validate()
     options = (options or SoundOptions()).validate()
+    pilot = None
+    if options.estimator == "auto":
+        options, pilot = choose_estimator(scene, options, accuracy.fraction_of_jnd, log=log)
     if options.ray_range is not None:
         raise SonoluxError("a progressive bake (rays = auto) cannot trace a ray range: give the "
                            "bake's ray count (--rays N) to split it")
@@ -242,8 +305,12 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         first_round = False
         assert state.total is not None and state.groups is not None
         t = state.total.template
-        errors = jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
-                           *omni_bins(t, state.total.counts), slowest_decay_s(t))
+        errors = near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64),
+                                       state.groups, *omni_bins(t, state.total.counts),
+                                       slowest_decay_s(t)),
+                             scene.receivers.positions_m,
+                             np.array([s.position_m for s in scene.sources]), scene.volume_m3,
+                             scene.settings.speed_of_sound_m_s)
         worst = errors.worst_over_target(accuracy.fraction_of_jnd)
         elapsed = spent + time.perf_counter() - started
         state.rounds.append({"rays": target, "seconds": round(elapsed, 3),
@@ -267,6 +334,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     if log:
         log(f"progressive bake: {stop} after {target:,} rays")
     field = _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds, stop)
+    if pilot is not None:
+        field = replace(field, settings=dict(field.settings, estimator_choice=pilot))
     if options.waves:  # the hybrid's wave bands, once, to the whole field (as ranges do)
         field = add_waves(scene, options, field, progress=bool(progress), log=log)
     return field, errors
@@ -309,4 +378,78 @@ def _describe(errors: Errors, fraction: float) -> str:
         scale = 100.0 if s["unit"] == "relative" else 1.0
         target = fraction * JND[name][0] * scale
         parts.append(f"{name.upper()} SE ≤ {s['max'] * scale:.3g}{unit} (target {target:.3g}{unit})")
+    near = max(s.get("near_source", 0) for s in errors.summary().values())
+    if near:
+        parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
+                     "d_min reported, not waited for")
     return ", ".join(parts)
+
+
+#: The estimators the automatic choice tries, cheapest per ray first.
+CANDIDATES = ("paper", "nee", "rain")
+#: Rays of each pilot: the smallest progressive round (GROUPS blocks), times this.
+PILOT_BLOCKS = 4
+#: A pilot is stopped when it takes this many times the fastest finished pilot: it could win only
+#: with a standard error below 1/√4 = 0.5 of the fastest's at equal rays; measured on the L-room,
+#: rain's is 0.87 of paper's (pilots 1.6 s and 0.85 s). At 10× the pilots took 80 s on
+#: paper-medium, more than the bake they choose for.
+PILOT_SLOWDOWN = 4.0
+#: The quantile of the entries' projected times that ranks the candidates (see choose_estimator).
+PILOT_QUANTILE = 0.9
+
+
+def choose_estimator(scene: Scene, options: SoundOptions, fraction_of_jnd: float = 0.25, *,
+                     log: Callable[[str], None] | None = None
+                     ) -> tuple[SoundOptions, dict[str, Any]]:
+    """Measures which estimator reaches ``fraction_of_jnd`` sooner for this scene: a pilot bake
+    of each candidate (the same ``PILOT_BLOCKS`` × GROUPS × BLOCK_RAYS rays, the same seed) gives
+    per receiver and band the jackknife SE of T30, EDT and C80 and the wall time; the time that
+    candidate needs to bring an entry to the target is t · (SE / target)² (SE falls as 1/√n at
+    a fixed cost per ray). Candidates are ranked by the ``PILOT_QUANTILE`` of that projected time
+    over the entries (the largest single entry of a small pilot is mostly the noise of its own
+    7-degree-of-freedom estimate); an entry whose leave-out estimate is undefined counts as
+    infinite. A pilot taking ``PILOT_SLOWDOWN`` × the fastest is stopped and not chosen.
+    Returns the options with the chosen estimator, and the measurements (kept in the field's
+    settings as ``estimator_choice``)."""
+    rays = PILOT_BLOCKS * GROUPS * BLOCK_RAYS
+    measured: dict[str, Any] = {}
+    fastest = math.inf
+    for name in CANDIDATES:
+        if name == "nee" and scene.receivers.count <= options.nee_receivers:
+            # Every receiver connected once: exactly the rain estimator, measured below.
+            measured[name] = {"same_as": "rain", "projected_seconds": math.inf}
+            continue
+        cap = PILOT_SLOWDOWN * fastest
+        started = time.perf_counter()
+
+        def stop_late(done: int, total: int, elapsed_s: float, cap: float = cap,
+                      started: float = started) -> bool:
+            return time.perf_counter() - started < cap
+
+        trial = replace(options, estimator=name)
+        field, errors = bake(scene, trial, Accuracy(fraction_of_jnd, max_rays=rays),
+                             first_rays=rays, progress=stop_late)
+        seconds = time.perf_counter() - started
+        if field.settings["progressive"]["stopped"] == "cancelled":
+            measured[name] = {"seconds": seconds, "projected_seconds": math.inf,
+                              "stopped": f"slower than {PILOT_SLOWDOWN:g}× the fastest pilot"}
+            continue
+        fastest = min(fastest, seconds)
+        squares = np.concatenate([
+            ((errors.counted(p) / (fraction_of_jnd * JND[p][0])) ** 2).ravel()
+            for p in PARAMETERS])
+        squares = squares[~np.isnan(squares)]
+        q = float(np.quantile(squares, PILOT_QUANTILE, method="higher")) if squares.size else 0.0
+        measured[name] = {"seconds": seconds, "projected_seconds": seconds * q,
+                          "worst_projected_seconds": seconds * float(squares.max(initial=0.0))}
+        if log:
+            log(f"estimator pilot: {name}, {rays:,} rays in {seconds:.2f} s; projected "
+                f"{seconds * q:.3g} s to {fraction_of_jnd:g} JND at the "
+                f"{PILOT_QUANTILE:.0%} entry")
+    chosen = min(CANDIDATES, key=lambda c: measured[c]["projected_seconds"])
+    if not math.isfinite(measured[chosen]["projected_seconds"]):
+        chosen = "paper"  # nothing measurable: the default
+    if log:
+        log(f"estimator: {chosen} (automatic, from the pilots)")
+    return replace(options, estimator=chosen), {"chosen": chosen, "pilot_rays": rays,
+                                                "quantile": PILOT_QUANTILE, "pilots": measured}

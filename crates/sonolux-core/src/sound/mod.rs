@@ -9,9 +9,12 @@
 //! - `Rain`: the direct sound is computed exactly, and at each reflection the diffusely
 //!   scattered energy is sent to every visible receiver at once ("diffuse rain", next-event
 //!   estimation); the spheres then only collect energy whose last reflection was specular.
-//!   Both estimate the same mean over each receiver's sphere.
+//! - `Nee { connections }`: the rain estimator with each diffuse reflection connected to a
+//!   bounded number of receivers drawn by importance and weighted by 1/(M p) ([`nee`]).
+//!   All three estimate the same mean over each receiver's sphere.
 
 pub mod field;
+pub mod nee;
 pub mod pattern;
 pub mod receivers;
 pub mod stats;
@@ -35,6 +38,16 @@ pub use stats::SoundStats;
 pub enum Estimator {
     Paper,
     Rain,
+    /// Rain through `connections` receivers a diffuse reflection, drawn by importance.
+    Nee { connections: u32 },
+}
+
+impl Estimator {
+    /// Whether the direct sound is exact and diffuse reflections connect to receivers (rain
+    /// and its sampled form): the spheres then collect only specularly reflected energy.
+    pub fn rains(self) -> bool {
+        self != Estimator::Paper
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -190,6 +203,11 @@ impl SoundSettings {
         if !(self.first_ray < self.end_ray && self.end_ray <= self.rays) {
             return bad("first_ray..end_ray", format!("{}..{} is not a non-empty part of 0..{}", self.first_ray, self.end_ray, self.rays));
         }
+        if let Estimator::Nee { connections } = self.estimator {
+            if !(1..=nee::MAX_CONNECTIONS).contains(&connections) {
+                return bad("nee_receivers", format!("{connections} receivers a reflection: from 1 to {}", nee::MAX_CONNECTIONS));
+            }
+        }
         if self.threads > MAX_THREADS {
             return bad("threads", format!("{} is more than {MAX_THREADS} (0 uses every core)", self.threads));
         }
@@ -327,6 +345,8 @@ pub(crate) struct Scene<'a> {
     pub epsilon: f64,
     /// Specular-only paths counted elsewhere (None: the tracer counts everything).
     pub covered: Option<SpecularCoverage>,
+    /// The receivers' tree of the sampled rain estimator (None for the others).
+    pub receiver_tree: Option<&'a nee::ReceiverTree>,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -334,6 +354,7 @@ fn chunk_size(estimator: Estimator, receivers: usize) -> u64 {
     match estimator {
         Estimator::Paper => 1024,
         Estimator::Rain => (65_536 / (receivers as u64 + 1)).clamp(8, 1024),
+        Estimator::Nee { connections } => (65_536 / (receivers.min(connections as usize) as u64 + 1)).clamp(8, 1024),
     }
 }
 
@@ -401,6 +422,7 @@ pub fn trace_sound_hybrid(
     let layout = settings.layout(receivers.len(), nb);
     let convex = mesh.is_closed_convex();
     let scattering: Vec<&[f64]> = acoustics.scattering.chunks(nb).collect();
+    let receiver_tree = matches!(settings.estimator, Estimator::Nee { .. }).then(|| nee::ReceiverTree::new(&receivers.centres, receivers.radius_m));
     let scene = Scene {
         mesh,
         bvh,
@@ -416,6 +438,7 @@ pub fn trace_sound_hybrid(
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
         covered,
+        receiver_tree: receiver_tree.as_ref(),
     };
     let quantum = trace::quantum(sources, receivers.radius_m, receivers.peak_gain());
     let n = settings.end_ray - settings.first_ray;
@@ -439,7 +462,7 @@ pub fn trace_sound_hybrid(
     for w in &workers {
         stats.merge(&w.stats);
     }
-    if settings.estimator == Estimator::Rain && settings.first_ray == 0 {
+    if settings.estimator.rains() && settings.first_ray == 0 {
         trace::direct_sound(&scene, &field);
     }
     stats.finish();

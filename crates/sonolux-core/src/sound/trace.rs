@@ -103,7 +103,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     let (mut free_n, mut free_sum, mut free_sq) = (0u64, 0.0f64, 0.0f64);
     // Whether the spheres collect this segment: always in paper mode; in rain mode only after a
     // specular reflection (direct sound and diffuse reflections are handled exactly).
-    let mut spheres = set.estimator == Estimator::Paper;
+    let mut spheres = !set.estimator.rains();
     // Whether every reflection so far was specular: such segments may be the image sources'.
     let mut specular_only = true;
     let radius = scene.receivers.radius_m;
@@ -199,8 +199,10 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         }
 
         // Rain: send the diffusely reflected energy to every receiver that sees this point.
-        if set.estimator == Estimator::Rain {
-            rain(scene, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], (deposit, gain));
+        match set.estimator {
+            Estimator::Rain => rain(scene, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], (deposit, gain)),
+            Estimator::Nee { connections } => super::nee::connect(scene, connections, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], (deposit, gain)),
+            Estimator::Paper => {}
         }
 
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
@@ -217,7 +219,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         if diffuse {
             dir = cosine_hemisphere(&Frame::from_normal(normal), rng.uniform(), rng.uniform());
             wave_radius = 0.0;
-            spheres = set.estimator == Estimator::Paper;
+            spheres = !set.estimator.rains();
             specular_only = false;
         } else {
             dir = dir - 2.0 * dir.dot(normal) * normal;
