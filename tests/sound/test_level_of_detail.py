@@ -32,7 +32,7 @@ pytestmark = pytest.mark.usefixtures("core")
 BANDS = [125, 250, 500, 1000, 2000, 4000]
 ROOM = (7.0, 5.0, 2.8)
 SOURCE = (5.8, 1.2, 1.5)
-RECEIVERS = ((1.5, 1.2, 1.2), (3.5, 4.2, 1.2))
+RECEIVERS = ((1.5, 1.2, 1.2), (3.0, 4.2, 1.5))
 
 
 def furnished(tmp_path: Path, early: dict, seed: int = 1, threads: int = 0):
@@ -70,14 +70,20 @@ def test_level_of_detail_counts_nothing_twice(tmp_path):
     # only), both with level of detail. Before the transition the difference is (images' K-
     # weighted energy) − (particles' specular-only part with s' = 1 − (1 − s)K), zero in
     # expectation; the mean over seeds must lie within 4 standard errors of zero, per band and
-    # receiver. After the transition both count the same paths.
+    # receiver. After the transition both count the same paths. Sensitivity: at receiver 1 the
+    # images lose 18 % (125 Hz) to 6 % (4 kHz) of the early energy to K; a tracer that did not
+    # scatter it (the state before this change) fails by about 14 standard errors at 125 Hz.
+    # The receivers keep their reflections away from the furniture's edges: the images test
+    # visibility from a receiver's centre, the particles over its sphere, and a reflection
+    # 2.5 cm from the table's edge (receiver (3.5, 4.2, 1.2)) is seen by half the sphere:
+    # +5 to +8 % there with or without level of detail (docs/early-sound.md).
     diffs, ref = [], []
     for seed in (21, 22, 23, 24, 25):
         kw = dict(seed=seed)
         pure = bake(furnished(tmp_path, {"max_order": 0, "transition_ms": 30}, **kw),
-                    rays=20_000, air_absorption=False, max_time_s=0.25)
+                    rays=40_000, air_absorption=False, max_time_s=0.25)
         hybrid = bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 30}, **kw),
-                      rays=20_000, air_absorption=False, max_time_s=0.25)
+                      rays=40_000, air_absorption=False, max_time_s=0.25)
         p, h = totals(pure, 0.030), totals(hybrid, 0.030)
         diffs.append(h - p)
         ref.append(p)
@@ -110,3 +116,78 @@ def test_level_of_detail_is_the_same_on_one_and_two_threads(tmp_path):
     np.testing.assert_array_equal(fields[0].energy, fields[1].energy)
     for k, v in fields[0].early.items():
         np.testing.assert_array_equal(fields[1].early[k], v)
+
+
+# --- a wall of small boxes against a flat wall ----------------------------------------------
+
+BOX_BANDS = [63, 125, 250, 500, 1000, 2000, 4000]
+BOX_ALPHA_HARD, BOX_ALPHA_ROOM = 0.03, 0.12
+
+
+def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True):
+    """8 × 6 × 3 m; the west wall and its boxes hard (α 0.03, s 0.05), the rest α 0.12, s 0.2;
+    nine listeners at 1.2 m. Level of detail applies to every reflection (max_order 0: the
+    direct sound exact, every reflection the particles')."""
+    from rooms import BOX_ROOM_M
+    obj = tmp_path / "boxes.obj"
+    if boxes and not obj.exists():
+        write_obj(obj, {"boxes": boxes_on_wall()})
+    faces = ("floor", "ceiling", "west", "east", "south", "north")
+    data = {
+        "name": "box wall" if boxes else "flat wall",
+        "settings": {"bands_hz": BOX_BANDS, "seed": 2},
+        "materials": {"hard": {"absorption": BOX_ALPHA_HARD, "scattering": 0.05},
+                      "room": {"absorption": BOX_ALPHA_ROOM, "scattering": 0.2}},
+        "geometry": [{"type": "shoebox", "size_m": list(BOX_ROOM_M),
+                      "materials": {f: "hard" if f == "west" else "room" for f in faces}}],
+        "sources": [{"position_m": [6.5, 2.2, 1.5]}],
+        "receivers": {"type": "points", "radius_m": 0.3,
+                      "positions_m": [[x, y, 1.2] for x in (1.5, 3.5, 5.5)
+                                      for y in (1.2, 3.0, 4.8)]},
+        "early": {"max_order": 0, "diffraction": False, "level_of_detail": level_of_detail},
+    }
+    if boxes:
+        data["geometry"].append({"type": "mesh", "file": str(obj), "material": "hard"})
+    return sonolux.load_scene(data)
+
+
+def eyring_t60_s(boxes: bool) -> float:
+    """Eyring's T60 (no air) of the box-wall room: 50 cubes of 0.3 m add 27 m² of hard surface
+    and take 1.35 m³ of air."""
+    from rooms import BOX_ROOM_M, BOX_SIZE_M
+    lx, ly, lz = BOX_ROOM_M
+    n = len(boxes_on_wall()) if boxes else 0
+    volume = lx * ly * lz - n * BOX_SIZE_M ** 3
+    hard = ly * lz + n * 6 * BOX_SIZE_M ** 2
+    rest = 2 * (lx * ly + lx * lz + ly * lz) - ly * lz
+    area = hard + rest
+    mean_alpha = (hard * BOX_ALPHA_HARD + rest * BOX_ALPHA_ROOM) / area
+    return 0.161 * volume / (-area * math.log(1.0 - mean_alpha))
+
+
+@pytest.mark.slow
+def test_a_wall_of_small_boxes_is_a_flat_wall_at_low_and_a_diffuser_at_high_frequencies(
+        tmp_path):
+    from sonolux.analysis.params import room_parameters
+    means = {}
+    for boxes in (False, True):
+        field = bake(box_room(tmp_path, boxes), rays=100_000, air_absorption=False,
+                     max_time_s=2.0)
+        v = room_parameters(field, theory=False, sti=False).values
+        means[boxes] = {k: np.nanmean(v[k], axis=0)[:len(BOX_BANDS)] for k in ("t30_s", "edt_s")}
+    # 63 and 125 Hz: the same T30 and EDT within 3 % (the issue's criterion), once the boxes'
+    # own 27 m² of surface and 1.35 m³ of volume are accounted for by the ratio of Eyring's
+    # T60 of the two rooms (0.958: the boxes add 4 % of absorption area whatever the model).
+    # Measured (100,000 rays, nine listeners): ratio / Eyring ratio 1.00-1.01.
+    expected = eyring_t60_s(True) / eyring_t60_s(False)
+    for key in ("t30_s", "edt_s"):
+        ratio = means[True][key][:2] / means[False][key][:2] / expected
+        assert np.all(np.abs(ratio - 1.0) < 0.03), (key, ratio)
+    # 4 kHz: a more diffuse decay. Measure: how far T30 lies from Eyring's diffuse-field T60
+    # (Eyring assumes a diffuse field; a specular room with one hard wall decays slower). The
+    # flat wall's room: about +9 %; with the boxes (their 0.3 m faces keep K ≈ 0.07 at 4 kHz):
+    # within 1 %. Asserted: the box wall's deviation is less than half the flat wall's, and
+    # the flat wall's is above the 5 % JND of T30.
+    flat = means[False]["t30_s"][-1] / eyring_t60_s(False) - 1.0
+    box = means[True]["t30_s"][-1] / eyring_t60_s(True) - 1.0
+    assert flat > 0.05 and abs(box) < 0.5 * flat, (flat, box)
