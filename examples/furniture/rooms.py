@@ -26,7 +26,8 @@ MEETING_ROOM_M = (7.0, 5.0, 2.8)
 def box(lo, hi) -> trimesh.Trimesh:
     """An axis-aligned box from corner ``lo`` to corner ``hi`` (m)."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    return trimesh.creation.box(extents=hi - lo, transform=trimesh.transformations.translation_matrix((lo + hi) / 2))
+    move = trimesh.transformations.translation_matrix((lo + hi) / 2)
+    return trimesh.creation.box(extents=hi - lo, transform=move)
 
 
 def boxes_on_wall() -> list[trimesh.Trimesh]:

@@ -33,9 +33,17 @@
 //! ([`Panel`]: triangles of one plane that share corners), seen as the rectangle with its second
 //! moments of area. (ODEON estimates a and b from each surface's area and outline; a piece of a
 //! mesh plane is our counterpart of an ODEON surface.)
+//!
+//! **Only panels with a diffracting edge**: Rindel's K is the loss of a reflector at its free
+//! edges. A panel bounded only by concave joins (a room's walls meeting at its corners) has no
+//! such edge: for an interior wedge of open angle π/n the image sources are the exact solution
+//! (no edge wave; see `edges.rs`), so such a panel keeps K = 1 at every frequency. A panel
+//! touches a diffracting edge when one of its triangles is a face of a wedge of
+//! [`super::edges::wedges`] (a convex edge, open angle above π, or a free edge of a sheet).
 
 use glam::DVec3;
 
+use super::edges::wedges;
 use super::planes::{Panel, Planes};
 use crate::mesh::Mesh;
 
@@ -82,6 +90,8 @@ pub fn effective_scattering(scattering: f64, specular_share: f64) -> f64 {
 #[derive(Clone, Debug)]
 pub struct LevelOfDetail {
     pub planes: Planes,
+    /// Per panel: whether it touches a diffracting edge (else K = 1).
+    pub diffracting: Vec<bool>,
     pub band_centres_hz: Vec<f64>,
     pub speed_of_sound_m_s: f64,
 }
@@ -89,15 +99,29 @@ pub struct LevelOfDetail {
 impl LevelOfDetail {
     /// Panels of `mesh` (coplanar within `plane_tolerance_m`, connected through shared corners).
     pub fn new(mesh: &Mesh, band_centres_hz: Vec<f64>, speed_of_sound_m_s: f64, plane_tolerance_m: f64) -> LevelOfDetail {
-        LevelOfDetail { planes: Planes::build(mesh, plane_tolerance_m), band_centres_hz, speed_of_sound_m_s }
+        LevelOfDetail::with_planes(mesh, Planes::build(mesh, plane_tolerance_m), band_centres_hz, speed_of_sound_m_s)
+    }
+
+    /// As [`LevelOfDetail::new`], with the mesh's planes already built.
+    pub fn with_planes(mesh: &Mesh, planes: Planes, band_centres_hz: Vec<f64>, speed_of_sound_m_s: f64) -> LevelOfDetail {
+        let mut diffracting = vec![false; planes.panels.len()];
+        for w in wedges(mesh, &planes) {
+            for t in w.triangles {
+                if let Some(p) = planes.panel_of_triangle.get(t as usize).filter(|p| **p != u32::MAX) {
+                    diffracting[*p as usize] = true;
+                }
+            }
+        }
+        LevelOfDetail { planes, diffracting, band_centres_hz, speed_of_sound_m_s }
     }
 
     /// Rindel's K per band for a reflection on triangle `tri`, written into `out`: the ray
     /// arrived along the unit `incident` after a leg of `d1_m` and leaves specularly for a leg of
-    /// `d2_m`. A degenerate triangle (no panel) keeps K = 1.
+    /// `d2_m`. A degenerate triangle (no panel) and a panel without a diffracting edge keep
+    /// K = 1.
     pub fn specular_shares(&self, tri: usize, incident: DVec3, d1_m: f64, d2_m: f64, out: &mut [f64]) {
         let (plane, panel) = (self.planes.plane_of_triangle[tri], self.planes.panel_of_triangle[tri]);
-        if plane == u32::MAX || panel == u32::MAX {
+        if plane == u32::MAX || panel == u32::MAX || !self.diffracting[panel as usize] {
             out.fill(1.0);
             return;
         }

@@ -269,7 +269,7 @@ pub fn early_arrivals(
         return Err(CoreError::invalid("receivers", format!("receiver {i} has a non-finite position {:?}", receivers[i])));
     }
     let planes = Planes::build(mesh, settings.plane_tolerance_m);
-    let detail = settings.level_of_detail.then(|| lod::LevelOfDetail { planes: planes.clone(), band_centres_hz: settings.band_centres_hz.clone(), speed_of_sound_m_s: settings.speed_of_sound_m_s });
+    let detail = settings.level_of_detail.then(|| lod::LevelOfDetail::with_planes(mesh, planes.clone(), settings.band_centres_hz.clone(), settings.speed_of_sound_m_s));
     let wedges = if settings.diffraction { edges::wedges(mesh, &planes) } else { Vec::new() };
     let ctx = Context {
         mesh,
