@@ -15,6 +15,10 @@ listener and octave band. The result is the ratio particles / hybrid (above 1: t
 less noisy at equal time), its median over listeners per band, with both sides' numbers and
 their means (the means must agree within the noise: the hybrid counts nothing twice). Results go
 to benchmarks/results/early.json.
+
+Where the noise comes from (docs/early-sound.md): the share of each listener's first 80 ms that
+the image sources hold (deterministic) is reported too; EDT's −10 dB point lies far later in this
+room, where both bakes hold the same particles.
 """
 
 from __future__ import annotations
@@ -58,6 +62,20 @@ def measures(field, scene) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(edt, float), np.asarray(clar, float)
 
 
+def image_share(field, scene) -> np.ndarray:
+    """Share of each listener's first 80 ms (after the direct sound's time) held by the early
+    arrivals, [listener, band]."""
+    c = scene.settings.speed_of_sound_m_s
+    src = np.asarray(scene.sources[0].position_m)
+    out = []
+    for r in range(field.energy.shape[0]):
+        onset = float(np.linalg.norm(field.positions_m[r] - src)) / c
+        total = field.omni_energy(r)[:, field.bin_start_s < onset + 0.08].sum(axis=1)
+        keep = (field.early["receiver"] == r) & (field.early["time_s"] < onset + 0.08)
+        out.append(field.early["energy"][keep].sum(axis=0) / total)
+    return np.asarray(out)
+
+
 def run(early: bool, rays: int, seeds: int, max_time_s: float) -> tuple[list, list, float]:
     edts, c80s, seconds = [], [], []
     for seed in range(seeds):
@@ -81,8 +99,11 @@ def main() -> None:
     busy_start = other_cpu_use()
     # Wall time of one bake each at the hybrid's ray count, then the particles' equal-time rays.
     t0 = time.perf_counter()
-    bake(load(True, 1), rays=args.rays, max_time_s=args.max_time)
+    first = bake(load(True, 1), rays=args.rays, max_time_s=args.max_time)
     hybrid_s = time.perf_counter() - t0
+    share = image_share(first, load(True, 1))
+    print("share of the first 80 ms held by the image sources [listener, band]:\n",
+          np.round(share, 3))
     t0 = time.perf_counter()
     bake(load(False, 1), rays=args.rays, max_time_s=args.max_time)
     particles_s = time.perf_counter() - t0
@@ -94,7 +115,7 @@ def main() -> None:
     bands = [float(b) for b in load(False, 1).settings.bands_hz]
     result = {"room": str(ROOM.name), "rays_hybrid": args.rays, "rays_particles": rays_particles,
               "seeds": args.seeds, "mean_seconds_hybrid": h_s, "mean_seconds_particles": p_s,
-              "bands_hz": bands}
+              "bands_hz": bands, "image_share_first_80ms": share.tolist()}
     for name, h, p in (("edt_s", h_edt, p_edt), ("c80_db", h_c80, p_c80)):
         h, p = np.asarray(h), np.asarray(p)  # [seed, listener, band]
         sh, sp = np.nanstd(h, axis=0, ddof=1), np.nanstd(p, axis=0, ddof=1)

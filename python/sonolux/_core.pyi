@@ -159,6 +159,7 @@ def trace_sound(
     settings: SoundSettings,
     progress: _Progress | None = None,
     early: EarlySettings | None = None,
+    cover_early: bool = True,
 ) -> dict[str, Any]: ...
 
 @final

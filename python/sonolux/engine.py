@@ -242,12 +242,14 @@ class Geometry:
 def trace_sound(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],
                 receivers: Receivers, settings: SoundSettings,
                 progress: Progress | None = None,
-                early: EarlySettings | None = None) -> dict[str, Any]:
+                early: EarlySettings | None = None,
+                cover_early: bool = True) -> dict[str, Any]:
     """Traces a sound bake; see ``_core.trace_sound`` for the dict it returns (the field is
     float32[receiver, direction, band, time] in J/m²). With ``early``, the specular-only paths
-    that :func:`early_arrivals` counts with those settings are left out."""
+    that :func:`early_arrivals` counts with those settings are left out (unless
+    ``cover_early`` is False), and its level of detail applies to every reflection."""
     return core().trace_sound(geometry._native, acoustics, list(sources), receivers, settings,
-                              progress, early)
+                              progress, early, cover_early)
 
 
 def early_arrivals(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],

@@ -331,14 +331,17 @@ impl SoundSettings {
 /// Traces a sound bake (or the range of rays its settings name). `progress(done, total,
 /// elapsed_s)` is called about every 100 ms and may return False to stop. With `early` (an
 /// `EarlySettings`), the tracer leaves out the specular-only paths that `early_arrivals` counts
-/// with those settings (up to its order and time), so that the two add without double counting.
+/// with those settings (up to its order and time), so that the two add without double counting;
+/// with `cover_early = False` it leaves nothing out (a particles-only bake that takes only the
+/// level of detail from `early`). When `early.level_of_detail`, every reflection's scattering
+/// becomes Rindel's s' = 1 − (1 − s) K (sonolux_core::early::lod), as the image sources apply it.
 ///
 /// Returns a dict: energy float32[receiver, direction, band, time] in J/m², bin_start_s and
 /// bin_width_s float64[time], early_bins, late_bin_s, quantum, counts uint64[receiver,
 /// direction, band, time] (only with keep_counts: energy = counts × quantum, exactly), saturated,
 /// cancelled and stats (a dict).
 #[pyfunction]
-#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None, early = None))]
+#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None, early = None, cover_early = true))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_sound<'py>(
     py: Python<'py>,
@@ -349,9 +352,14 @@ pub(crate) fn trace_sound<'py>(
     settings: &SoundSettings,
     progress: Option<Bound<'py, PyAny>>,
     early: Option<PyRef<'py, crate::early::EarlySettings>>,
+    cover_early: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let set = &settings.inner;
-    let covered = early.map(|e| e.coverage());
+    let covered = early.as_ref().filter(|_| cover_early).map(|e| e.coverage());
+    let detail = early.as_ref().filter(|e| e.inner.level_of_detail).map(|e| {
+        let e = &e.inner;
+        sonolux_core::early::lod::LevelOfDetail::new(&geometry.mesh, e.band_centres_hz.clone(), e.speed_of_sound_m_s, e.plane_tolerance_m)
+    });
     let threads = check_threads(set.threads)?;
     let sources: Vec<core::SoundSource> = sources.iter().map(|s| s.inner.clone()).collect();
     // Trace with the GIL released; the progress closure takes it back briefly to report and to
@@ -359,7 +367,8 @@ pub(crate) fn trace_sound<'py>(
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        let res = core::trace_sound_hybrid(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, covered, |p| {
+        let extras = core::Extras { covered, level_of_detail: detail.as_ref() };
+        let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })?;
         let energy = res.energy(threads);

@@ -11,8 +11,11 @@ specular-only paths the images already count (docs/early-sound.md).
 Keys: ``max_order`` (default 3, 0 to 12), ``transition_ms`` (``"auto"``, the default: the
 perceptual mixing time 20 V/S + 12 ms of Lindau, Kosanke and Weinzierl 2012; or a time in
 (0, 1000] ms), ``diffraction`` (default true), ``level_of_detail`` (default false: Rindel's
-finite-panel specular share on every image reflection), ``diffraction_piece_m`` (default 0.25:
-the longest piece of an edge whose visibility is tested as one, in (0, 10] m).
+finite-panel specular share K on every reflection of the image sources and the particles alike,
+s' = 1 − (1 − s)K, on panels with a diffracting edge; with ``max_order = 0`` and
+``diffraction = false`` it is a particles-only bake with level of detail),
+``diffraction_piece_m`` (default 0.25: the longest piece of an edge whose visibility is tested
+as one, in (0, 10] m).
 """
 
 from __future__ import annotations

@@ -29,6 +29,8 @@ pub struct Wedge {
     pub open_angle_rad: f64,
     /// The planes of the two faces (equal for a free edge).
     pub planes: [u32; 2],
+    /// A triangle of each face (equal for a free edge).
+    pub triangles: [u32; 2],
 }
 
 impl Wedge {
@@ -93,7 +95,7 @@ pub fn wedges(mesh: &Mesh, planes: &Planes) -> Vec<Wedge> {
         let plane = |t: u32| planes.plane_of_triangle[t as usize];
         let wedge = match *tris.as_slice() {
             [t] => {
-                Wedge { start: a, end: b, along, into_face: into(t), normal: normal(t), open_angle_rad: 2.0 * PI, planes: [plane(t), plane(t)] }
+                Wedge { start: a, end: b, along, into_face: into(t), normal: normal(t), open_angle_rad: 2.0 * PI, planes: [plane(t), plane(t)], triangles: [t, t] }
             }
             [t1, t2] => {
                 let (d1, d2, n1) = (into(t1), into(t2), normal(t1));
@@ -103,7 +105,7 @@ pub fn wedges(mesh: &Mesh, planes: &Planes) -> Vec<Wedge> {
                 if open < PI + 0.01 {
                     continue;
                 }
-                Wedge { start: a, end: b, along, into_face: d1, normal: n1, open_angle_rad: open, planes: [plane(t1), plane(t2)] }
+                Wedge { start: a, end: b, along, into_face: d1, normal: n1, open_angle_rad: open, planes: [plane(t1), plane(t2)], triangles: [t1, t2] }
             }
             _ => continue,
         };

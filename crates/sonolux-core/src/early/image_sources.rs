@@ -19,7 +19,6 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::lod::specular_share;
 use super::planes::Planes;
 use super::{directivity_gain, Arrival, ArrivalKind, Context, PairArrivals};
 use crate::geometry::Ray;
@@ -177,28 +176,39 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
             out[b] *= extra[b];
         }
     }
-    let mut travelled = 0.0;
-    let mut prev = source;
+    let n = path.points.len();
+    let mut shares = vec![1.0; nb];
     for (k, (&p, &tri)) in path.points.iter().zip(&path.triangles).enumerate() {
         let m = ctx.mesh.material[tri as usize] as usize * nb;
         let alpha = &ctx.acoustics.absorption[m..m + nb];
         let scat = &ctx.acoustics.scattering[m..m + nb];
-        let leg = (p - prev).length();
-        travelled += leg;
         for b in 0..nb {
             out[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);
         }
-        if set.level_of_detail {
-            let plane = &ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize];
-            let panel = &ctx.planes.panels[ctx.planes.panel_of_triangle[tri as usize] as usize];
-            let incident = (p - prev) / leg;
-            let _ = k;
+        if let Some(lod) = ctx.lod {
+            // The legs before and after this reflection along the path, as the particle on
+            // this path sees them (lod.rs): after the last reflection, the leg runs past the
+            // receiver to the next surface.
+            let prev = if k == 0 { source } else { path.points[k - 1] };
+            let d1 = (p - prev).length();
+            let d2 = if k + 1 < n { (path.points[k + 1] - p).length() } else { leg_to_surface(ctx, p, receiver - p) };
+            lod.specular_shares(tri as usize, (p - prev) / d1, d1, d2, &mut shares);
             for b in 0..nb {
-                out[b] *= specular_share(panel, plane.normal, incident, travelled, l - travelled, set.band_centres_hz[b], set.speed_of_sound_m_s);
+                out[b] *= shares[b];
             }
         }
-        prev = p;
     }
+}
+
+/// Length of the leg that leaves `from` (a reflection point) along `dir` until it meets a
+/// surface; infinite when it leaves the scene.
+fn leg_to_surface(ctx: &Context, from: DVec3, dir: DVec3) -> f64 {
+    let len = dir.length();
+    if !(len > 0.0) {
+        return f64::INFINITY;
+    }
+    let ray = Ray::new(from.as_vec3(), dir.as_vec3());
+    ctx.bvh.closest_hit(&ray, (ctx.epsilon_m / len) as f32, f32::INFINITY).map_or(f64::INFINITY, |h| h.t as f64 * len)
 }
 
 /// The specular arrivals (direct sound included) of source `s` at receiver `r`.

@@ -10,7 +10,9 @@
 //!   edges) and the Biot–Tolstoy–Medwin secondary-source model of first-order diffraction of the
 //!   direct sound and of first-order image sources, per band, continuous across shadow and
 //!   reflection boundaries.
-//! - [`lod`]: Rindel's specular share of finite panels, per band.
+//! - [`lod`]: Rindel's specular share of finite panels, per band, from the legs before and after
+//!   each reflection (Christensen and Rindel's reflection-based scattering), shared with the
+//!   particle tracer so that a hybrid with level of detail counts nothing twice.
 //!
 //! The particle tracer leaves out exactly the specular-only paths these arrivals count when it
 //! runs with [`crate::sound::SpecularCoverage`] (see `docs/early-sound.md`).
@@ -216,6 +218,8 @@ pub(crate) struct Context<'a> {
     pub sources: &'a [SoundSource],
     pub gains: Option<&'a ScopedGains<'a>>,
     pub settings: &'a EarlySettings,
+    /// Level of detail (with `settings.level_of_detail`): Rindel's K on every reflection.
+    pub lod: Option<&'a lod::LevelOfDetail>,
     /// Offset (m) that keeps a visibility ray from finding the surface it starts on.
     pub epsilon_m: f64,
 }
@@ -265,6 +269,7 @@ pub fn early_arrivals(
         return Err(CoreError::invalid("receivers", format!("receiver {i} has a non-finite position {:?}", receivers[i])));
     }
     let planes = Planes::build(mesh, settings.plane_tolerance_m);
+    let detail = settings.level_of_detail.then(|| lod::LevelOfDetail::with_planes(mesh, planes.clone(), settings.band_centres_hz.clone(), settings.speed_of_sound_m_s));
     let wedges = if settings.diffraction { edges::wedges(mesh, &planes) } else { Vec::new() };
     let ctx = Context {
         mesh,
@@ -274,6 +279,7 @@ pub fn early_arrivals(
         sources,
         gains,
         settings,
+        lod: detail.as_ref(),
         epsilon_m: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
     };
     let max_path_m = settings.max_time_s * settings.speed_of_sound_m_s;

@@ -26,6 +26,7 @@ use glam::DVec3;
 
 use crate::bvh::Bvh;
 use crate::convex::Surfaces;
+use crate::early::lod::LevelOfDetail;
 use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::{fill_blocks, run_chunks, Progress};
@@ -347,6 +348,8 @@ pub(crate) struct Scene<'a> {
     pub covered: Option<SpecularCoverage>,
     /// The receivers' tree of the sampled rain estimator (None for the others).
     pub receiver_tree: Option<&'a nee::ReceiverTree>,
+    /// Level of detail: Rindel's K turns part of each specular reflection into scattering.
+    pub lod: Option<&'a LevelOfDetail>,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -385,6 +388,40 @@ pub fn trace_sound_hybrid(
     covered: Option<SpecularCoverage>,
     progress: impl FnMut(&Progress) -> bool,
 ) -> Result<SoundResult, CoreError> {
+    trace_sound_with(mesh, bvh, acoustics, sources, receivers, settings, Extras { covered, level_of_detail: None }, progress)
+}
+
+/// What a bake may add to the plain tracer.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Extras<'a> {
+    /// Specular-only paths another method counts (the hybrid's image sources).
+    pub covered: Option<SpecularCoverage>,
+    /// Level of detail ([`crate::early::lod`]): each reflection's scattering becomes
+    /// s' = 1 − (1 − s) K, K computed exactly as the image sources compute it.
+    pub level_of_detail: Option<&'a LevelOfDetail>,
+}
+
+/// [`trace_sound`] with [`Extras`].
+#[allow(clippy::too_many_arguments)]
+pub fn trace_sound_with(
+    mesh: &Mesh,
+    bvh: &Bvh,
+    acoustics: &Acoustics,
+    sources: &[SoundSource],
+    receivers: &Receivers,
+    settings: &SoundSettings,
+    extras: Extras,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<SoundResult, CoreError> {
+    let covered = extras.covered;
+    if let Some(lod) = extras.level_of_detail {
+        if lod.band_centres_hz.len() != acoustics.n_bands || lod.band_centres_hz.iter().any(|f| !(*f > 0.0 && f.is_finite())) {
+            return Err(CoreError::invalid("level of detail", format!("needs {} positive band centres, got {:?}", acoustics.n_bands, lod.band_centres_hz)));
+        }
+        if !(lod.speed_of_sound_m_s > 0.0 && lod.speed_of_sound_m_s.is_finite()) || lod.planes.plane_of_triangle.len() != mesh.triangles.len() {
+            return Err(CoreError::invalid("level of detail", "built for another mesh, or a speed of sound that is not positive"));
+        }
+    }
     if let Some(c) = covered {
         if !(c.max_time_s >= 0.0) || c.max_order > 64 {
             return Err(CoreError::invalid("specular coverage", format!("order {} (≤ 64) and time {} s (≥ 0) expected", c.max_order, c.max_time_s)));
@@ -439,6 +476,7 @@ pub fn trace_sound_hybrid(
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
         covered,
         receiver_tree: receiver_tree.as_ref(),
+        lod: extras.level_of_detail,
     };
     let quantum = trace::quantum(sources, receivers.radius_m, receivers.peak_gain());
     let n = settings.end_ray - settings.first_ray;

@@ -41,6 +41,9 @@ pub(crate) struct Worker {
     gain: Vec<f64>,
     /// Per kind of tally and band, `[kind * bands + band]`: the ray's energy balance.
     tally: Vec<f64>,
+    /// Per band, with level of detail: Rindel's K at a reflection, and the scattering s' it gives.
+    shares: Vec<f64>,
+    scattering: Vec<f64>,
 }
 
 impl Worker {
@@ -53,6 +56,8 @@ impl Worker {
             deposit: vec![0.0; n_bands],
             gain: vec![0.0; n_bands],
             tally: vec![0.0; stats::KINDS * n_bands],
+            shares: vec![0.0; n_bands],
+            scattering: vec![0.0; n_bands],
         }
     }
 }
@@ -82,7 +87,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
     let air = &set.air_attenuation_per_m[..nb];
-    let Worker { stats: st, deposits: buf, stamp, energy, deposit, gain, tally } = w;
+    let Worker { stats: st, deposits: buf, stamp, energy, deposit, gain, tally, shares, scattering } = w;
     let mut rng = Stream::new(set.seed, s as u64, index);
     // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
     let e = &mut energy[..nb];
@@ -115,9 +120,12 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     tally.fill(0.0);
     tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].copy_from_slice(e);
     st.rays += 1;
+    // With level of detail, the surface a specular bounce will meet is found at the reflection
+    // (its distance is the leg d₂ of Rindel's K) and kept for the next segment.
+    let mut found_next: Option<Option<(f64, usize, DVec3)>> = None;
     loop {
         // Find the nearest surface along the ray.
-        let hit = scene.surfaces.nearest(pos, dir);
+        let hit = found_next.take().unwrap_or_else(|| scene.surfaces.nearest(pos, dir));
         let length = hit.map_or(f64::INFINITY, |h| h.0);
         st.segments += 1;
         ray_segments += 1;
@@ -192,10 +200,25 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         let material = scene.mesh.material[tri] as usize;
         let m = material * nb;
         let alpha = &scene.acoustics.absorption[m..m + nb];
-        let scat = &scene.acoustics.scattering[m..m + nb];
+        let mut scat = &scene.acoustics.scattering[m..m + nb];
         for b in 0..nb {
             tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
             e[b] *= 1.0 - alpha[b];
+        }
+        let mut p_diffuse = scene.p_diffuse[material];
+        if let Some(lod) = scene.lod {
+            // Level of detail (early/lod.rs): the surface's scattering s and the panel's
+            // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
+            // and after (along the specular direction) the reflection, as the image sources do.
+            let mirror = dir - 2.0 * dir.dot(normal) * normal;
+            let next = scene.surfaces.nearest(point + normal * scene.epsilon, mirror);
+            lod.specular_shares(tri, dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut shares[..nb]);
+            for b in 0..nb {
+                scattering[b] = crate::early::lod::effective_scattering(scat[b], shares[b]);
+            }
+            scat = &scattering[..nb];
+            p_diffuse = scat.iter().sum::<f64>() / nb as f64;
+            found_next = Some(next);
         }
 
         // Rain: send the diffusely reflected energy to every receiver that sees this point.
@@ -206,9 +229,8 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         }
 
         // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
-        let p_diffuse = scene.p_diffuse[material];
         let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
-        if !scene.uniform_scattering {
+        if !scene.uniform_scattering || scene.lod.is_some() {
             for b in 0..nb {
                 let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
                 let before = e[b];
@@ -221,6 +243,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
             wave_radius = 0.0;
             spheres = !set.estimator.rains();
             specular_only = false;
+            found_next = None;
         } else {
             dir = dir - 2.0 * dir.dot(normal) * normal;
             spheres = true;

@@ -1,0 +1,205 @@
+"""Level of detail (docs/early-sound.md, crates/sonolux-core/src/early/lod.rs): Rindel's
+finite-panel specular share K, computed per reflection from the legs before and after it
+(Christensen and Rindel's reflection-based scattering), applied alike by the image sources and
+the particles.
+
+- no double counting with level of detail on: a hybrid (image sources to order 2) and a bake
+  whose reflections are all the particles' agree in energy per band within the Monte Carlo
+  error, in a room with furniture whose small faces make K < 1;
+- what level of detail changes: the furniture's faces scatter more at low frequencies, so the
+  early specular energy falls there and not at high frequencies;
+- same bits on 1 and 2 threads.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sonolux
+from sonolux.sound.bake import bake
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "furniture"))
+from rooms import boxes_on_wall, furniture, write_obj  # noqa: E402
+
+pytestmark = pytest.mark.usefixtures("core")
+
+BANDS = [125, 250, 500, 1000, 2000, 4000]
+ROOM = (7.0, 5.0, 2.8)
+SOURCE = (5.8, 1.2, 1.5)
+RECEIVERS = ((1.5, 1.2, 1.2), (3.0, 4.2, 1.5))
+
+
+def furnished(tmp_path: Path, early: dict, seed: int = 1, threads: int = 0):
+    obj = tmp_path / "furniture.obj"
+    if not obj.exists():
+        write_obj(obj, furniture())
+    data = {
+        "name": "furnished", "settings": {"bands_hz": BANDS, "seed": seed, "threads": threads},
+        "materials": {"wood": {"absorption": 0.06, "scattering": [0.05] * 4 + [0.3] * 4},
+                      "room": {"absorption": [0.25, 0.2, 0.15, 0.12, 0.1, 0.1, 0.12, 0.15],
+                               "scattering": 0.1}},
+        "geometry": [{"type": "shoebox", "size_m": list(ROOM), "materials": {"default": "room"}},
+                     {"type": "mesh", "file": str(obj), "material": "wood"}],
+        "sources": [{"position_m": list(SOURCE)}],
+        "receivers": {"type": "points", "positions_m": [list(r) for r in RECEIVERS],
+                      "radius_m": 0.3},
+        "early": dict({"diffraction": False, "level_of_detail": True}, **early),
+    }
+    return sonolux.load_scene(data)
+
+
+def totals(field, split_s):
+    """Energy per receiver and band before and after split_s, float64[receiver, 2 · band]."""
+    out = []
+    for r in range(field.energy.shape[0]):
+        e = field.omni_energy(r)
+        before = field.bin_start_s < split_s
+        out.append(np.concatenate([e[:, before].sum(axis=1), e[:, ~before].sum(axis=1)]))
+    return np.array(out)
+
+
+def test_level_of_detail_counts_nothing_twice(tmp_path):
+    # Same seeds, hybrid (image sources to order 2 with K, particles leave those paths out)
+    # against a bake whose reflections are all the particles' (order 0: the exact direct sound
+    # only), both with level of detail. Before the transition the difference is (images' K-
+    # weighted energy) − (particles' specular-only part with s' = 1 − (1 − s)K), zero in
+    # expectation; the mean over seeds must lie within 4 standard errors of zero, per band and
+    # receiver. After the transition both count the same paths. Sensitivity: at receiver 1 the
+    # images lose 18 % (125 Hz) to 6 % (4 kHz) of the early energy to K; a tracer that did not
+    # scatter it (the state before this change) fails by about 14 standard errors at 125 Hz.
+    # The receivers keep their reflections away from the furniture's edges: the images test
+    # visibility from a receiver's centre, the particles over its sphere, and a reflection
+    # 2.5 cm from the table's edge (receiver (3.5, 4.2, 1.2)) is seen by half the sphere:
+    # +5 to +8 % there with or without level of detail (docs/early-sound.md).
+    diffs, ref = [], []
+    for seed in (21, 22, 23, 24, 25):
+        kw = dict(seed=seed)
+        pure = bake(furnished(tmp_path, {"max_order": 0, "transition_ms": 30}, **kw),
+                    rays=40_000, air_absorption=False, max_time_s=0.25)
+        hybrid = bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 30}, **kw),
+                      rays=40_000, air_absorption=False, max_time_s=0.25)
+        p, h = totals(pure, 0.030), totals(hybrid, 0.030)
+        diffs.append(h - p)
+        ref.append(p)
+    diffs, ref = np.array(diffs), np.mean(ref, axis=0)
+    mean, err = diffs.mean(axis=0), diffs.std(axis=0, ddof=1) / math.sqrt(len(diffs))
+    assert np.all(np.abs(mean) <= 4 * err + 1e-6 * ref), (mean / ref, err / ref)
+    assert np.all(np.abs(mean) / ref < 0.05), mean / ref
+
+
+def test_level_of_detail_takes_specular_energy_from_small_faces_at_low_frequencies(tmp_path):
+    # The image sources alone: with level of detail, reflections on the furniture (table top
+    # 3 × 1.2 m, chair seats 0.45 m, shelves 0.35 m deep) lose their specular share where the
+    # panel is small against the wavelength, reflections on the 7 × 5 m floor and ceiling do
+    # not. So the early specular energy falls more at 125 Hz than at 4 kHz, and never rises.
+    on = bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 40}), rays=200,
+              air_absorption=False, max_time_s=0.1)
+    off = bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 40,
+                                    "level_of_detail": False}), rays=200,
+               air_absorption=False, max_time_s=0.1)
+    e_on, e_off = on.early["energy"], off.early["energy"]
+    assert len(e_on) == len(e_off)
+    assert np.all(e_on <= e_off * (1 + 1e-12))
+    ratio = e_on.sum(axis=0) / e_off.sum(axis=0)
+    assert ratio[0] < ratio[-1] and ratio[0] < 0.999, ratio
+
+
+def test_level_of_detail_is_the_same_on_one_and_two_threads(tmp_path):
+    fields = [bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 30}, threads=t),
+                   rays=3000, air_absorption=False, max_time_s=0.2) for t in (1, 2)]
+    np.testing.assert_array_equal(fields[0].energy, fields[1].energy)
+    for k, v in fields[0].early.items():
+        np.testing.assert_array_equal(fields[1].early[k], v)
+
+
+# --- a wall of small boxes against a flat wall ----------------------------------------------
+
+BOX_BANDS = [63, 125, 250, 500, 1000, 2000, 4000]
+BOX_ALPHA_HARD, BOX_ALPHA_ROOM = 0.03, 0.12
+
+
+def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True):
+    """8 × 6 × 3 m; the west wall and its boxes hard (α 0.03, s 0.05), the rest α 0.12, s 0.2;
+    nine listeners at 1.2 m. Level of detail applies to every reflection (max_order 0: the
+    direct sound exact, every reflection the particles')."""
+    from rooms import BOX_ROOM_M
+    obj = tmp_path / "boxes.obj"
+    if boxes and not obj.exists():
+        write_obj(obj, {"boxes": boxes_on_wall()})
+    faces = ("floor", "ceiling", "west", "east", "south", "north")
+    data = {
+        "name": "box wall" if boxes else "flat wall",
+        "settings": {"bands_hz": BOX_BANDS, "seed": 2},
+        "materials": {"hard": {"absorption": BOX_ALPHA_HARD, "scattering": 0.05},
+                      "room": {"absorption": BOX_ALPHA_ROOM, "scattering": 0.2}},
+        "geometry": [{"type": "shoebox", "size_m": list(BOX_ROOM_M),
+                      "materials": {f: "hard" if f == "west" else "room" for f in faces}}],
+        "sources": [{"position_m": [6.5, 2.2, 1.5]}],
+        "receivers": {"type": "points", "radius_m": 0.3,
+                      "positions_m": [[x, y, 1.2] for x in (1.5, 3.5, 5.5)
+                                      for y in (1.2, 3.0, 4.8)]},
+        "early": {"max_order": 0, "diffraction": False, "level_of_detail": level_of_detail},
+    }
+    if boxes:
+        data["geometry"].append({"type": "mesh", "file": str(obj), "material": "hard"})
+    return sonolux.load_scene(data)
+
+
+def eyring_t60_s(boxes: bool) -> float:
+    """Eyring's T60 (no air) of the box-wall room: 50 cubes of 0.3 m add 27 m² of hard surface
+    and take 1.35 m³ of air."""
+    from rooms import BOX_ROOM_M, BOX_SIZE_M
+    lx, ly, lz = BOX_ROOM_M
+    n = len(boxes_on_wall()) if boxes else 0
+    volume = lx * ly * lz - n * BOX_SIZE_M ** 3
+    hard = ly * lz + n * 6 * BOX_SIZE_M ** 2
+    rest = 2 * (lx * ly + lx * lz + ly * lz) - ly * lz
+    area = hard + rest
+    mean_alpha = (hard * BOX_ALPHA_HARD + rest * BOX_ALPHA_ROOM) / area
+    return 0.161 * volume / (-area * math.log(1.0 - mean_alpha))
+
+
+@pytest.fixture(scope="module")
+def box_and_flat(tmp_path_factory):
+    """Mean T30 and EDT over the nine listeners, {boxes: {key: float[band]}}, 100,000 rays."""
+    from sonolux.analysis.params import room_parameters
+    tmp = tmp_path_factory.mktemp("boxes")
+    means = {}
+    for boxes in (False, True):
+        field = bake(box_room(tmp, boxes), rays=100_000, air_absorption=False, max_time_s=2.0)
+        v = room_parameters(field, theory=False, sti=False).values
+        means[boxes] = {k: np.nanmean(v[k], axis=0)[:len(BOX_BANDS)] for k in ("t30_s", "edt_s")}
+    return means
+
+
+@pytest.mark.slow
+def test_a_wall_of_small_boxes_decays_more_diffusely_at_4_khz(box_and_flat):
+    # Measure of diffuseness: how far T30 lies from Eyring's diffuse-field T60 (Eyring assumes
+    # a diffuse field; a specular room with one hard wall decays slower). Measured (100,000
+    # rays, nine listeners): flat wall +8.4 %, box wall +2.2 % (its 0.3 m faces keep K ≈ 0.07
+    # at 4 kHz, so they scatter). Asserted: the flat wall's deviation is above the 5 % JND of
+    # T30 and the box wall's is less than half of it.
+    flat = box_and_flat[False]["t30_s"][-1] / eyring_t60_s(False) - 1.0
+    box = box_and_flat[True]["t30_s"][-1] / eyring_t60_s(True) - 1.0
+    assert flat > 0.05 and abs(box) < 0.5 * flat, (flat, box)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "Rindel's K makes 0.3 m box faces diffusers at 63-125 Hz, not invisible: the box wall's "
+    "T30/EDT are 5 % below the flat wall's after Eyring's area/volume ratio "
+    "(docs/early-sound.md, 'What it does not do')"))
+def test_a_wall_of_small_boxes_is_a_flat_wall_at_low_frequencies(box_and_flat):
+    # The issue's criterion: at 63 and 125 Hz the same T30 and EDT within 3 %, once the boxes'
+    # own 27 m² of surface and 1.35 m³ of volume are accounted for by the ratio of Eyring's T60
+    # of the two rooms (0.958: the boxes add 4 % of absorption area whatever the model).
+    # Measured: 0.947-0.953 of that. Strict: the day it passes, this marker must go.
+    expected = eyring_t60_s(True) / eyring_t60_s(False)
+    for key in ("t30_s", "edt_s"):
+        ratio = box_and_flat[True][key][:2] / box_and_flat[False][key][:2] / expected
+        assert np.all(np.abs(ratio - 1.0) < 0.03), (key, ratio)
