@@ -159,7 +159,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     bake; ``progress=True`` prints a progress line, or pass ``f(done, total, elapsed_s) ->
     bool`` (False stops the bake). ``log`` receives one-line notes (ray count and why).
     """
-    options = replace(options or SoundOptions(), **overrides).validate()
+    options = wave_sound.with_scene(scene, replace(options or SoundOptions(), **overrides).validate())
+    if options.waves:
+        wave_sound.check_scene(scene)
     if not scene.sources:
         raise SonoluxError(f"{scene.origin}: the scene has no sound source to bake")
     if scene.receivers.count == 0:
@@ -277,9 +279,13 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
         max_field_bytes=options.max_field_bytes or budget_bytes())
     limit = wave_sound.memory_limit(options.max_field_bytes)
     cross = wave_sound.choose_crossover(scene, rec["max_time_s"], crossover_hz=options.crossover_hz,
-                                        time_budget_s=options.wave_time_budget_s,
+                                        time_budget_s=(options.wave_time_budget_s
+                                                       or wave_sound.DEFAULT_TIME_BUDGET_S),
+                                        absorption=arrays["absorption"],
                                         memory_limit_bytes=limit)
     part = wave_sound.bake_waves(scene, arrays, binning, cross, rec["max_time_s"], limit,
+                                 (field.bin_start_s, field.bin_width_s),
+                                 (rec["azimuth_bands"], rec["elevation_bands"]),
                                  progress=progress, log=log)
     energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands)
     part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,

@@ -16,6 +16,7 @@ from sonolux.sound import progressive
 from sonolux.sound import ranges as in_ranges
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.waves import with_scene
 
 
 def bake(scene: Scene, options: SoundOptions | None = None, *,
@@ -33,7 +34,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     :class:`sonolux.sound.progressive.Accuracy` with caps on rays and seconds. The field's
     ``settings["progressive"]`` says how it ended and which errors it reached.
     """
-    options = replace(options or SoundOptions(), **overrides)
+    options = with_scene(scene, replace(options or SoundOptions(), **overrides).validate())
     if accuracy is None:
         return in_ranges.bake(scene, options, client=client, checkpoint=checkpoint,
                               resume=resume, restart=restart,

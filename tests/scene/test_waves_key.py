@@ -1,0 +1,57 @@
+"""The scene's ``[waves]`` table: read and checked at the edge, and resolved against the bake's
+options (the options win; None takes the scene's)."""
+
+from __future__ import annotations
+
+import pytest
+
+import sonolux
+from sonolux.errors import SceneError, SettingError
+from sonolux.sound.options import SoundOptions
+from sonolux.sound.waves import DEFAULT_TIME_BUDGET_S, with_scene
+
+
+def scene(waves=None):
+    d = {
+        "name": "box", "settings": {"bands_hz": [125, 250, 500, 1000]},
+        "materials": {"m": {"absorption": 0.15}},
+        "geometry": [{"type": "shoebox", "size_m": [5, 4, 3], "materials": {"default": "m"}}],
+        "sources": [{"position_m": [1.3, 1.1, 1.4]}],
+        "receivers": {"type": "points", "positions_m": [[2.9, 2.1, 1.2]]},
+    }
+    if waves is not None:
+        d["waves"] = waves
+    return sonolux.load_scene(d)
+
+
+def test_the_table_sets_the_defaults_and_the_options_win():
+    s = scene({"enabled": True, "crossover_hz": 300, "time_budget_s": 42})
+    o = with_scene(s, SoundOptions())
+    assert (o.waves, o.crossover_hz, o.wave_time_budget_s) == (True, 300.0, 42.0)
+    o = with_scene(s, SoundOptions(crossover_hz=700, wave_time_budget_s=5))
+    assert (o.waves, o.crossover_hz, o.wave_time_budget_s) == (True, 700.0, 5.0)
+    # --no-waves turns a scene's waves off (and its crossover with them).
+    o = with_scene(s, SoundOptions(waves=False))
+    assert (o.waves, o.crossover_hz) == (False, None)
+
+
+def test_without_the_table_waves_are_off_and_a_lone_crossover_is_refused():
+    o = with_scene(scene(), SoundOptions())
+    assert (o.waves, o.crossover_hz, o.wave_time_budget_s) == (False, None, DEFAULT_TIME_BUDGET_S)
+    assert with_scene(scene(), SoundOptions(waves=True)).waves is True
+    with pytest.raises(SettingError, match="crossover_hz"):
+        with_scene(scene(), SoundOptions(crossover_hz=300))
+
+
+@pytest.mark.parametrize("table, key", [
+    ({"enabled": "yes"}, "waves.enabled"),
+    ({"enabled": True, "crossover_hz": 5}, "waves.crossover_hz"),
+    ({"enabled": True, "crossover_hz": "auto"}, "waves.crossover_hz"),
+    ({"enabled": True, "time_budget_s": 0}, "waves.time_budget_s"),
+    ({"enabled": True, "time_budget_s": float("inf")}, "waves.time_budget_s"),
+    ({"crossover_hz": 300}, "waves.crossover_hz"),
+    ({"enabled": True, "crossover": 300}, "waves.crossover"),
+])
+def test_bad_values_name_the_key(table, key):
+    with pytest.raises(SceneError, match=key.replace(".", r"\.")):
+        scene(table)
