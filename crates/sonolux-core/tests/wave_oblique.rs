@@ -59,6 +59,7 @@ fn spectrum(x: &[f64], len: usize) -> Vec<C64> {
 /// projection at `x_r`. The rigid sides do not mix modes, and a wall across the duct (the same
 /// material over its width) reflects mode m into itself: mode m is two plane waves at ±θ,
 /// sin θ = mλ_sound/(2W) (continuous), so a few modes over a band of frequencies sweep θ.
+#[allow(clippy::too_many_arguments)]
 fn duct_mode(length: f64, width_cells: usize, m: usize, end_wall: &[f64], centres: &[f64], h: f64, duration_s: f64, x_r: f64) -> (Vec<f64>, Admittance, f64, f64) {
     let mut absorption = vec![0.0; centres.len()];
     absorption.extend_from_slice(end_wall);
