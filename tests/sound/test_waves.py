@@ -336,8 +336,8 @@ def test_paper_room_decay_continuous_across_the_crossover():
     locally reacting room, its modes (above), with the admittances the fit gives by Paris'
     formula (floor 0.0506, walls 0.00665): T30 and EDT per octave within three σ of the mean of
     4 independent points with no noise in the model, 11% at 250-500 Hz (EDT as T20, 14%) and
-    15% at 125 Hz (B = 88 Hz). Measured (2026-11-27, before the direct sound's sphere mean):
-    T30 -4.1/-0.6/+6.9%, EDT -3.4/+1.5/-0.2%."""
+    15% at 125 Hz (B = 88 Hz). Measured (2026-11-27): T30 -3.8/+0.1/+8.3%, EDT
+    -1.8/+1.7/-0.9% (the rays' EDT at 500 Hz: +21%)."""
     scene = sonolux.load_scene("paper-small")
     hybrid = bake(scene, rays=20_000, waves=True)
     rays = bake(scene, rays=20_000)

@@ -59,9 +59,12 @@ from sonolux.memory import budget_bytes, gb
 from sonolux.progress import ProgressLine
 from sonolux.sound.synthesis import band_split_weights
 
-#: Steps of the short run that measures the solver's rate on the scene's own grid before the
-#: crossover is chosen (:func:`measured_rate`): enough for the sweep to dominate the timer.
-PROBE_STEPS = 40
+#: Cell updates of the short run that measures the solver's rate on the scene's own grid before
+#: the crossover is chosen (:func:`measured_rate`), at least :data:`PROBE_MIN_STEPS` steps:
+#: about half a second here, long enough that a shared machine's scheduling hiccups of tens of
+#: milliseconds do not decide the crossover.
+PROBE_UPDATES = 3e8
+PROBE_MIN_STEPS = 40
 #: Frequencies where the pulse's spectrum is this far below its peak are left out of the
 #: deconvolution (as ``bands::BandFilters::inverse_of`` does).
 PULSE_FLOOR = 1e-6
@@ -113,14 +116,16 @@ def run_seconds(estimate: dict[str, int], updates_per_s: float) -> float:
 def measured_rate(scene: Any, absorption: np.ndarray, max_frequency_hz: float,
                   memory_limit_bytes: int) -> float:
     """Air-cell updates per second of the solver on this machine now, on the scene's own grid
-    at ``max_frequency_hz`` with the scene's threads: a run of :data:`PROBE_STEPS` steps
+    at ``max_frequency_hz`` with the scene's threads: a run of :data:`PROBE_UPDATES` updates
     (its setup, voxelisation and fits, is not timed). The machine's speed is not a constant:
     ``make bench`` measured 1.2-2.2 G/s per core by grid size here, and a shared machine gives
     a fraction of it; the automatic crossover's time budget is spent at the rate measured."""
     bands = np.asarray(scene.settings.bands_hz, float)
     c = scene.settings.speed_of_sound_m_s
     probe = wave_settings(max_frequency_hz, 1.0, c, scene.settings.threads, memory_limit_bytes)
-    probe = wave_settings(max_frequency_hz, PROBE_STEPS / probe.sample_rate_hz, c,
+    cells = engine.wave_memory_estimate(probe, scene.geometry, 1, bands)["cells"]
+    steps = max(PROBE_MIN_STEPS, math.ceil(PROBE_UPDATES / max(cells, 1)))
+    probe = wave_settings(max_frequency_hz, steps / probe.sample_rate_hz, c,
                           scene.settings.threads, memory_limit_bytes)
     at = np.asarray([scene.sources[0].position_m], float)
     out = engine.simulate_waves(scene.geometry, absorption, bands, at, at, probe)
@@ -397,7 +402,10 @@ def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air
     keep = np.abs(pulse) > PULSE_FLOOR * np.abs(pulse).max()
     inverse = np.where(keep, 1.0 / np.where(keep, pulse, 1.0), 0.0)
     spectra = sfft.rfft(p, n_fft, axis=1) * inverse * low_edge_gain(n_fft, fs, bands_hz)
-    weights = band_split_weights(n_fft, fs, bands_hz)
+    # The wave bands' weights depend on their centres and the first ray band's alone; the bands
+    # above it may lie beyond the wave rate's Nyquist frequency (an 8 kHz band over a 354 Hz
+    # crossover, whose wave rate is 8.7 kHz), so they are left out here.
+    weights = band_split_weights(n_fft, fs, np.asarray(bands_hz, float)[:wave_bands + 1])
     h_low = weights[:wave_bands].sum(axis=0)
     # Power-complementary to the synthesis' 1 − H_L: the two parts are incoherent.
     to_power = np.divide(np.sqrt(h_low * (2.0 - h_low)), h_low, out=np.zeros_like(h_low),
