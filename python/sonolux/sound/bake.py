@@ -291,7 +291,8 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
                                  (field.bin_start_s, field.bin_width_s),
                                  (rec["azimuth_bands"], rec["elevation_bands"]),
                                  progress=progress, log=log)
-    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands)
+    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands,
+                                        field.settings)
     part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
                 max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
     stats = dict(field.stats, waves={"runs": part.pop("stats"),

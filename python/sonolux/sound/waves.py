@@ -438,16 +438,31 @@ def low_edge_gain(n_fft: int, fs: float, bands_hz: np.ndarray) -> np.ndarray:
     return np.sin(0.25 * np.pi * (x + 1.0))
 
 
-def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int) -> np.ndarray:
-    """float32[receiver, direction, band, time]: the wave bands from the waves, the rest from
-    the tracer (dense: a hybrid field is stored full)."""
+def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int,
+                    settings: dict[str, Any] | None = None) -> Any:
+    """[receiver, direction, band, time] float32: the wave bands from the waves, the rest from
+    the tracer. A dense tracer field gives a dense array; a compact one
+    (:class:`sonolux.sound.compact.CompactArray`) a compact one: the joined field's late part
+    summed back into the tracer's stored coarse bins (each shown bin is one of ``late_split``
+    equal parts of one), its early part kept as cells, and reduced again as the bake's
+    ``settings`` say when the tracer's was (``compact_arrivals``, ``compact_envelope_s``:
+    every envelope bin keeps its sum)."""
+    from sonolux.sound.compact import CompactArray, is_compact, reduced
+
     out = np.array(tracer, dtype=np.float32, order="C", copy=True)
-    # A compact tracer field shows its late part in whole coarse bins, so its time axis may run
-    # a few bins past the waves' (past max_time_s): nothing of the waves arrives there.
+    # The waves' record reaches the field's last bin (add_waves); should it not, nothing of
+    # the waves is there.
     n = min(out.shape[-1], waves.shape[-1])
     out[:, :, :wave_bands, :n] = waves[:, :, :wave_bands, :n]
     out[:, :, :wave_bands, n:] = 0.0
-    return out
+    if not is_compact(tracer):
+        return out
+    eb, split = tracer.early_bins, tracer.late_split
+    r, d, b, _ = out.shape
+    late = out[..., eb:].reshape(r, d, b, -1, split).sum(axis=-1, dtype=np.float64)
+    stored = np.concatenate([out[..., :eb], late.astype(np.float32)], axis=-1)
+    joined = CompactArray.of(stored, eb, split)
+    return joined if tracer.envelope is None or settings is None else reduced(joined, settings)
 
 
 # --- what every consumer of the field uses ---------------------------------------------------
