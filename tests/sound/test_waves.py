@@ -424,7 +424,8 @@ def test_a_compact_hybrid_keeps_the_full_hybrids_sums_and_decays():
     per receiver within 1%, a fifth of a JND (ISO 3382-1: 5%): the compact early part keeps
     the 128 strongest arrivals exact and the rest as a 1 ms envelope, which moves EDT a little
     (the tracer's own compact field: 0.03-1.2% by room, docs/fieldfile.md). Measured: T20
-    within 0.15%, EDT 0.54% at worst (file 173 → 72 KB a receiver). Before, a hybrid was always stored full."""
+    within 0.15%, EDT 0.54% at worst (file 173 → 72 KB a receiver). Before, a hybrid was
+    always stored full."""
     from sonolux.sound.compact import is_compact
 
     scene = room(spread_receivers(4))
