@@ -55,3 +55,24 @@ def test_without_the_table_waves_are_off_and_a_lone_crossover_is_refused():
 def test_bad_values_name_the_key(table, key):
     with pytest.raises(SceneError, match=key.replace(".", r"\.")):
         scene(table)
+
+
+def test_the_command_line_bakes_a_scenes_waves_and_no_waves_turns_them_off(tmp_path):
+    """`sonolux bake` of a scene whose [waves] is enabled bakes the hybrid (its checkpointed range
+    baker too, which takes the options as resolved), and --no-waves does not."""
+    from sonolux.cli import main
+    from sonolux.fieldfile import open_field
+
+    scene_file = tmp_path / "box.toml"
+    scene_file.write_text(
+        'name = "box"\n[settings]\nbands_hz = [125, 250, 500, 1000]\n'
+        '[materials.m]\nabsorption = 0.15\n[[geometry]]\ntype = "shoebox"\nsize_m = [5, 4, 3]\n'
+        '[geometry.materials]\ndefault = "m"\n[[sources]]\nposition_m = [1.3, 1.1, 1.4]\n'
+        '[receivers]\ntype = "points"\npositions_m = [[2.9, 2.1, 1.2]]\n'
+        '[waves]\nenabled = true\ncrossover_hz = 177\n')
+    on, off = tmp_path / "on.h5", tmp_path / "off.h5"
+    assert main(["bake", str(scene_file), "--rays", "2000", "--quiet", "-o", str(on)]) == 0
+    assert main(["bake", str(scene_file), "--rays", "2000", "--quiet", "--no-waves",
+                 "-o", str(off)]) == 0
+    assert open_field(on).waves["wave_bands"] == 1
+    assert open_field(off).waves is None
