@@ -139,21 +139,25 @@ DEFAULT_TIME_BUDGET_S = 600.0
 
 def with_scene(scene: Any, options: Any) -> Any:
     """``options`` with its wave settings resolved against the scene's ``[waves]`` table
-    (:mod:`sonolux.scene.waves`): what the options give wins, None takes the scene's, then the
-    defaults (off; automatic crossover; :data:`DEFAULT_TIME_BUDGET_S`)."""
+    (:mod:`sonolux.scene.waves`): what the options give wins, None takes the scene's. Without
+    a table the options come back as they are (None: off, automatic crossover,
+    :data:`DEFAULT_TIME_BUDGET_S`, which the bake reads as such), so that a checkpoint's
+    settings are the same whichever entry resolved them."""
     from dataclasses import replace
 
     spec = getattr(scene, "waves", None)
-    on = (spec.enabled if spec is not None else False) if options.waves is None else options.waves
+    on = options.waves if options.waves is not None or spec is None else spec.enabled
     crossover = options.crossover_hz
     if crossover is None and on and spec is not None:
         crossover = spec.crossover_hz
     if crossover is not None and not on:
         raise SettingError(f"crossover_hz = {crossover:g} Hz is only allowed with waves "
                            "(--waves, waves=True, or [waves] enabled = true in the scene)")
+    if spec is None:
+        return options
     budget = options.wave_time_budget_s
     if budget is None:
-        budget = (spec.time_budget_s if spec is not None else None) or DEFAULT_TIME_BUDGET_S
+        budget = spec.time_budget_s
     return replace(options, waves=on, crossover_hz=crossover, wave_time_budget_s=budget).validate()
 
 
