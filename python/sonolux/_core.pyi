@@ -204,6 +204,7 @@ def simulate_waves(
     settings: WaveSettings,
     binning: SoundSettings | None = None,
     progress: _Progress | None = None,
+    without_direct: bool = False,
 ) -> dict[str, Any]: ...
 
 @final

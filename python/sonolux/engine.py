@@ -272,19 +272,22 @@ def trace_light(geometry: Geometry, optics: Optics, emitters: Emitters, settings
 def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: Sequence[float],
                    sources_m: Any, receivers_m: Any, settings: WaveSettings,
                    binning: SoundSettings | None = None,
-                   progress: Progress | None = None) -> dict[str, Any]:
+                   progress: Progress | None = None, *,
+                   without_direct: bool = False) -> dict[str, Any]:
     """Runs the wave solver over the geometry (all sources at once, coherently): absorption
     float64[material, band] at ``band_centres_hz``; sources and receivers float64[k, 3]. Returns
     pressure_pa float32[receiver, time] and velocity_m_s float32[receiver, axis, time] at
     ``sample_rate_hz``, the pulse's free-field pressure at 1 m, stats, and with ``binning`` (the
     bake's SoundSettings) energy float32[receiver, direction, band, time] per joule of source
-    energy; see ``_core.simulate_waves``."""
+    energy (with ``without_direct``, of the room's part alone: each source's free-field direct
+    sound taken out first); see ``_core.simulate_waves``."""
     a = np.ascontiguousarray(absorption, dtype=np.float64)
     if a.ndim != 2:
         raise InvalidInputError(f"absorption: expected shape (material, band), got {a.shape}")
     return _converted(core().simulate_waves, geometry._native, a,
                       [float(f) for f in band_centres_hz], _points(sources_m, "sources_m"),
-                      _points(receivers_m, "receivers_m"), settings, binning, progress)
+                      _points(receivers_m, "receivers_m"), settings, binning, progress,
+                      bool(without_direct))
 
 
 def wave_memory_estimate(settings: WaveSettings, geometry: Geometry, n_receivers: int,

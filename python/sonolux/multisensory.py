@@ -25,6 +25,7 @@ from sonolux.scene import Scene, load_scene
 from sonolux.sound.bake import bake as bake_sound
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.waves import with_scene
 
 
 @dataclass
@@ -88,6 +89,8 @@ def bake_senses(scene: Scene | str | Path | dict, *, sound: bool | None = None,
     out: dict[str, Any] = {"sound": None, "light": None}
     if want["sound"]:
         t = time.perf_counter()
+        # The scene's [waves] table against the options, once, for whichever baker runs.
+        sound_options = with_scene(loaded, sound_options or SoundOptions())
         out["sound"] = (sound_baker or bake_sound)(loaded, sound_options, progress=progress, log=log)
         seconds["sound_s"] = time.perf_counter() - t
     if want["light"]:

@@ -136,9 +136,11 @@ fn dvec3s(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
 /// fit_rms_db and fit_branches per material, clamped_bands per material). With `binning` (the
 /// bake's SoundSettings: its bins, directions, speed of sound and air attenuation per band),
 /// also energy float32[receiver, direction, band, time]: J/m² per joule of source energy in
-/// each band, the tracer's convention, air included.
+/// each band, the tracer's convention, air included. With `without_direct`, that energy is the
+/// room's part alone: every source's free-field direct sound is taken out of the responses first
+/// (`bands::reflected_energies`; the pressure returned keeps it).
 #[pyfunction]
-#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None))]
+#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn simulate_waves<'py>(
     py: Python<'py>,
@@ -150,6 +152,7 @@ pub(crate) fn simulate_waves<'py>(
     settings: &WaveSettings,
     binning: Option<PyRef<'py, SoundSettings>>,
     progress: Option<Bound<'py, PyAny>>,
+    without_direct: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let a = absorption.as_array();
     if a.ncols() != band_centres_hz.len() {
@@ -185,7 +188,8 @@ pub(crate) fn simulate_waves<'py>(
             let energy = match &binning {
                 Some(b) => {
                     let layout = b.layout(receivers.len(), band_centres_hz.len());
-                    let e = core::bands::direction_energies(&res, &band_centres_hz, &b.air_attenuation_per_m, b.speed_of_sound_m_s, &layout)?;
+                    let direct = without_direct.then_some(core::bands::DirectPaths { sources_m: &sources, receivers_m: &receivers });
+                    let e = core::bands::reflected_energies(&res, &band_centres_hz, &b.air_attenuation_per_m, b.speed_of_sound_m_s, &layout, direct)?;
                     Some((public_order(&e, &layout), layout))
                 }
                 None => None,

@@ -225,17 +225,19 @@ def add_commands(sub) -> None:
                            "tiles to stay within it (default: 80%% of the memory available)")
     bake.add_argument("--range", type=parse.ray_range, default=None, metavar="FIRST:END",
                       help="trace only rays FIRST..END of the bake (ranges merge exactly)")
-    bake.add_argument("--waves", action="store_true",
+    bake.add_argument("--waves", action=argparse.BooleanOptionalAction, default=None,
                       help="bake the bands below a crossover with the wave solver (FDTD) and the "
-                           "rest with rays, joined into one field (docs/waves.md)")
+                           "rest with rays, joined into one field (docs/waves.md); default: as "
+                           "the scene's [waves] says (off without it)")
     bake.add_argument("--crossover-hz", type=parse.number(10, 20_000, unit="Hz"), default=None,
                       metavar="HZ", help="with --waves: where waves hand over to rays, snapped "
                                          "to a band edge (default: from the Schroeder frequency "
                                          "and the grid's budget, printed)")
     bake.add_argument("--wave-time-budget", type=parse.number(0, 1e6, lo_open=True, unit="s"),
-                      default=600.0, metavar="S",
-                      help="with --waves: planned run time the automatic crossover may spend "
-                           "(default 600 s)")
+                      default=None, metavar="S",
+                      help="with --waves: planned run time the automatic crossover may spend, at "
+                           "the solver's rate measured on this machine (default: the scene's "
+                           "[waves] time_budget_s, else 600 s)")
     bake.add_argument("--sound", action=argparse.BooleanOptionalAction, default=None,
                       help="trace sound (default: when the scene has a source and receivers)")
     bake.add_argument("--light", action=argparse.BooleanOptionalAction, default=None,

@@ -46,6 +46,7 @@ from sonolux.scene.schema import (
 )
 from sonolux.scene.shoebox import build_shoebox
 from sonolux.scene.speech import read_speech
+from sonolux.scene.waves import read_waves
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -53,7 +54,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers",
-             "daylight", "workplane", "early", "speech")
+             "daylight", "workplane", "early", "speech", "waves")
 SETTINGS_KEYS = ("sample_rate_hz", "bands", "bands_hz", "band_range_hz", "energy_drop_db",
                  "max_time_s", "seed", "threads", "air")
 AIR_KEYS = ("temperature_c", "humidity_percent", "pressure_kpa")
@@ -223,6 +224,7 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
     daylight = read_daylight(root.table("daylight"))
     early = read_early(root.table("early"))
     speech = read_speech(root.table("speech"))
+    waves = read_waves(root.table("waves"))
 
     entries = root.tables("geometry")
     if not entries:
@@ -272,4 +274,4 @@ def scene_from_dict(data: Any, ctx: Context, library: Library | None,
                  material_index=material_index, materials=materials, surface_tag=tags,
                  sources=sources, lights=lights, receivers=receivers, settings=settings,
                  mesh_report=report, warnings=warnings, geometry=geometry, daylight=daylight,
-                 workplane=workplane, early=early, speech=speech)
+                 workplane=workplane, early=early, speech=speech, waves=waves)

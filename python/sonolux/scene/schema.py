@@ -238,6 +238,8 @@ class Scene:
     early: Any = None
     #: ``[speech]`` (a :class:`sonolux.scene.speech.SpeechSpec`): talker and noise for STI.
     speech: Any = None
+    #: ``[waves]`` (a :class:`sonolux.scene.waves.WavesSpec`) or None: the hybrid's defaults.
+    waves: Any = None
     #: The core's mesh and BVH, built once when the scene was loaded and shared by the tracers.
     geometry: Any = field(default=None, repr=False)
 

@@ -161,11 +161,13 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     bake; ``progress=True`` prints a progress line, or pass ``f(done, total, elapsed_s) ->
     bool`` (False stops the bake). ``log`` receives one-line notes (ray count and why).
     """
-    options = replace(options or SoundOptions(), **overrides).validate()
+    options = wave_sound.with_scene(scene, replace(options or SoundOptions(), **overrides).validate())
     if options.estimator == "auto":
         raise SonoluxError("estimator = 'auto' is chosen by sonolux.bake (a pilot of each "
                            "estimator: sonolux.sound.progressive.choose_estimator); "
                            "sound.bake.bake needs 'paper', 'rain' or 'nee'")
+    if options.waves:
+        wave_sound.check_scene(scene)
     if not scene.sources:
         raise SonoluxError(f"{scene.origin}: the scene has no sound source to bake")
     if scene.receivers.count == 0:
@@ -291,21 +293,30 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
     rec = field.settings
     arrays = band_arrays(scene)
     arrays["air"] = np.asarray(rec["air_attenuation_per_m"], float)
+    # The waves' record reaches the field's last bin (a compact field's coarse late bins may end
+    # a bin or two past max_time_s): the wave bands are never cut short of the rays'.
+    end_s = max(float(rec["max_time_s"]),
+                float(np.max(np.asarray(field.bin_start_s) + np.asarray(field.bin_width_s))))
     binning = engine.SoundSettings(
         rays=1, first_ray=0, end_ray=1, seed=0, threads=scene.settings.threads,
         estimator="paper", speed_of_sound_m_s=rec["speed_of_sound_m_s"],
         air_attenuation_per_m=arrays["air"].tolist(), energy_drop_db=rec["energy_drop_db"],
-        max_time_s=rec["max_time_s"], sample_rate_hz=float(rec["sample_rate_hz"]),
+        max_time_s=end_s, sample_rate_hz=float(rec["sample_rate_hz"]),
         early_s=rec["early_bins"] / float(rec["sample_rate_hz"]), late_bin_s=rec["late_bin_s"],
         azimuth_bands=rec["azimuth_bands"], elevation_bands=rec["elevation_bands"],
         max_field_bytes=options.max_field_bytes or budget_bytes())
     limit = wave_sound.memory_limit(options.max_field_bytes)
-    cross = wave_sound.choose_crossover(scene, rec["max_time_s"], crossover_hz=options.crossover_hz,
-                                        time_budget_s=options.wave_time_budget_s,
+    cross = wave_sound.choose_crossover(scene, end_s, crossover_hz=options.crossover_hz,
+                                        time_budget_s=(options.wave_time_budget_s
+                                                       or wave_sound.DEFAULT_TIME_BUDGET_S),
+                                        absorption=arrays["absorption"],
                                         memory_limit_bytes=limit)
-    part = wave_sound.bake_waves(scene, arrays, binning, cross, rec["max_time_s"], limit,
+    part = wave_sound.bake_waves(scene, arrays, binning, cross, end_s, limit,
+                                 (field.bin_start_s, field.bin_width_s),
+                                 (rec["azimuth_bands"], rec["elevation_bands"]),
                                  progress=progress, log=log)
-    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands)
+    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands,
+                                        field.settings)
     part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
                 max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
     stats = dict(field.stats, waves={"runs": part.pop("stats"),

@@ -16,6 +16,7 @@ from sonolux.sound import progressive
 from sonolux.sound import ranges as in_ranges
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
+from sonolux.sound.waves import with_scene
 
 
 def bake(scene: Scene, options: SoundOptions | None = None, *,
@@ -33,11 +34,11 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     :class:`sonolux.sound.progressive.Accuracy` with caps on rays and seconds. The field's
     ``settings["progressive"]`` says how it ended and which errors it reached.
     """
-    options = replace(options or SoundOptions(), **overrides)
+    options = with_scene(scene, replace(options or SoundOptions(), **overrides).validate())
     if accuracy is None and options.estimator == "auto":
         # A fixed ray count: the estimator that reaches a quarter of a JND sooner (the pilots'
         # measure of speed; the count itself stays the caller's).
-        options, choice = progressive.choose_estimator(scene, options.validate(), log=log)
+        options, choice = progressive.choose_estimator(scene, options, log=log)
         field = bake(scene, options, client=client, checkpoint=checkpoint, resume=resume,
                      restart=restart, checkpoint_every_s=checkpoint_every_s,
                      range_rays=range_rays, tasks=tasks, progress=progress, log=log)

@@ -61,10 +61,13 @@ class SoundOptions:
         the whole bake within it (:mod:`sonolux.sound.budget`); None = 80% of the memory this
         machine has available (:func:`sonolux.memory.budget_bytes`).
     waves: bake the bands below a crossover with the wave solver (FDTD), the rest with the
-        tracer, joined into one field (:mod:`sonolux.sound.waves`).
+        tracer, joined into one field (:mod:`sonolux.sound.waves`); None = as the scene's
+        ``[waves]`` table says (off without one).
     crossover_hz: where the waves hand over to the rays (snapped to the nearest band edge);
-        None = automatic, from the room's Schroeder frequency and the grid's budget.
-    wave_time_budget_s: the planned wave run time the automatic crossover may spend.
+        None = the scene's, else automatic, from the room's Schroeder frequency and the grid's
+        budget.
+    wave_time_budget_s: the planned wave run time the automatic crossover may spend; None = the
+        scene's, else 600 s.
     sources: the names of the scene's sources to bake (None: all). Each source is traced
         alone and keeps its own field (docs/fieldfile.md); a bake of some of them gives each
         the bits it has in a bake of all.
@@ -86,9 +89,9 @@ class SoundOptions:
     compact_arrivals: int = 128
     compact_envelope_s: float = 0.001
     memory_bytes: int | None = None
-    waves: bool = False
+    waves: bool | None = None
     crossover_hz: float | None = None
-    wave_time_budget_s: float = 600.0
+    wave_time_budget_s: float | None = None
     sources: tuple[str, ...] | None = None
 
     def validate(self) -> SoundOptions:
@@ -137,13 +140,13 @@ class SoundOptions:
                      unit="s")
         check_number("sound option memory_bytes", self.memory_bytes, 1, none_ok=True,
                      integer=True, unit="bytes")
-        if not isinstance(self.waves, bool):
-            raise bad("waves", self.waves, "true or false")
+        if self.waves is not None and not isinstance(self.waves, bool):
+            raise bad("waves", self.waves, "true, false or None (the scene's [waves])")
         check_number("sound option crossover_hz", self.crossover_hz, 10.0, 20_000.0,
                      none_ok=True, unit="Hz")
         check_number("sound option wave_time_budget_s", self.wave_time_budget_s, 0.0, 1e6,
-                     lo_open=True, unit="s")
-        if not self.waves and self.crossover_hz is not None:
+                     lo_open=True, none_ok=True, unit="s")
+        if self.waves is False and self.crossover_hz is not None:
             raise bad("crossover_hz", self.crossover_hz, "only with waves = true")
         if self.waves and self.ray_range is not None:
             raise bad("ray_range", self.ray_range, "none with waves = true (the wave part is "

@@ -8,7 +8,8 @@ core's wave solver (FDTD, ``docs/waves.md``) does. A hybrid bake runs both and j
   statistischen Parameter der Frequenzkurven von grossen Räumen", Acustica 4, 1954) marks
   where a room's modes overlap; the tracer is sound from about twice that. The grid allows
   f_grid = the largest maximum frequency whose run fits the memory budget and the time budget
-  (cells × steps at :data:`UPDATES_PER_CORE_S`). The crossover is the band edge (geometric mean
+  (cells × steps at the rate measured on this machine by a short run on the scene's own grid,
+  :func:`measured_rate`). The crossover is the band edge (geometric mean
   of two neighbouring band centres) nearest max(2·f_S, the lowest edge) in log frequency, but
   not above f_grid/√2; or the edge nearest a crossover the user gives. Whole bands go to one
   side: **no band straddles the crossover**, since it always lies on a band edge. The grid is
@@ -58,11 +59,12 @@ from sonolux.memory import budget_bytes, gb
 from sonolux.progress import ProgressLine
 from sonolux.sound.synthesis import band_split_weights
 
-#: Planning rate of the wave solver, air-cell updates per second per core: about half of what
-#: ``make bench`` measured on this machine (1.2-1.35 G/s per core on a 256³ grid,
-#: docs/waves.md), since the machine is shared; it only sets the automatic crossover's time
-#: budget and the printed estimate.
-UPDATES_PER_CORE_S = 0.6e9
+#: Cell updates of the short run that measures the solver's rate on the scene's own grid before
+#: the crossover is chosen (:func:`measured_rate`), at least :data:`PROBE_MIN_STEPS` steps:
+#: about half a second here, long enough that a shared machine's scheduling hiccups of tens of
+#: milliseconds do not decide the crossover.
+PROBE_UPDATES = 3e8
+PROBE_MIN_STEPS = 40
 #: Frequencies where the pulse's spectrum is this far below its peak are left out of the
 #: deconvolution (as ``bands::BandFilters::inverse_of`` does).
 PULSE_FLOOR = 1e-6
@@ -80,6 +82,8 @@ class Crossover:
     schroeder_hz: float
     grid_limit_hz: float
     why: str
+    #: The solver's rate measured on this machine before the choice (cell updates/s).
+    updates_per_s: float
 
 
 def band_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
@@ -104,27 +108,87 @@ def wave_settings(f_max_hz: float, duration_s: float, c: float, threads: int,
                                memory_limit_bytes=int(memory_limit_bytes))
 
 
-def run_seconds(estimate: dict[str, int], threads: int) -> float:
-    """The planned run time of an estimate (cells × steps at UPDATES_PER_CORE_S per core)."""
-    cores = threads or _cores()
-    return estimate["cells"] * estimate["steps"] / (UPDATES_PER_CORE_S * max(cores, 1))
+def run_seconds(estimate: dict[str, int], updates_per_s: float) -> float:
+    """The planned run time of an estimate: cells × steps at the measured rate (all threads)."""
+    return estimate["cells"] * estimate["steps"] / updates_per_s
 
 
-def _cores() -> int:
-    import os
+def measured_rate(scene: Any, absorption: np.ndarray, max_frequency_hz: float,
+                  memory_limit_bytes: int) -> float:
+    """Air-cell updates per second of the solver on this machine now, on the scene's own grid
+    at ``max_frequency_hz`` with the scene's threads: a run of :data:`PROBE_UPDATES` updates
+    (its setup, voxelisation and fits, is not timed). The machine's speed is not a constant:
+    ``make bench`` measured 1.2-2.2 G/s per core by grid size here, and a shared machine gives
+    a fraction of it; the automatic crossover's time budget is spent at the rate measured."""
+    bands = np.asarray(scene.settings.bands_hz, float)
+    c = scene.settings.speed_of_sound_m_s
+    probe = wave_settings(max_frequency_hz, 1.0, c, scene.settings.threads, memory_limit_bytes)
+    cells = engine.wave_memory_estimate(probe, scene.geometry, 1, bands)["cells"]
+    steps = max(PROBE_MIN_STEPS, math.ceil(PROBE_UPDATES / max(cells, 1)))
+    probe = wave_settings(max_frequency_hz, steps / probe.sample_rate_hz, c,
+                          scene.settings.threads, memory_limit_bytes)
+    at = np.asarray([scene.sources[0].position_m], float)
+    out = engine.simulate_waves(scene.geometry, absorption, bands, at, at, probe)
+    return float(out["stats"]["air_updates_per_s"]) * (
+        out["stats"]["cells"] / max(out["stats"]["air_cells"], 1))
 
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+#: The automatic crossover's time budget when neither the options nor the scene give one, s.
+DEFAULT_TIME_BUDGET_S = 600.0
 
 
-def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | None,
-                     time_budget_s: float, memory_limit_bytes: int) -> Crossover:
-    """The crossover of a hybrid bake of ``scene`` (see the module's doc)."""
-    from sonolux.scene.summary import theory
+def with_scene(scene: Any, options: Any) -> Any:
+    """``options`` with its wave settings resolved against the scene's ``[waves]`` table
+    (:mod:`sonolux.scene.waves`): what the options give wins, None takes the scene's. Without
+    a table the options come back as they are (None: off, automatic crossover,
+    :data:`DEFAULT_TIME_BUDGET_S`, which the bake reads as such), so that a checkpoint's
+    settings are the same whichever entry resolved them."""
+    from dataclasses import replace
 
+    spec = getattr(scene, "waves", None)
+    on = options.waves if options.waves is not None or spec is None else spec.enabled
+    crossover = options.crossover_hz
+    if crossover is None and on and spec is not None:
+        crossover = spec.crossover_hz
+    if crossover is not None and not on:
+        raise SettingError(f"crossover_hz = {crossover:g} Hz is only allowed with waves "
+                           "(--waves, waves=True, or [waves] enabled = true in the scene)")
+    if spec is None:
+        return options
+    budget = options.wave_time_budget_s
+    if budget is None:
+        budget = spec.time_budget_s
+    return replace(options, waves=on, crossover_hz=crossover, wave_time_budget_s=budget).validate()
+
+
+def check_scene(scene: Any) -> None:
+    """Refuses, before anything is baked, a scene the waves cannot take: fewer than two bands,
+    or a source that is not omnidirectional. The solver's source is a point monopole; a
+    directional source would be a set of weighted monopoles matched to the pattern's low-order
+    spherical harmonics (Bilbao and Hamilton, IEEE/ACM TASLP 27(2), 2019), which is not built:
+    until it is, a hybrid bake of a directional source would give omni low bands under directional
+    high ones, so it is refused instead."""
     bands = np.asarray(scene.settings.bands_hz, float)
     if bands.size < 2:
         raise SettingError("waves need at least two bands (one below the crossover, one above): "
                            f"the scene has {bands.size}")
+    for i, src in enumerate(scene.sources):
+        if src.directivity != "omni":
+            name = getattr(src, "name", None) or f"#{i + 1}"
+            raise SettingError(f"waves: source {name} has directivity = {src.directivity!r}, but "
+                               "the wave solver's sources are omnidirectional (allowed with waves: "
+                               "'omni'); bake this scene without waves, or make the source omni")
+
+
+def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | None,
+                     time_budget_s: float, memory_limit_bytes: int,
+                     absorption: np.ndarray) -> Crossover:
+    """The crossover of a hybrid bake of ``scene`` (see the module's doc); ``absorption``
+    float64[material, band], the bake's."""
+    from sonolux.scene.summary import theory
+
+    check_scene(scene)
+    bands = np.asarray(scene.settings.bands_hz, float)
     edges = band_edges_hz(bands)
     th = theory(scene)
     f_s = schroeder_hz(th)
@@ -137,17 +201,22 @@ def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | Non
 
     probe = wave_settings(bands[0], duration_s + 0.05, c, threads, memory_limit_bytes)
     f_mem = engine.wave_max_frequency(probe, scene.geometry, n_rec, bands, memory_limit_bytes) or 0.0
+    # The rate, measured on the grid the target asks for (or the largest that fits).
+    wish = crossover_hz if crossover_hz is not None else max(2.0 * f_s, edges[0])
+    probe_hz = min(max(wish, edges[0]) * math.sqrt(2), f_mem) if f_mem > 0 else edges[0]
+    rate = measured_rate(scene, absorption, probe_hz, memory_limit_bytes)
     # Run time grows as f⁴ (cells f³, steps f): bisect the budget in log frequency.
     lo, hi = 1.0, max(f_mem, 2.0)
-    if run_seconds(estimate(hi), threads) <= time_budget_s:
+    if run_seconds(estimate(hi), rate) <= time_budget_s:
         f_time = hi
     else:
         while hi / lo > 1.01:
             mid = math.sqrt(lo * hi)
-            lo, hi = (mid, hi) if run_seconds(estimate(mid), threads) <= time_budget_s else (lo, mid)
+            lo, hi = (mid, hi) if run_seconds(estimate(mid), rate) <= time_budget_s else (lo, mid)
         f_time = lo
     f_grid = min(f_mem, f_time)
-    limit = "memory" if f_mem <= f_time else f"the time budget of {time_budget_s:g} s"
+    limit = ("memory" if f_mem <= f_time else f"the time budget of {time_budget_s:g} s at the "
+             f"{rate / 1e9:.2f} G cell updates/s measured on this machine")
     fits = edges[edges * math.sqrt(2) <= f_grid]
     if crossover_hz is None:
         target = max(2.0 * f_s, edges[0])
@@ -171,16 +240,18 @@ def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | Non
                f"(Schroeder frequency {f_s:.0f} Hz)")
     k = int(np.searchsorted(edges, x) + 1)
     return Crossover(crossover_hz=x, wave_bands=k, max_frequency_hz=x * math.sqrt(2),
-                     schroeder_hz=f_s, grid_limit_hz=f_grid, why=why)
+                     schroeder_hz=f_s, grid_limit_hz=f_grid, why=why, updates_per_s=rate)
 
 
 def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: Crossover,
-               duration_s: float, memory_limit_bytes: int, *,
+               duration_s: float, memory_limit_bytes: int,
+               bins: tuple[np.ndarray, np.ndarray], directions: tuple[int, int], *,
                progress: bool | Callable[[int, int, float], bool] = False,
                log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """One wave run per source; returns energy float32[receiver, direction, band, time] (every
     band, the caller keeps the wave bands), pressure float32[receiver, time] at sample_rate_hz
-    (the low part, see the module's doc), and stats."""
+    (the low part, see the module's doc), and stats. ``bins``: the field's (bin_start_s,
+    bin_width_s) and (azimuth, elevation) bands, where the direct sound is put."""
     bands = np.asarray(scene.settings.bands_hz, float)
     c = scene.settings.speed_of_sound_m_s
     pulse_s = 6.0 / (math.pi * cross.max_frequency_hz)  # the pulse's delay, 6σ
@@ -193,19 +264,26 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         log(f"waves: {cross.why}; grid {settings.spacing_m * 1e3:.1f} mm up to "
             f"{cross.max_frequency_hz:.0f} Hz, {est['cells']:,} cells × {est['steps']:,} steps × "
             f"{len(scene.sources)} source(s), about {gb(est['total_bytes'])} and "
-            f"{run_seconds(est, scene.settings.threads) * len(scene.sources):.0f} s")
+            f"{run_seconds(est, cross.updates_per_s) * len(scene.sources):.0f} s at the measured "
+            f"{cross.updates_per_s / 1e9:.2f} G cell updates/s")
     energy, pressure, stats = None, None, []
     for i, src in enumerate(scene.sources):
         label = f"waves {scene.name} source {i + 1}/{len(scene.sources)}"
         callback = ProgressLine(label, unit="steps") if progress is True else (progress or None)
+        source_m = np.asarray(src.position_m, float)
         out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
-                                    np.asarray([src.position_m], float), receivers, settings,
-                                    binning, callback)
+                                    source_m[None], receivers, settings, binning, callback,
+                                    without_direct=True)
         if out["cancelled"]:
             raise SonoluxError("the wave simulation was stopped before its end")
-        # The sphere's energy: the mean over its points ([receiver][point] in order).
-        e = out["energy"].astype(np.float64).reshape(len(centres), BALL_POINTS,
-                                                     *out["energy"].shape[1:]).mean(axis=1)
+        # The sphere's energy: the room's part averaged over its points ([receiver][point] in
+        # order; points on the source's own near field left out), plus the direct sound's
+        # exact mean over the sphere.
+        w = point_weights(receivers, source_m, centres, 2.0 * settings.spacing_m)
+        e = np.einsum("rp,rp...->r...", w, out["energy"].astype(np.float64).reshape(
+            len(centres), BALL_POINTS, *out["energy"].shape[1:]))
+        add_direct(e, centres, scene.receivers.radius_m, source_m, arrays["air"], c, bins,
+                   directions)
         e *= src.power_w
         # The pressure: the centre's (the listener's ear is at one point).
         out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
@@ -241,6 +319,81 @@ def ball_points(geometry: Any, centres_m: np.ndarray, radius_m: float) -> np.nda
     return np.ascontiguousarray(pts)
 
 
+def point_weights(points_m: np.ndarray, source_m: np.ndarray, centres_m: np.ndarray,
+                  near_m: float) -> np.ndarray:
+    """float64[receiver, point]: the weights of each sphere's points in the mean of the room's
+    part, equal, but 0 for a point nearer the source than ``near_m`` (there the grid's field is
+    its own near field of the point source, not the continuous one, and what is left after the
+    direct sound is taken out is not the room's part). A sphere all of whose points are that
+    near keeps its farthest."""
+    r = np.linalg.norm(points_m - source_m, axis=1).reshape(len(centres_m), BALL_POINTS)
+    keep = r >= near_m
+    far = r >= r.max(axis=1, keepdims=True)
+    keep = np.where(keep.any(axis=1, keepdims=True), keep, far)
+    return keep / keep.sum(axis=1, keepdims=True)
+
+
+def ball_mean_inverse_square(radius_m: float, distance_m: np.ndarray,
+                             r_m: np.ndarray) -> np.ndarray:
+    """The mean over a ball of radius R of 1/(4πr²), r the distance from a point source d from
+    the ball's centre, resolved by r: float64[..., len(r_m)] densities per metre of r, so that
+    their integral over r is the mean. The sphere about the source of radius r has the area
+    A(r) inside the ball: 4πr² while the sphere lies inside (r < R − d), 2πr²(1 − cos θ₀) on
+    |R − d| < r < R + d with cos θ₀ = (r² + d² − R²)/(2rd) (its cap inside), 0 elsewhere; the
+    density is A(r)/(4πr²·V), V = 4πR³/3. Its integral is closed (checked in the tests):
+    [2πR + π(R² − d²)/d·ln|(R + d)/(R − d)|]/(4πV), which is 1/(4πd²) far from the ball and
+    3/(4πR²) for a source at its centre. The tracer's sphere receivers measure this mean (each
+    ray's path length in the sphere over its volume)."""
+    d = np.asarray(distance_m, float)[..., None]
+    r = np.asarray(r_m, float)
+    volume = 4.0 / 3.0 * math.pi * radius_m ** 3
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos0 = (r * r + d * d - radius_m ** 2) / (2.0 * r * d)
+        cap = 0.5 * (1.0 - np.clip(cos0, -1.0, 1.0))
+    share = np.where(r < radius_m - d, 1.0, np.where(r < radius_m + d, np.nan_to_num(cap), 0.0))
+    return share / volume
+
+
+def add_direct(energy: np.ndarray, centres_m: np.ndarray, radius_m: float, source_m: np.ndarray,
+               air_per_m: np.ndarray, c: float, bins: tuple[np.ndarray, np.ndarray],
+               directions: tuple[int, int]) -> None:
+    """Adds, in place, each sphere's mean of the source's direct sound (per joule of source
+    energy, :func:`ball_mean_inverse_square`, air as exp(−m·r)) to energy float64[receiver,
+    direction, band, time]: at the times r/c it arrives, from the source's direction (from every
+    direction alike when the source is in the sphere, the mean of a source at the centre)."""
+    start, width = (np.asarray(b, float) for b in bins)
+    n_t = min(energy.shape[-1], start.size)
+    n_az, n_el = directions
+    d = np.linalg.norm(centres_m - source_m, axis=1)
+    for k, dk in enumerate(d):
+        # Midpoints of 4000 steps over the r the sphere spans (its integral to 10⁻⁶).
+        lo, hi = max(dk - radius_m, 0.0), dk + radius_m
+        step = (hi - lo) / 4000
+        r = lo + step * (np.arange(4000) + 0.5)
+        dens = ball_mean_inverse_square(radius_m, np.array(dk), r) * step
+        t = r / c
+        b = np.clip(np.searchsorted(start, t, side="right") - 1, 0, None)
+        ok = b < n_t
+        per_bin = np.zeros((air_per_m.size, n_t))
+        for band, m in enumerate(air_per_m):
+            per_bin[band] = np.bincount(b[ok], dens[ok] * np.exp(-m * r[ok]), n_t)
+        if dk < radius_m:
+            energy[k, :, :, :n_t] += per_bin[None] / (n_az * n_el)
+        else:
+            energy[k, direction_bin(source_m - centres_m[k], n_az, n_el), :, :n_t] += per_bin
+    del width
+
+
+def direction_bin(from_m: np.ndarray, n_azimuth: int, n_elevation: int) -> int:
+    """The tracer's direction bin of sound arriving from ``from_m`` (``sound::Layout``:
+    azimuth sectors centred on +x counter-clockwise, elevation bands of equal solid angle)."""
+    v = np.asarray(from_m, float) / np.linalg.norm(from_m)
+    w = 2.0 * math.pi / n_azimuth
+    a = int(math.floor((math.atan2(v[1], v[0]) + 0.5 * w) / w)) % n_azimuth
+    e = min(int((min(max(v[2], -1.0), 1.0) + 1.0) * 0.5 * n_elevation), n_elevation - 1)
+    return e * n_azimuth + a
+
+
 def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air_per_m: np.ndarray,
                  c: float, output_rate_hz: float) -> np.ndarray:
     """float64[receiver, time]: a run's impulse responses below the crossover, air included, in
@@ -253,7 +406,10 @@ def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air
     keep = np.abs(pulse) > PULSE_FLOOR * np.abs(pulse).max()
     inverse = np.where(keep, 1.0 / np.where(keep, pulse, 1.0), 0.0)
     spectra = sfft.rfft(p, n_fft, axis=1) * inverse * low_edge_gain(n_fft, fs, bands_hz)
-    weights = band_split_weights(n_fft, fs, bands_hz)
+    # The wave bands' weights depend on their centres and the first ray band's alone; the bands
+    # above it may lie beyond the wave rate's Nyquist frequency (an 8 kHz band over a 354 Hz
+    # crossover, whose wave rate is 8.7 kHz), so they are left out here.
+    weights = band_split_weights(n_fft, fs, np.asarray(bands_hz, float)[:wave_bands + 1])
     h_low = weights[:wave_bands].sum(axis=0)
     # Power-complementary to the synthesis' 1 − H_L: the two parts are incoherent.
     to_power = np.divide(np.sqrt(h_low * (2.0 - h_low)), h_low, out=np.zeros_like(h_low),
@@ -286,16 +442,31 @@ def low_edge_gain(n_fft: int, fs: float, bands_hz: np.ndarray) -> np.ndarray:
     return np.sin(0.25 * np.pi * (x + 1.0))
 
 
-def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int) -> np.ndarray:
-    """float32[receiver, direction, band, time]: the wave bands from the waves, the rest from
-    the tracer (dense: a hybrid field is stored full)."""
+def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int,
+                    settings: dict[str, Any] | None = None) -> Any:
+    """[receiver, direction, band, time] float32: the wave bands from the waves, the rest from
+    the tracer. A dense tracer field gives a dense array; a compact one
+    (:class:`sonolux.sound.compact.CompactArray`) a compact one: the joined field's late part
+    summed back into the tracer's stored coarse bins (each shown bin is one of ``late_split``
+    equal parts of one), its early part kept as cells, and reduced again as the bake's
+    ``settings`` say when the tracer's was (``compact_arrivals``, ``compact_envelope_s``:
+    every envelope bin keeps its sum)."""
+    from sonolux.sound.compact import CompactArray, is_compact, reduced
+
     out = np.array(tracer, dtype=np.float32, order="C", copy=True)
-    # A compact tracer field shows its late part in whole coarse bins, so its time axis may run
-    # a few bins past the waves' (past max_time_s): nothing of the waves arrives there.
+    # The waves' record reaches the field's last bin (add_waves); should it not, nothing of
+    # the waves is there.
     n = min(out.shape[-1], waves.shape[-1])
     out[:, :, :wave_bands, :n] = waves[:, :, :wave_bands, :n]
     out[:, :, :wave_bands, n:] = 0.0
-    return out
+    if not is_compact(tracer):
+        return out
+    eb, split = tracer.early_bins, tracer.late_split
+    r, d, b, _ = out.shape
+    late = out[..., eb:].reshape(r, d, b, -1, split).sum(axis=-1, dtype=np.float64)
+    stored = np.concatenate([out[..., :eb], late.astype(np.float32)], axis=-1)
+    joined = CompactArray.of(stored, eb, split)
+    return joined if tracer.envelope is None or settings is None else reduced(joined, settings)
 
 
 # --- what every consumer of the field uses ---------------------------------------------------

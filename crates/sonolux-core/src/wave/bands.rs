@@ -166,6 +166,43 @@ pub fn direction_energies(
     speed_of_sound_m_s: f64,
     layout: &Layout,
 ) -> Result<Vec<f64>, CoreError> {
+    reflected_energies(result, band_centres_hz, air_attenuation_per_m, speed_of_sound_m_s, layout, None)
+}
+
+/// Where the sources and receivers of a run are, for [`reflected_energies`].
+#[derive(Clone, Copy, Debug)]
+pub struct DirectPaths<'a> {
+    pub sources_m: &'a [DVec3],
+    pub receivers_m: &'a [DVec3],
+}
+
+/// [`direction_energies`] of the room's part of the field alone: with `direct`, each source's
+/// free-field direct sound (below) is taken out of every receiver's pressure and velocity first.
+///
+/// Why: a receiver is a sphere whose energy is the mean over its volume, which the caller takes
+/// over a few points. The direct sound's 1/r² is singular at the source, so no few-point rule
+/// averages it when the source is in or near the sphere (a point on the source reads the grid's
+/// near field, +10 dB over the sphere's mean in the paper room); and on the grid the point
+/// source's own near field is not the continuous one within a few cells. The room's part is
+/// smooth there (its sources, the images, are outside the room), so the points average it well;
+/// the direct sound's sphere mean is known in closed form and the caller adds it.
+///
+/// The direct sound of a monopole of volume velocity q in free field (Pierce, "Acoustics",
+/// 1981, §4.3): p = ρ·q̇(τ)/(4πr), radial velocity v = q̇(τ)/(4πrc) + q(τ)/(4πr²) (from
+/// ρ∂v/∂t = −∂p/∂r), τ = t − r/c. A receiver closer to a source than 10⁻⁶ m is left as is.
+pub fn reflected_energies(
+    result: &WaveResult,
+    band_centres_hz: &[f64],
+    air_attenuation_per_m: &[f64],
+    speed_of_sound_m_s: f64,
+    layout: &Layout,
+    direct: Option<DirectPaths>,
+) -> Result<Vec<f64>, CoreError> {
+    if let Some(d) = direct {
+        if d.receivers_m.len() != result.n_receivers {
+            return Err(CoreError::invalid("receivers", format!("{} positions for {} receivers", d.receivers_m.len(), result.n_receivers)));
+        }
+    }
     let nb = band_centres_hz.len();
     if layout.n_bands != nb || layout.n_receivers != result.n_receivers {
         return Err(CoreError::invalid("layout", format!("needs {} receivers × {nb} bands", result.n_receivers)));
@@ -188,8 +225,11 @@ pub fn direction_energies(
             .into_par_iter()
             .map(|r| {
                 let mut field = vec![0.0; per_receiver];
-                let channel = |c: usize| -> Vec<f64> { result.pressure_or_velocity(r, c).iter().map(|&x| x as f64).collect() };
-                let spectra: Vec<_> = (0..4).map(|c| filters.deconvolved(&channel(c), &inverse)).collect();
+                let mut channels: Vec<Vec<f64>> = (0..4).map(|c| result.pressure_or_velocity(r, c).iter().map(|&x| x as f64).collect()).collect();
+                if let Some(d) = direct {
+                    subtract_direct(&mut channels, result, d.sources_m, d.receivers_m[r], speed_of_sound_m_s);
+                }
+                let spectra: Vec<_> = channels.iter().map(|c| filters.deconvolved(c, &inverse)).collect();
                 let len = filters.fft_len;
                 for b in 0..nb {
                     // The whole circular buffer: samples past len − ns/2 are the zero-phase
@@ -220,6 +260,31 @@ pub fn direction_energies(
         }
     }
     Ok(out)
+}
+
+/// Takes the free-field direct sound of every source out of one receiver's pressure and velocity
+/// (see [`reflected_energies`]).
+fn subtract_direct(channels: &mut [Vec<f64>], result: &WaveResult, sources: &[DVec3], at: DVec3, c: f64) {
+    let pulse = &result.pulse;
+    let dt = 1.0 / result.sample_rate_hz;
+    let four_pi = 4.0 * std::f64::consts::PI;
+    for s in sources {
+        let d = at - *s;
+        let r = d.length();
+        if r < 1e-6 {
+            continue;
+        }
+        let n = d / r;
+        for i in 0..channels[0].len() {
+            let tau = i as f64 * dt - r / c;
+            let p = pulse.pressure_at_1m(tau) / r;
+            let v = pulse.volume_acceleration(tau) / (four_pi * r * c) + pulse.volume_velocity(tau) / (four_pi * r * r);
+            channels[0][i] -= p;
+            channels[1][i] -= v * n.x;
+            channels[2][i] -= v * n.y;
+            channels[3][i] -= v * n.z;
+        }
+    }
 }
 
 /// p·v averaged over a centred window of `window` samples (prefix sums, in order).
