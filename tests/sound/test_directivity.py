@@ -205,6 +205,23 @@ def test_talker_is_omni_at_low_frequency_and_turns_forward_as_frequency_rises():
     assert np.all(g[0] > 0.0)  # the mouth axis is louder than an omni source of equal power
 
 
+def test_talker_tends_to_a_baffled_point_source_at_high_frequency():
+    # As ka grows the head becomes a plane baffle to the mouth: a point source on a rigid
+    # plane radiates its power into the half-space, energy gain 2 (+3.01 dB) over an omni
+    # source (its image in the plane; Morse & Ingard 1968, ch. 7), and nothing behind. The sphere
+    # approaches this: on axis within 0.2 dB of 10 lg 2 from 2 kHz up (measured 3.06 to
+    # 3.17 dB to 32 kHz), and the share of the power behind the head (θ > 90°) falls with
+    # every octave (measured 0.25, 0.21, 0.17, 0.14, 0.115 at 2 to 32 kHz).
+    edges = np.vstack([band_set_of([2000, 4000, 8000, 16000]).edges_hz, [[22627.0, 45255.0]]])
+    g = builtin_gains("talker", edges)[:, 0, :]
+    th = theta_nodes_rad()
+    g = g / (np.trapezoid(g * np.sin(th)[:, None], th, axis=0) / 2)
+    assert np.all(np.abs(10 * np.log10(g[0]) - 10 * np.log10(2.0)) < 0.2), 10 * np.log10(g[0])
+    back = th >= np.pi / 2
+    behind = np.trapezoid((g * np.sin(th)[:, None])[back], th[back], axis=0) / 2
+    assert np.all(np.diff(behind) < 0) and behind[-1] < 0.15, behind
+
+
 def test_talker_point_mouth_is_the_small_cap_limit():
     # The point mouth (v_n = (2n + 1)/2) is the limit of Morse & Ingard's cap coefficients
     # (P_{n−1} − P_{n+1})(cos α)/2 as α → 0, at 8 kHz where a cap's own size matters most:
