@@ -28,12 +28,23 @@ Built-in patterns (energy gains; the pressure pattern squared):
   evenly in log frequency across each band. The radius and cap are a typical source's
   (0.2 m, a driver filling most of a face), not a measured product: give a SOFA file of your
   own source when its deviation matters (ISO 3382-1:2009, A.3.2 bounds it per octave).
+- ``"talker"``: a human talker as J. L. Flanagan modelled one ("Analog measurements of sound
+  radiation from the mouth", J. Acoust. Soc. Am. 32(12), 1613–1620, 1960): "a small piston in
+  a sphere of 9-cm radius" (the head), compared there with a mannequin measured at 250 Hz to
+  4 kHz. The same series as the dodecahedron with one cap on ``forward`` (the mouth axis, the
+  talker's facing direction), in the small-piston limit v_n = (2n + 1)/2 (a point on the
+  sphere: we found no mouth-opening area we could cite; a cap of 1 cm radius changes the
+  octave gains by ≤ 0.56 dB up to 4 kHz, 2.1 dB at 8 kHz). Axially symmetric about
+  ``forward``: no torso, so up/down and left/right are alike, whereas measured talkers'
+  main lobe moves from below the mouth towards above it as frequency rises (Leishman,
+  Bellows et al., BYU speech directivity database, 2019–2021); and the rigid sphere's bright
+  spot straight behind the head (the rear rises again above 135°), which a real head and
+  torso blur. Flanagan (1960, abstract) found his measured mannequin within about 3 dB of even
+  a simple source inside about π sr around the mouth axis: the model's front is its safest part.
 
-A human talker is not built in: we did not find published per-band directivity data we could
-cite exactly (the brief's candidates, Chu & Warnock 2002 and Monson et al. 2012, were not
-available to us); use a SOFA file of a measured talker.
+SOFA files are read by :mod:`sonolux.scene.sofa_directivity`; give a measured talker's
+file when these limits matter.
 
-SOFA files are read by :mod:`sonolux.scene.sofa_directivity`.
 """
 
 from __future__ import annotations
@@ -52,8 +63,12 @@ FIRST_ORDER = {"cardioid": 0.5, "supercardioid": (math.sqrt(3.0) - 1.0) / 2.0,
                "hypercardioid": 0.25, "figure-of-eight": 0.0}
 DODECAHEDRON_RADIUS_M = 0.2
 DODECAHEDRON_CAP_DEG = 30.0
+#: Flanagan (1960): "a small piston in a sphere of 9-cm radius" models the talker's head.
+TALKER_HEAD_RADIUS_M = 0.09
+#: The mouth as a point on the sphere (the small-piston limit; see the module docs).
+TALKER_MOUTH_CAP_DEG = 0.0
 #: Every name a scene's ``directivity`` may take (besides a ``{ sofa = "file" }`` table).
-BUILTIN = ("omni", "cone", *FIRST_ORDER, "dodecahedron")
+BUILTIN = ("omni", "cone", *FIRST_ORDER, "dodecahedron", "talker")
 SPEED_OF_SOUND_M_S = 343.0
 
 
@@ -93,21 +108,26 @@ def dodecahedron_axes() -> np.ndarray:
     return a / np.linalg.norm(a, axis=1, keepdims=True)
 
 
-def dodecahedron(band_edges_hz: np.ndarray, radius_m: float = DODECAHEDRON_RADIUS_M,
-                 cap_deg: float = DODECAHEDRON_CAP_DEG) -> np.ndarray:
-    """The 12-piston sphere's energy gains per band (see the module docs):
-    float64[theta, phi, band]; ``band_edges_hz`` float64[band, 2]."""
-    dirs = node_directions().reshape(-1, 3)
-    cos_to_caps = np.clip(dirs @ dodecahedron_axes().T, -1.0, 1.0)  # [direction, cap]
+def caps_on_sphere(dirs: np.ndarray, axes: np.ndarray, band_edges_hz: np.ndarray,
+                   radius_m: float, cap_deg: float) -> np.ndarray:
+    """Far-field energy of in-phase rigid caps of half-angle ``cap_deg`` centred on ``axes``
+    float64[cap, 3] on a rigid sphere of ``radius_m``, towards unit ``dirs`` float64[n, 3],
+    averaged over 9 log-spaced frequencies per band: float64[n, band] (unnormalised).
+    ``cap_deg = 0`` is the point-source limit, v_n → (2n + 1)/2 (times the vanishing area)."""
+    cos_to_caps = np.clip(dirs @ axes.T, -1.0, 1.0)  # [direction, cap]
     f_top = float(np.max(band_edges_hz))
     n_max = int(2.0 * np.pi * f_top / SPEED_OF_SOUND_M_S * radius_m) + 25
     orders = np.arange(n_max + 1)
     # Σ over caps of P_n(cos γ): [order, direction], frequency-independent.
     legendre_sum = np.stack([special.eval_legendre(n, cos_to_caps).sum(axis=1) for n in orders])
-    ca = math.cos(math.radians(cap_deg))
-    v = np.empty(n_max + 1)
-    v[0] = (1.0 - ca) / 2.0
-    v[1:] = (special.eval_legendre(orders[1:] - 1, ca) - special.eval_legendre(orders[1:] + 1, ca)) / 2.0
+    if cap_deg == 0.0:
+        v = (2.0 * orders + 1.0) / 2.0
+    else:
+        ca = math.cos(math.radians(cap_deg))
+        v = np.empty(n_max + 1)
+        v[0] = (1.0 - ca) / 2.0
+        v[1:] = (special.eval_legendre(orders[1:] - 1, ca)
+                 - special.eval_legendre(orders[1:] + 1, ca)) / 2.0
     out = np.empty((dirs.shape[0], len(band_edges_hz)))
     for b, (lo, hi) in enumerate(band_edges_hz):
         energy = np.zeros(dirs.shape[0])
@@ -117,7 +137,25 @@ def dodecahedron(band_edges_hz: np.ndarray, radius_m: float = DODECAHEDRON_RADIU
             coeff = v * (-1j) ** (orders + 1) / dh
             energy += np.abs(coeff @ legendre_sum) ** 2
         out[:, b] = energy
+    return out
+
+
+def dodecahedron(band_edges_hz: np.ndarray, radius_m: float = DODECAHEDRON_RADIUS_M,
+                 cap_deg: float = DODECAHEDRON_CAP_DEG) -> np.ndarray:
+    """The 12-piston sphere's energy gains per band (see the module docs):
+    float64[theta, phi, band]; ``band_edges_hz`` float64[band, 2]."""
+    dirs = node_directions().reshape(-1, 3)
+    out = caps_on_sphere(dirs, dodecahedron_axes(), band_edges_hz, radius_m, cap_deg)
     return out.reshape(len(theta_nodes_rad()), -1, len(band_edges_hz))
+
+
+def talker(band_edges_hz: np.ndarray, radius_m: float = TALKER_HEAD_RADIUS_M,
+           cap_deg: float = TALKER_MOUTH_CAP_DEG) -> np.ndarray:
+    """Flanagan's (1960) talker: a small piston (the point limit) on a rigid sphere of head
+    size, its axis ``forward``; axially symmetric: float64[theta, 1, band]."""
+    dirs = node_directions(symmetric=True).reshape(-1, 3)
+    out = caps_on_sphere(dirs, np.array([[1.0, 0.0, 0.0]]), band_edges_hz, radius_m, cap_deg)
+    return out.reshape(len(theta_nodes_rad()), 1, len(band_edges_hz))
 
 
 def builtin_gains(name: str, edges_hz: np.ndarray) -> np.ndarray:
@@ -127,5 +165,7 @@ def builtin_gains(name: str, edges_hz: np.ndarray) -> np.ndarray:
         return first_order(FIRST_ORDER[name], len(edges_hz))
     if name == "dodecahedron":
         return dodecahedron(np.asarray(edges_hz, float))
+    if name == "talker":
+        return talker(np.asarray(edges_hz, float))
     raise SonoluxError(f"directivity {name!r}: not a tabulated pattern; allowed: "
                        + ", ".join(BUILTIN[2:]))

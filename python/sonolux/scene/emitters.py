@@ -5,7 +5,7 @@ obstacle). It radiates ``power_w`` in every band, either in every direction
 (``directivity = "omni"``), uniformly inside a cone of ``cone_half_angle_deg`` around ``axis``
 (``"cone"``), or by a tabulated pattern oriented by ``forward`` and ``up`` (default +x and +z):
 a built-in (``"cardioid"``, ``"supercardioid"``, ``"hypercardioid"``, ``"figure-of-eight"``,
-``"dodecahedron"``; :mod:`sonolux.scene.directivity`) or a measured one,
+``"dodecahedron"``, ``"talker"``; :mod:`sonolux.scene.directivity`) or a measured one,
 ``directivity = { sofa = "file.sofa" }`` (relative to the scene file;
 :mod:`sonolux.scene.sofa_directivity`).
 
