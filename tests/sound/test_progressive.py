@@ -213,6 +213,21 @@ def test_decay_times_near_the_source_are_reported_but_not_waited_for():
     assert out2.excluded["edt"][1].tolist() == [False, True]  # d_min 1 m and 4 m, gap 1.5 m
 
 
+def test_near_the_source_is_measured_from_each_rows_own_source_in_a_field_per_source():
+    """A field per source has its rows source by source: receiver 1 is near source 0 only, so
+    only its row of source 0 is left out (with all sources summed, the nearest source counts)."""
+    receivers = np.array([[5.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    sources = np.array([[0.0, 0.0, 0.0], [9.0, 9.0, 0.0]])
+    value = {"t30": np.ones((4, 1)), "edt": np.ones((4, 1)), "c80": np.zeros((4, 1))}
+    se = {name: np.full((4, 1), 0.001) for name in value}
+    out = progressive.near_source(progressive.Errors(value, se), receivers, sources, 343.0, 343.0)
+    assert out.excluded["edt"][:, 0].tolist() == [False, True, False, False]
+    summed = {name: v[:2] for name, v in value.items()}
+    out = progressive.near_source(progressive.Errors(summed, {k: v[:2] for k, v in se.items()}),
+                                  receivers, sources, 343.0, 343.0)
+    assert out.excluded["edt"][:, 0].tolist() == [False, True]
+
+
 def test_the_automatic_estimator_is_measured_and_recorded(monkeypatch):
     """estimator = "auto": a pilot of each candidate, the smallest projected time chosen, the
     measurements kept in the field's settings."""

@@ -236,3 +236,15 @@ def test_octaves_of_a_third_octave_field_keep_a_field_per_source():
     assert octaves.source_names == NAMES and octaves.energy.shape[2] == 3
     for k in range(3):
         same(octaves.for_source(k).energy, octave_field(field.for_source(k)).energy)
+
+
+def test_a_sources_field_keeps_its_own_directivity_for_sti(room):
+    # STI refers the speech level to the talker's own axis (docs/sti.md): the field of the
+    # cardioid "door" must carry the cardioid's on-axis gain, not the omni "desk"'s.
+    field = bake_whole(room, rays=RAYS)
+    assert field.settings["source_directivity"] == ["omni", "cardioid", "omni"]
+    door = field.for_source("door")
+    assert door.settings["source_directivity"] == ["cardioid"]
+    assert door.settings["source_axis_gain"] == [field.settings["source_axis_gain"][1]]
+    # a cardioid's Q, 3, from its tabulated pattern (measured 2.99976)
+    assert door.settings["source_axis_gain"][0][0] == pytest.approx(3.0, rel=1e-3)

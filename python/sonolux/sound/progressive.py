@@ -236,7 +236,8 @@ def near_source(errors: Errors, receivers_m: np.ndarray, sources_m: np.ndarray,
     land on both sides, and its SE (valid for smooth statistics only: Shao and Tu 1995 §2.3) is
     the size of the jump (measured on paper-small, receiver 7 at 8 kHz: 128 %, then 5.7e5 %).
     ISO 3382 itself places no decay-time measurement there. The values and their SE are still
-    reported; ``summary`` counts them as ``near_source``."""
+    reported; ``summary`` counts them as ``near_source``. ``sources_m`` are the field's
+    sources: with a field per source, each row block is measured from its own."""
     t = np.asarray(errors.value["t30"], float)
     if not np.isfinite(t).any():
         t = np.asarray(errors.value["edt"], float)
@@ -244,8 +245,12 @@ def near_source(errors: Errors, receivers_m: np.ndarray, sources_m: np.ndarray,
         t_band = np.array([np.nanmedian(col) if np.isfinite(col).any() else np.nan
                            for col in t.T])
     d_min = minimum_distance_m(volume_m3, speed_of_sound_m_s, t_band)  # [band]
-    gaps = np.linalg.norm(np.asarray(receivers_m, float)[:, None, :]
-                          - np.asarray(sources_m, float)[None, :, :], axis=2).min(axis=1)
+    # [receiver, source]; a field per source (docs/fieldfile.md) has its rows source by source,
+    # each at its own source's distance; a field of all sources together, the nearest one.
+    gap = np.linalg.norm(np.asarray(receivers_m, float)[:, None, :]
+                         - np.asarray(sources_m, float)[None, :, :], axis=2)
+    rows = t.shape[0]
+    gaps = gap.T.reshape(-1) if rows == gap.size and rows != gap.shape[0] else gap.min(axis=1)
     close = gaps[:, None] < np.where(np.isfinite(d_min), d_min, 0.0)[None, :]
     return replace(errors, excluded={name: close for name in DECAY_TIMES})
 
@@ -308,8 +313,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         errors = near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64),
                                        state.groups, *omni_bins(t, state.total.counts),
                                        slowest_decay_s(t)),
-                             scene.receivers.positions_m,
-                             np.array([s.position_m for s in scene.sources]), scene.volume_m3,
+                             scene.receivers.positions_m, np.asarray(t.source_positions_m),
+                             scene.volume_m3,
                              scene.settings.speed_of_sound_m_s)
         worst = errors.worst_over_target(accuracy.fraction_of_jnd)
         elapsed = spent + time.perf_counter() - started
