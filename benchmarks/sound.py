@@ -108,7 +108,7 @@ def bake(scene, rays: int, estimator: str, threads: int = 2, **kw):
 
 def omni(field) -> np.ndarray:
     """float64[receiver, band, time]: energy from all directions."""
-    return field.energy.sum(axis=1, dtype=np.float64)
+    return np.asarray(field.energy).sum(axis=1, dtype=np.float64)  # a compact field: its dense view
 
 
 def t30(energy: np.ndarray, field) -> np.ndarray:
