@@ -34,13 +34,13 @@ def shoebox_of(scene) -> dict:
     """The shoebox's size, source and per-face energy absorption / scattering, read from the
     sonolux scene (so both engines are given the very same room)."""
     size = np.asarray(scene.mesh_report["bbox_max"], float) - np.asarray(scene.mesh_report["bbox_min"], float)
-    bands = np.asarray(scene.settings.band_indices)
+    bands = scene.settings.band_set  # the scene's bands (the materials' values converted to them)
     faces = {}
     for name in ("west", "east", "south", "north", "floor", "ceiling"):
         mats = {int(m) for m, tag in zip(scene.material_index, scene.surface_tag) if tag == name}
         assert len(mats) == 1, f"face {name}: {len(mats)} materials"
         m = scene.materials[mats.pop()]
-        a, s = m.absorption[bands], m.scattering[bands]
+        a, s = m.absorption_in(bands), m.scattering_in(bands)
         assert np.ptp(a) == 0 and np.ptp(s) == 0, "the peer is given one band: flat materials only"
         faces[name] = (float(a[0]), float(s[0]))
     return {"size_m": size, "source_m": np.asarray(scene.sources[0].position_m, float), "faces": faces}

@@ -82,7 +82,11 @@ impl Layout {
     pub fn direction_bin(&self, from: DVec3) -> usize {
         let w = std::f64::consts::TAU / self.n_azimuth as f64;
         let az = from.y.atan2(from.x);
-        let a = (((az + 0.5 * w) / w).floor() as i64).rem_euclid(self.n_azimuth as i64) as usize;
+        // floor(x) as truncation minus one below a negative non-integer: the same integer as
+        // `f64::floor`, without its libm call (no SSE4.1 in the baseline target).
+        let x = (az + 0.5 * w) / w;
+        let whole = x as i64;
+        let a = (whole - i64::from(x < whole as f64)).rem_euclid(self.n_azimuth as i64) as usize;
         let e = (((from.z.clamp(-1.0, 1.0) + 1.0) * 0.5 * self.n_elevation as f64) as usize).min(self.n_elevation - 1);
         e * self.n_azimuth + a
     }

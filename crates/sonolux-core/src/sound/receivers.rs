@@ -259,6 +259,19 @@ impl Receivers {
         if (origin.cmplt(self.lo) & end.cmplt(self.lo)).any() || (origin.cmpgt(self.hi) & end.cmpgt(self.hi)).any() {
             return;
         }
+        // A few receivers: test each sphere. Setting up the cell walk (six divisions, three
+        // floors) costs more than a handful of sphere tests, and the walk would find the same
+        // spheres (each is listed in every cell its box overlaps). The order of the calls differs,
+        // which changes no bits: deposits are integers added in any order, their rounding keyed
+        // by receiver and segment.
+        if self.centres.len() <= DIRECT_TEST_MAX {
+            for (k, c) in self.centres.iter().enumerate() {
+                if let Some(crossing) = self.chord(k as u32, *c, origin, dir, length) {
+                    f(crossing);
+                }
+            }
+            return;
+        }
         // Clip the segment to the grid's box.
         let hi = self.hi;
         let inv = dir.map(|d| if d == 0.0 { 1e300f64.copysign(d) } else { 1.0 / d });
@@ -277,7 +290,9 @@ impl Receivers {
         let mut t_next = [f64::INFINITY; 3];
         let mut t_delta = [f64::INFINITY; 3];
         for a in 0..3 {
-            idx[a] = (p[a].floor() as i64).clamp(0, self.dims[a] as i64 - 1);
+            // Truncation, not `floor` (a libm call without SSE4.1): they differ only below 0,
+            // where the clamp makes both 0.
+            idx[a] = (p[a] as i64).clamp(0, self.dims[a] as i64 - 1);
             if dir[a] > 0.0 {
                 step[a] = 1;
                 t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * self.cell[a] / dir[a];
@@ -288,7 +303,6 @@ impl Receivers {
                 t_delta[a] = -self.cell[a] / dir[a];
             }
         }
-        let r2 = self.radius_m * self.radius_m;
         loop {
             let c = ((idx[2] as usize * self.dims[1]) + idx[1] as usize) * self.dims[0] + idx[0] as usize;
             for &k in &self.items[self.cells[c] as usize..self.cells[c + 1] as usize] {
@@ -296,17 +310,8 @@ impl Receivers {
                     continue;
                 }
                 stamp[k as usize] = segment_id;
-                // Chord of the line through the sphere, clipped to [0, length].
-                let oc = self.centres[k as usize] - origin;
-                let tc = oc.dot(dir);
-                let d2 = oc.length_squared() - tc * tc;
-                if d2 >= r2 {
-                    continue;
-                }
-                let half = (r2 - d2).sqrt();
-                let (a, b) = ((tc - half).max(0.0), (tc + half).min(length));
-                if b > a {
-                    f(Crossing { receiver: k, chord: b - a, t_nearest: tc, miss2: d2 });
+                if let Some(crossing) = self.chord(k, self.centres[k as usize], origin, dir, length) {
+                    f(crossing);
                 }
             }
             // Step to the next cell along the axis whose boundary comes first.
@@ -320,6 +325,27 @@ impl Receivers {
             }
             t_next[a] += t_delta[a];
         }
+    }
+}
+
+/// Up to this many receivers, a segment tests every sphere instead of walking the grid's cells.
+const DIRECT_TEST_MAX: usize = 8;
+
+impl Receivers {
+    /// The chord of the line origin + t·dir through sphere `k` (centre `centre`), clipped to
+    /// [0, length], if it is not empty.
+    #[inline(always)]
+    fn chord(&self, k: u32, centre: DVec3, origin: DVec3, dir: DVec3, length: f64) -> Option<Crossing> {
+        let r2 = self.radius_m * self.radius_m;
+        let oc = centre - origin;
+        let tc = oc.dot(dir);
+        let d2 = oc.length_squared() - tc * tc;
+        if d2 >= r2 {
+            return None;
+        }
+        let half = (r2 - d2).sqrt();
+        let (a, b) = ((tc - half).max(0.0), (tc + half).min(length));
+        (b > a).then_some(Crossing { receiver: k, chord: b - a, t_nearest: tc, miss2: d2 })
     }
 }
 
