@@ -142,18 +142,12 @@ def _unit(t: Table, key: str, value: Any) -> np.ndarray:
 def read_sofa_receivers(path: Path) -> list[Any]:
     """The capsules of a SOFA microphone array: one :class:`SofaDirectivity` each (directions
     in the array's frame x forward, y left, z up; power |H|² [direction, frequency])."""
-    import sofar
-
-    from sonolux.scene.sofa_directivity import SofaDirectivity, sphere_interpolate
+    from sonolux.scene.sofa_directivity import SofaDirectivity, open_sofa, sphere_interpolate
 
     def bad(problem: str) -> SonoluxError:
         return SonoluxError(f"{path}: {problem}")
 
-    try:
-        sofa = sofar.read_sofa(str(path), verify=False, verbose=False)
-    except Exception as exc:  # sofar raises many kinds for a bad file
-        raise bad(f"not a readable SOFA file ({exc})") from None
-    convention = str(getattr(sofa, "GLOBAL_SOFAConventions", ""))
+    sofa, convention = open_sofa(path)
     try:
         if convention in SOFA_TF:
             h = np.asarray(sofa.Data_Real, float) + 1j * np.asarray(sofa.Data_Imag, float)

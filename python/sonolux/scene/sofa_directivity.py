@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
@@ -50,18 +51,24 @@ def _unit_rows(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def read_sofa_directivity(path: Path) -> SofaDirectivity:
-    """Reads and checks a SOFA directivity; errors name the file and what is allowed."""
+def open_sofa(path: Path) -> tuple[Any, str]:
+    """(the sofar object, its convention's name) of a SOFA file, or an error naming the file."""
     import sofar
-
-    def bad(problem: str) -> SonoluxError:
-        return SonoluxError(f"{path}: {problem}")
 
     try:
         sofa = sofar.read_sofa(str(path), verify=False, verbose=False)
     except Exception as exc:  # sofar raises many kinds for a bad file
-        raise bad(f"not a readable SOFA file ({exc})") from None
-    convention = str(getattr(sofa, "GLOBAL_SOFAConventions", ""))
+        raise SonoluxError(f"{path}: not a readable SOFA file ({exc})") from None
+    return sofa, str(getattr(sofa, "GLOBAL_SOFAConventions", ""))
+
+
+def read_sofa_directivity(path: Path) -> SofaDirectivity:
+    """Reads and checks a SOFA directivity; errors name the file and what is allowed."""
+
+    def bad(problem: str) -> SonoluxError:
+        return SonoluxError(f"{path}: {problem}")
+
+    sofa, convention = open_sofa(path)
     if convention not in CONVENTIONS:
         raise bad(f"SOFA convention {convention!r}; allowed: " + ", ".join(CONVENTIONS))
     try:

@@ -111,6 +111,21 @@ class CompactArray(ReceiverWise):
             out[:, b] = np.concatenate(parts, axis=-1) if len(parts) > 1 else parts[0]
         return out
 
+    def ungrouped(self) -> CompactArray:
+        """The same array with no late groups: each group's sum spread over its stored bins
+        as :func:`spread_late` shows it (sums kept), for readers that know only the stored
+        late resolution (the web bundle's cells). Dense views agree with this array's to
+        float32 rounding on an exponential decay, and closely elsewhere."""
+        if self.late_groups is None:
+            return self
+        late = self.late.copy()
+        n = late.shape[-1]
+        for b, m in enumerate(int(g) for g in self.late_groups):
+            whole = n // m * m
+            if m > 1 and whole:
+                late[:, :, b, :whole] = spread_late(self.late[:, :, b, :whole:m], m)
+        return replace(self, late=late, late_groups=None)
+
     def _unravel(self, cell: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(direction, band, sample) of early cells."""
         bands = self.shape[2]
@@ -130,23 +145,6 @@ class CompactArray(ReceiverWise):
         _, bi, ti = self._unravel(self.cell)
         np.add.at(early, (owner, bi, ti), self.value)
         return np.concatenate([early, self.late.sum(axis=1, dtype=self.dtype)], axis=-1)
-
-    def __getitem__(self, key: Any) -> np.ndarray:
-        rest: tuple[Any, ...] = ()
-        if isinstance(key, tuple):
-            key, rest = key[0], key[1:]
-        n = self.shape[0]
-        if isinstance(key, (int, np.integer)):
-            k = int(key) + (n if key < 0 else 0)
-            if not 0 <= k < n:
-                raise IndexError(f"receiver {key} out of range for {n} receivers")
-            out = self.receiver(k)
-        else:
-            idx = np.arange(n)[key]
-            out = np.stack([self.receiver(int(k)) for k in idx]) if idx.size else \
-                np.zeros((0, *self.shape[1:]), self.dtype)
-            rest = (slice(None), *rest) if rest else rest  # the receiver axis is kept
-        return out[rest] if rest else out
 
     # --- making and combining -------------------------------------------------------------
     @classmethod

@@ -19,15 +19,34 @@ from sonolux.errors import SonoluxError
 
 
 class ReceiverWise:
-    """Reductions of a 4-axis array that builds one receiver's block at a time
-    (``self[k]`` -> [direction, band, time]); subclasses give ``shape``, ``dtype`` and
-    ``__getitem__``."""
+    """Indexing and reductions of a 4-axis array that builds one receiver's block at a time
+    (``self.receiver(k)`` -> [direction, band, time]); subclasses give ``shape``, ``dtype`` and
+    ``receiver``."""
 
     shape: tuple[int, int, int, int]
     dtype: np.dtype
 
-    def __getitem__(self, key: Any) -> np.ndarray:  # pragma: no cover - given by subclasses
+    def receiver(self, k: int) -> np.ndarray:  # pragma: no cover - given by subclasses
         raise NotImplementedError
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        """numpy's indexing, receivers built one at a time: an integer first index drops the
+        receiver axis; a slice or index array keeps it when more indices follow."""
+        rest: tuple[Any, ...] = ()
+        if isinstance(key, tuple):
+            key, rest = key[0], key[1:]
+        n = self.shape[0]
+        if isinstance(key, (int, np.integer)):
+            k = int(key) + (n if key < 0 else 0)
+            if not 0 <= k < n:
+                raise IndexError(f"receiver {key} out of range for {n} receivers")
+            out = self.receiver(k)
+        else:
+            idx = np.arange(n)[key]
+            out = np.stack([self.receiver(int(k)) for k in idx]) if idx.size else \
+                np.zeros((0, *self.shape[1:]), self.dtype)
+            rest = (slice(None), *rest) if rest else rest  # the receiver axis is kept
+        return out[rest] if rest else out
 
     def _reduce(self, name: str, axis: Any, dtype: Any, keepdims: bool) -> Any:
         """numpy's ``name`` reduction over ``axis``, one receiver's block at a time; across
@@ -121,20 +140,3 @@ class SourceMix(ReceiverWise):
             if g != 0.0:
                 out += g * np.asarray(p[k], np.float64)
         return out.astype(np.float32)
-
-    def __getitem__(self, key: Any) -> np.ndarray:
-        rest: tuple[Any, ...] = ()
-        if isinstance(key, tuple):
-            key, rest = key[0], key[1:]
-        n = self.shape[0]
-        if isinstance(key, (int, np.integer)):
-            k = int(key) + (n if key < 0 else 0)
-            if not 0 <= k < n:
-                raise IndexError(f"receiver {key} out of range for {n} receivers")
-            out = self.receiver(k)
-        else:
-            idx = np.arange(n)[key]
-            out = np.stack([self.receiver(int(k)) for k in idx]) if idx.size else \
-                np.zeros((0, *self.shape[1:]), self.dtype)
-            rest = (slice(None), *rest) if rest else rest
-        return out[rest] if rest else out

@@ -136,9 +136,10 @@ def axis_of(sound: SoundField) -> Axis:
 
 def receiver_compact(sound: SoundField, reduced: CompactArray | None, arrivals: int,
                      split: int, r: int) -> CompactArray:
-    """Receiver r's reduced compact field (one receiver)."""
+    """Receiver r's reduced compact field (one receiver), its late bins ungrouped (the
+    bundle's cells and the browser's synthesis know one late resolution for all bands)."""
     if reduced is not None:
-        return reduced.select(np.array([r]))
+        return reduced.select(np.array([r])).ungrouped()
     early = int(sound.settings.get("early_bins", 0))
     dense = np.asarray(sound.energy[r:r + 1], np.float32)
     return CompactArray.of(dense, early).reduce(arrivals, split)

@@ -46,7 +46,6 @@ use super::field::{Accumulator, Deposits};
 use super::receivers::ball_mean_inverse_square;
 use super::stats::SoundStats;
 use super::Scene;
-use crate::geometry::Ray;
 use crate::rng::keyed_uniform;
 
 /// Most receivers one diffuse reflection may connect to (the draws live on the stack).
@@ -245,32 +244,8 @@ pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: 
         }
         n_picks = w;
     }
-    let lay = &scene.layout;
-    let nb = e.len();
-    let from = point + normal * scene.epsilon;
     for &(r, weight) in &picks[..n_picks] {
-        let c = centres[r as usize];
-        let to = c - point;
-        let d = to.length();
-        let cos = normal.dot(to) / d;
-        if !(cos > 0.0) {
-            continue;
-        }
-        let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { continue };
-        if !scene.convex {
-            let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
-            if scene.bvh.occluded(&ray, 0.0, 1.0) {
-                continue;
-            }
-        }
-        let g = weight * share * 4.0 * cos * ball_mean_inverse_square(d, radius);
-        for b in 0..nb {
-            deposit[b] = e[b] * scat[b] * g * (-set.air_attenuation_per_m[b] * d).exp();
-        }
-        scene.receivers.weigh(r as usize, -to / d, &mut deposit[..nb], gain);
-        let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
-        acc.deposit(buf, lay.index(r as usize, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
-        st.deposits += 1;
+        super::trace::connect(scene, r as usize, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain));
     }
 }
 

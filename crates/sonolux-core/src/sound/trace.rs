@@ -276,33 +276,45 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
 /// (source, ray, event), the rounding's key with the receiver.
 fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
     let (deposit, gain) = scratch;
+    for r in 0..scene.receivers.centres.len() {
+        connect(scene, r, 1.0, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain));
+    }
+}
+
+/// One next-event connection of the rain and nee estimators: the diffusely reflected energy at
+/// `point` sent to receiver `r` (Lambert's cosine, the sphere's mean 1/(4πd²), air, the
+/// receiver's pattern) with an extra `weight` (1 for rain; 1/(M p) for a sampled receiver),
+/// if the receiver is in front of the surface and sees the point.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
+    let (deposit, gain) = scratch;
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = e.len();
-    let from = point + normal * scene.epsilon;
-    for (r, c) in scene.receivers.centres.iter().enumerate() {
-        let to = *c - point;
-        let d = to.length();
-        let cos = normal.dot(to) / d;
-        if !(cos > 0.0) {
-            continue;
-        }
-        let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { continue };
-        if !scene.convex {
-            let ray = Ray::new(from.as_vec3(), (*c - from).as_vec3());
-            if scene.bvh.occluded(&ray, 0.0, 1.0) {
-                continue;
-            }
-        }
-        let weight = share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius_m);
-        for b in 0..nb {
-            deposit[b] = e[b] * scat[b] * weight * (-set.air_attenuation_per_m[b] * d).exp();
-        }
-        scene.receivers.weigh(r, -to / d, &mut deposit[..nb], gain);
-        let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
-        acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
-        st.deposits += 1;
+    let c = scene.receivers.centres[r];
+    let to = c - point;
+    let d = to.length();
+    let cos = normal.dot(to) / d;
+    if !(cos > 0.0) {
+        return;
     }
+    let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { return };
+    if !scene.convex {
+        let from = point + normal * scene.epsilon;
+        let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
+        if scene.bvh.occluded(&ray, 0.0, 1.0) {
+            return;
+        }
+    }
+    // weight × share: the same bits as share alone for rain's weight 1.
+    let g = weight * share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius_m);
+    for b in 0..nb {
+        deposit[b] = e[b] * scat[b] * g * (-set.air_attenuation_per_m[b] * d).exp();
+    }
+    scene.receivers.weigh(r, -to / d, &mut deposit[..nb], gain);
+    let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
+    acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
+    st.deposits += 1;
 }
 
 /// The direct sound of every source at every receiver it can see, computed exactly: power ×
