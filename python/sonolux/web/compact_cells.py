@@ -37,7 +37,7 @@ from sonolux.errors import SonoluxError
 from sonolux.sound.compact import CompactArray, is_compact
 from sonolux.sound.field import SoundField
 from sonolux.sound.synthesis import band_split_weights, pressure_ir
-from sonolux.web.responses import FADE_OUT_S, direct_bins
+from sonolux.web.responses import direct_bins, fade_cut
 
 #: The bake's defaults (sound/options.py), for fields stored at full resolution.
 ARRIVALS = 128
@@ -258,13 +258,6 @@ def cell_response(histogram: np.ndarray, axis: Axis, length: int, fs: int, volum
     return fade_cut(ir, length, fs)
 
 
-def fade_cut(x: np.ndarray, n: int, fs: int) -> np.ndarray:
-    if x.size <= n:
-        return x
-    y = x[:n].copy()
-    k = min(n, max(1, int(round(FADE_OUT_S * fs))))
-    y[n - k:] *= 0.5 * (1 + np.cos(np.pi * (np.arange(k) + 1) / k))
-    return y
 
 
 def direct_mask(sound: SoundField, r: int, n_bins: int) -> np.ndarray:

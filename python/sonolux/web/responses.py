@@ -123,7 +123,11 @@ def pack(x: np.ndarray, sample_format: str) -> PackedResponse:
 def _cut(x: np.ndarray, fs: int, max_length_s: float | None) -> np.ndarray:
     if max_length_s is None:
         return x
-    n = int(round(max_length_s * fs))
+    return fade_cut(x, int(round(max_length_s * fs)), fs)
+
+
+def fade_cut(x: np.ndarray, n: int, fs: int) -> np.ndarray:
+    """x cut to n samples, its last FADE_OUT_S faded by a raised cosine (x itself if shorter)."""
     if x.size <= n:
         return x
     y = x[:n].copy()
