@@ -1,6 +1,7 @@
 import { describe, expect, test } from 'vitest';
 import { fft } from '../src/synth/fft';
-import { bandSplit, bandWeights, decodeHistogram, fadeCut, generator, panArrival, synthesisePart, weightedSequences, type CompactPart, type SynthesisSpec } from '../src/synth/synthesis';
+import { bandSplit, bandWeights, decodeHistogram, fadeCut, panArrival, synthesisePart, weightedSequences, type CompactPart, type SynthesisSpec } from '../src/synth/synthesis';
+import { mulberry32 } from '../src/mulberry32';
 
 const SPEC: SynthesisSpec = {
   sampleRateHz: 48000,
@@ -19,7 +20,7 @@ const SPEC: SynthesisSpec = {
 
 describe('fft', () => {
   test.each([16, 256])('matches the definition of the DFT (to 1e-11), n = %i', (n) => {
-    const u = generator(3);
+    const u = mulberry32(3);
     const x = Array.from({ length: n }, () => [u() - 0.5, u() - 0.5]);
     const re = Float64Array.from(x, (v) => v[0]);
     const im = Float64Array.from(x, (v) => v[1]);
@@ -114,7 +115,7 @@ describe('the synthesis', () => {
 
   test('each bin of the weighted sequences holds its energy exactly, per band', () => {
     const h = [0, 1, 2].map((b) => Float64Array.from({ length: 12 }, (_, t) => (t === 0 ? 2 : 1e-3 * (b + 1) * Math.exp(-t / 4))));
-    const q = weightedSequences(SPEC, h, generator(1));
+    const q = weightedSequences(SPEC, h, mulberry32(1));
     for (let b = 0; b < 3; b++) {
       for (let t = 0; t < 12; t++) {
         const a = t < 8 ? t : 8 + (t - 8) * 4;
@@ -126,7 +127,7 @@ describe('the synthesis', () => {
     }
     // the same histogram in every band: p is s (the bank sums to one)
     const flat = [0, 1, 2].map(() => h[0]);
-    const qf = weightedSequences(SPEC, flat, generator(2));
+    const qf = weightedSequences(SPEC, flat, mulberry32(2));
     const [p] = bandSplit(SPEC, [qf]);
     p.forEach((v, i) => expect(v).toBeCloseTo(qf.s[0][i], 9));
     expect(fadeCut(p, 10, 48000, 0.0001).length).toBe(10);

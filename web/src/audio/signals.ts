@@ -3,6 +3,8 @@
  * acoustically dead room"): no echo of their own. Each returns mono samples at `fs` that loop
  * seamlessly; the same seed gives the same samples.
  */
+import { mulberry32 } from '../mulberry32';
+
 export type SignalName = 'talker' | 'clicks' | 'noise' | 'melody';
 
 export const SIGNALS: { name: SignalName; label: string }[] = [
@@ -11,18 +13,6 @@ export const SIGNALS: { name: SignalName; label: string }[] = [
   { name: 'noise', label: 'noise bursts' },
   { name: 'melody', label: 'plucked melody' },
 ];
-
-/** A small deterministic generator (mulberry32), uniform in [0, 1). */
-export function random(seed: number): () => number {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
 
 /** The named signal, its peak at 0.8. */
 export function makeSignal(name: SignalName, fs: number, seed = 1): Float32Array {
@@ -49,7 +39,7 @@ export function clicks(fs: number, periodS = 0.5, seconds = 2): Float32Array {
 /** 250 ms of pink-ish noise a second, with 5 ms ramps. */
 export function noiseBursts(fs: number, seed = 1, seconds = 2): Float32Array {
   const x = new Float32Array(Math.round(seconds * fs));
-  const rnd = random(seed);
+  const rnd = mulberry32(seed);
   const on = Math.round(0.25 * fs);
   const ramp = Math.round(0.005 * fs);
   let b0 = 0;
@@ -74,7 +64,7 @@ export function melody(fs: number, seed = 1): Float32Array {
   const notes = [0, 4, 7, 12, 7, 4, 2, 5, 9, 5]; // semitones above A3
   const step = Math.round(0.4 * fs);
   const x = new Float32Array(step * notes.length);
-  const rnd = random(seed);
+  const rnd = mulberry32(seed);
   notes.forEach((n, k) => {
     const f = 220 * 2 ** (n / 12);
     const period = Math.max(2, Math.round(fs / f));
@@ -96,7 +86,7 @@ export function melody(fs: number, seed = 1): Float32Array {
  * pauses between phrases. Not words, but the rhythm and spectrum of speech. */
 export function talker(fs: number, seed = 1, seconds = 4): Float32Array {
   const x = new Float32Array(Math.round(seconds * fs));
-  const rnd = random(seed);
+  const rnd = mulberry32(seed);
   const vowels = [
     [730, 1090, 2440], // a
     [270, 2290, 3010], // i

@@ -19,6 +19,7 @@
  * library's response to rounding (tests/web/browser/synthesis.test.ts).
  */
 import { fft, nextPowerOfTwo } from './fft';
+import { mulberry32 } from '../mulberry32';
 
 export interface SynthesisSpec {
   sampleRateHz: number;
@@ -156,18 +157,6 @@ export function decodeHistogram(spec: SynthesisSpec, part: CompactPart, d: numbe
     out[b][t] = f32(out[b][t] + part.value[i]);
   }
   return out;
-}
-
-/** A small seeded generator (mulberry32): uniform in [0, 1). */
-export function generator(seed: number): () => number {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
 }
 
 /** Poisson draw of a small mean (≤ 0.5 here: the rate is capped at fs/2), Knuth's method. */
@@ -446,14 +435,14 @@ export function synthesisePart(
   const full = bandSplit(
     spec,
     withSpikes(
-      hs.map((h, d) => weightedSequences(spec, h, generator(seed + d), impulses?.[d])),
+      hs.map((h, d) => weightedSequences(spec, h, mulberry32(seed + d), impulses?.[d])),
       () => true,
     ),
   ).map((x) => fadeCut(x, length, fs, spec.fadeOutS));
   const directOnly = bandSplit(
     spec,
     withSpikes(
-      direct.map((h, d) => weightedSequences(spec, h, generator(seed + d + 0x9e3779b9))),
+      direct.map((h, d) => weightedSequences(spec, h, mulberry32(seed + d + 0x9e3779b9))),
       (sample) => mask[sample] === 1,
     ),
   ).map((x) => fadeCut(x, length, fs, spec.fadeOutS));
