@@ -29,6 +29,7 @@ from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
+from sonolux.sound import walls
 from sonolux.sound.stats import combine_stats
 from sonolux.version import __version__
 
@@ -106,12 +107,15 @@ class SoundRanges:
 
     def trace(self, first: int, end: int, threads: int | None = None,
               progress: ranges.Progress | None = None) -> SoundSum:
-        # The rays alone; the waves are added once, to the whole field (finish).
+        # The rays alone; the waves are added once, to the whole field (finish). The rays keep
+        # the wall model the hybrid chose (the waves' wall: sound/walls.py).
+        scene = self.loaded_scene(threads)
         options = replace(self.options, ray_range=(first, end),
                           max_field_bytes=self.max_field_bytes,
                           memory_bytes=getattr(self, "memory_bytes", None), waves=False,
-                          crossover_hz=None)
-        return SoundSum.of(bake_whole(self.loaded_scene(threads), options, progress=progress))
+                          crossover_hz=None,
+                          wall_model=walls.resolve(scene, self.options)[0])
+        return SoundSum.of(bake_whole(scene, options, progress=progress))
 
     def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
         return part if total is None else total.add(part)

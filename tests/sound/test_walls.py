@@ -1,0 +1,108 @@
+"""The tracer's wall model (docs/walls.md): the scene key and option, checked at the edge and
+resolved (automatic: the wave solver's locally reacting wall in a bake with waves), recorded
+in the field; the locally reacting walls against the default in a diffuse room; the same bits
+whatever the threads and ray ranges."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import sonolux
+from sonolux.analysis.decay import decay_times
+from sonolux.errors import SceneError, SettingError
+from sonolux.sound import walls
+from sonolux.sound.bake import bake
+from sonolux.sound.options import SoundOptions
+
+
+def scene(wall_model=None, *, alpha=(0.1, 0.4), scattering=0.9, waves=None, threads=0, seed=1):
+    settings = {"bands_hz": [500, 1000], "threads": threads, "seed": seed}
+    if wall_model is not None:
+        settings["wall_model"] = wall_model
+    d = {
+        "name": "box", "settings": settings,
+        "materials": {"m": {"absorption": [alpha[0]] * 4 + [alpha[1]] * 4,  # 63 Hz-8 kHz
+                            "scattering": scattering}},
+        "geometry": [{"type": "shoebox", "size_m": [5, 4, 3], "materials": {"default": "m"}}],
+        "sources": [{"position_m": [1.3, 1.1, 1.4]}],
+        "receivers": {"type": "points", "radius_m": 0.4,
+                      "positions_m": [[3.6, 2.9, 1.2], [1.2, 3.0, 1.8], [3.9, 1.0, 1.5]]},
+    }
+    if waves is not None:
+        d["waves"] = waves
+    return sonolux.load_scene(d)
+
+
+def test_the_model_is_the_options_then_the_scenes_then_automatic():
+    assert walls.resolve(scene(), SoundOptions())[0] == "random-incidence"
+    assert walls.resolve(scene(), SoundOptions(waves=True))[0] == "locally-reacting"
+    assert walls.resolve(scene("random-incidence"), SoundOptions(waves=True))[0] == \
+        "random-incidence"
+    assert walls.resolve(scene("locally-reacting"), SoundOptions())[0] == "locally-reacting"
+    assert walls.resolve(scene("locally-reacting"),
+                         SoundOptions(wall_model="random-incidence"))[0] == "random-incidence"
+
+
+@pytest.mark.parametrize("value", ["diffuse", 1, True, "Locally-Reacting"])
+def test_a_bad_scene_value_names_the_key_and_what_is_allowed(value):
+    with pytest.raises(SceneError, match=r"settings\.wall_model.*random-incidence"):
+        scene(value)
+
+
+def test_a_bad_option_names_the_option():
+    with pytest.raises(SettingError, match="wall_model"):
+        SoundOptions(wall_model="lambert").validate()
+    with pytest.raises(Exception, match="wall_model"):
+        sonolux.engine.Acoustics(np.zeros((1, 2)), np.zeros((1, 2)), wall_model="lambert")
+
+
+def test_the_field_records_the_model_and_the_bands_kept_constant():
+    logged = []
+    field = bake(scene("locally-reacting", alpha=(0.3, 0.99)), rays=2000, log=logged.append)
+    assert field.settings["wall_model"] == "locally-reacting"
+    # 0.99 is above the 0.951 a locally reacting wall absorbs: material 0, band 1 keeps it.
+    assert field.settings["wall_model_kept_constant"] == [[0, 1]]
+    assert any("locally-reacting" in line for line in logged)
+    assert any("kept at every angle: m 1000 Hz" in line for line in logged)
+    plain = bake(scene(), rays=2000)
+    assert plain.settings["wall_model"] == "random-incidence"
+    assert plain.settings["wall_model_kept_constant"] == []
+
+
+def _t30(field):
+    e = field.energy.sum(axis=1, dtype=np.float64)
+    return np.nanmean(decay_times(e, field.bin_start_s, field.bin_width_s)["t30_s"], axis=0)
+
+
+def test_in_a_diffuse_room_locally_reacting_walls_decay_as_the_coefficient_says():
+    """A 5 × 4 × 3 m box, every surface α 0.1 (500 Hz) and 0.4 (1 kHz), scattering 0.9: the
+    field is close to diffuse, where a locally reacting wall's mean absorption is Paris'
+    random-incidence one, the material's coefficient (sonolux_core::wall's test checks the
+    integral). T30 per band, mean over three receivers, four seeds each way: the two models'
+    means agree within 4 standard errors of their difference (from the seeds' spread) plus
+    1 %, what the field's residual non-diffuseness (s = 0.9, not 1) may leave."""
+    t: dict[str, list] = {walls.RANDOM_INCIDENCE: [], walls.LOCALLY_REACTING: []}
+    for model in t:
+        for seed in range(4):
+            t[model].append(_t30(bake(scene(model, seed=seed + 1), rays=6000, estimator="rain")))
+    ri, lr = (np.array(t[m]) for m in (walls.RANDOM_INCIDENCE, walls.LOCALLY_REACTING))
+    se = np.sqrt(ri.var(axis=0, ddof=1) / 4 + lr.var(axis=0, ddof=1) / 4)
+    diff = lr.mean(axis=0) - ri.mean(axis=0)
+    print("T30 random incidence", ri.mean(axis=0), "locally reacting", lr.mean(axis=0), "SE", se)
+    assert np.all(np.abs(diff) < 4 * se + 0.01 * ri.mean(axis=0)), (diff, se)
+
+
+def test_locally_reacting_bakes_have_the_same_bits_on_1_and_2_threads_and_across_ranges(tmp_path):
+    """The library's path (scene key → options → engine), whole on one thread, whole on two,
+    and in three checkpointed ranges (which trace with waves off and must keep the model)."""
+    one = bake(scene("locally-reacting", threads=1, scattering=0.3), rays=3000)
+    two = bake(scene("locally-reacting", threads=2, scattering=0.3), rays=3000)
+    assert np.array_equal(np.asarray(one.energy), np.asarray(two.energy))
+    ranged = sonolux.bake(scene("locally-reacting", threads=2, scattering=0.3), rays=3000,
+                          range_rays=1000, checkpoint=tmp_path / "ck.sonolux",
+                          checkpoint_every_s=0)
+    assert ranged.settings["wall_model"] == "locally-reacting"
+    assert np.array_equal(np.asarray(one.energy), np.asarray(ranged.energy))
+    plain = bake(scene(threads=1, scattering=0.3), rays=3000)
+    assert not np.array_equal(np.asarray(one.energy), np.asarray(plain.energy))
