@@ -36,13 +36,13 @@ from sonolux.scene.materials import Library
 from sonolux.scene.meshes import build_mesh
 from sonolux.scene.receivers import place_receivers, read_receivers
 from sonolux.scene.schema import (
+    WALL_MODELS,
     Air,
     Context,
     GeometryPart,
     Material,
     Scene,
     Settings,
-    WALL_MODELS,
     Table,
 )
 from sonolux.scene.shoebox import build_shoebox

@@ -23,13 +23,13 @@ from sonolux import range_bake, ranges
 from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
+from sonolux.sound import walls
 from sonolux.sound.bake import add_waves, ray_count
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
-from sonolux.sound import walls
 from sonolux.sound.stats import combine_stats
 from sonolux.version import __version__
 
