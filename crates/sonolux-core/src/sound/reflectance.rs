@@ -76,7 +76,8 @@ impl Walls {
             WallModel::RandomIncidence => Vec::new(),
             WallModel::LocallyReacting => {
                 let peak = max_random_absorption();
-                acoustics.absorption.iter().map(|&a| if a > peak { -1.0 } else { admittance_from_random(a).0 }).collect()
+                // A rigid band is exactly rigid (the bisection would leave a g of 1e-60).
+                acoustics.absorption.iter().map(|&a| if a > peak { -1.0 } else if a <= 0.0 { 0.0 } else { admittance_from_random(a).0 }).collect()
             }
         };
         Walls { model, admittance }
