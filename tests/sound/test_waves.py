@@ -51,11 +51,13 @@ def spread_receivers(n=16):
 
 @pytest.fixture(scope="module")
 def both():
-    """(hybrid, rays only) of the same room, rays and seed."""
+    """(hybrid, rays only) of the same room, rays, seed and walls (a hybrid's rays have the
+    waves' locally reacting walls: docs/walls.md)."""
     scene = room(spread_receivers())
     hybrid = bake(scene, rays=100_000, waves=True, crossover_hz=354, max_time_s=0.8,
                   storage="full")
-    rays = bake(scene, rays=100_000, max_time_s=0.8, storage="full")
+    rays = bake(scene, rays=100_000, max_time_s=0.8, storage="full",
+                wall_model="locally-reacting")
     return hybrid, rays
 
 
@@ -518,7 +520,8 @@ def test_a_compact_hybrid_keeps_the_full_hybrids_sums_and_decays():
 
     scene = room(spread_receivers(4))
     full = bake(scene, rays=20_000, waves=True, crossover_hz=354, max_time_s=0.8, storage="full")
-    rays = bake(scene, rays=20_000, max_time_s=0.8, storage="compact")
+    rays = bake(scene, rays=20_000, max_time_s=0.8, storage="compact",
+                wall_model="locally-reacting")  # the hybrid's rays' walls (docs/walls.md)
     compact = bake(scene, rays=20_000, waves=True, crossover_hz=354, max_time_s=0.8,
                    storage="compact")
     assert is_compact(compact.energy)

@@ -2,6 +2,8 @@
 //! reflection against its closed form, the same bits whatever the threads and ray ranges, and
 //! the default model's bits unchanged.
 
+#![allow(clippy::needless_range_loop)]
+
 use glam::{DVec3, Vec3};
 use sonolux_core::early::{early_arrivals, ArrivalKind, EarlySettings};
 use sonolux_core::sound::{trace_sound, trace_sound_with, Acoustics, Directivity, Estimator, Extras, Receivers, SoundResult, SoundSettings, SoundSource, WallModel};
