@@ -156,7 +156,8 @@ pub(crate) fn specular_path(ctx: &Context, tree: &ImageTree, node: u32, receiver
 
 /// The energy per band that a valid path brings, written into `out`: the source's power and
 /// directivity towards the first leg, spreading over the unfolded length, each reflection's
-/// (1 − α)(1 − s) (α at the reflection's angle of incidence with locally reacting walls) and (with level of detail) Rindel's specular share, and the air.
+/// (1 − α)(1 − s) (α at the reflection's angle of incidence with locally reacting walls) and
+/// (with level of detail) Rindel's specular share, and the air.
 pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: DVec3, receiver: DVec3, out: &mut [f64]) {
     let set = ctx.settings;
     let nb = out.len();
