@@ -76,10 +76,16 @@ class Geometry:
 @final
 class Acoustics:
     def __new__(
-        cls, absorption: NDArray[np.float64], scattering: NDArray[np.float64]
+        cls,
+        absorption: NDArray[np.float64],
+        scattering: NDArray[np.float64],
+        wall_model: str = "random-incidence",
     ) -> Acoustics: ...
     @property
     def n_bands(self) -> int: ...
+    @property
+    def wall_model(self) -> str: ...
+    def kept_constant(self) -> list[tuple[int, int]]: ...
 
 @final
 class Directivity:

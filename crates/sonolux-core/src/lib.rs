@@ -5,7 +5,8 @@
 //! share ([`bvh`]) and its shortcut for closed convex rooms ([`convex`]), the samplers that emit
 //! rays and choose bounces ([`sampling`]) and the random streams that make every ray replayable
 //! from (seed, source, ray) alone ([`rng`]), and the partitioned convolver that
-//! auralization runs on ([`convolver`]), the wave solver for the low bands ([`wave`]), and the
+//! auralization runs on ([`convolver`]), the wave solver for the low bands ([`wave`]), the locally
+//! reacting wall that the waves and (when asked) the rays share ([`wall`]), and the
 //! exact early sound of image sources and edge diffraction ([`early`]).
 //!
 //! Conventions, the same in every module and in the Python package:
@@ -28,6 +29,7 @@ pub mod parallel;
 pub mod rng;
 pub mod sampling;
 pub mod sound;
+pub mod wall;
 pub mod wave;
 
 pub use bvh::Bvh;

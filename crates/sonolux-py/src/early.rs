@@ -57,6 +57,9 @@ impl EarlySettings {
             diffraction_piece_m,
             plane_tolerance_m,
             threads: check_threads(threads)?,
+            // Set from the `Acoustics` each call is given (its wall model), so that the image
+            // sources and the tracer of one bake agree.
+            wall_model: Default::default(),
         };
         let n_bands = inner.band_centres_hz.len();
         inner.validate(n_bands).map_err(to_py)?;
@@ -104,6 +107,7 @@ pub(crate) fn early_arrivals<'py>(
     let rec = receivers.inner();
     let mut set = early.inner.clone();
     set.receiver_radius_m = rec.radius_m;
+    set.wall_model = acoustics.model();
     let nb = acoustics.inner().n_bands;
     let mut res = py
         .detach(|| core::early_arrivals(&geometry.mesh, &geometry.bvh, acoustics.inner(), &sources, &rec.centres, &set, None))

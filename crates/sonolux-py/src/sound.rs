@@ -19,35 +19,60 @@ fn per_material(a: &PyReadonlyArray2<'_, f64>) -> (usize, Vec<f64>) {
     (a.ncols(), a.iter().copied().collect())
 }
 
-/// What every material does to sound, per band: Acoustics(absorption, scattering), both
-/// float64[material, band] in [0, 1]. Any number of bands, the same in both.
+/// What every material does to sound, per band: Acoustics(absorption, scattering,
+/// wall_model="random-incidence"), both float64[material, band] in [0, 1]. Any number of bands,
+/// the same in both. wall_model: "random-incidence" (each band's coefficient at every angle) or
+/// "locally-reacting" (a locally reacting wall whose random-incidence absorption is the
+/// coefficient, as the wave solver's; sonolux_core::sound::reflectance); `trace_sound` and
+/// `early_arrivals` both use it, so a hybrid of the two agrees.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Acoustics {
     inner: core::Acoustics,
+    wall_model: core::WallModel,
 }
 
 #[pymethods]
 impl Acoustics {
     #[new]
-    fn new(absorption: PyReadonlyArray2<'_, f64>, scattering: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence"))]
+    fn new(absorption: PyReadonlyArray2<'_, f64>, scattering: PyReadonlyArray2<'_, f64>, wall_model: &str) -> PyResult<Self> {
         let (a, s) = (absorption.as_array().dim(), scattering.as_array().dim());
         if a != s {
             return Err(invalid(format!("scattering: shape {s:?} differs from the absorption's {a:?} (material, band)")));
         }
+        let Some(wall) = core::WallModel::from_name(wall_model) else {
+            return Err(invalid(format!("wall_model: '{wall_model}' is not one of {}", core::WallModel::NAMES.map(|n| format!("'{n}'")).join(", "))));
+        };
         let (n_bands, absorption) = per_material(&absorption);
         let (_, scattering) = per_material(&scattering);
-        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering } })
+        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering }, wall_model: wall })
     }
 
     #[getter]
     fn n_bands(&self) -> usize {
         self.inner.n_bands
     }
+
+    #[getter]
+    fn wall_model(&self) -> &'static str {
+        self.wall_model.name()
+    }
+
+    /// (material, band) of the bands that keep their coefficient at every angle under the
+    /// locally reacting model (their coefficient is above the 0.951 such a wall can absorb);
+    /// empty for the random-incidence model.
+    fn kept_constant(&self) -> Vec<(usize, usize)> {
+        core::Walls::new(self.wall_model, &self.inner).kept_constant(self.inner.n_bands)
+    }
 }
 
 impl Acoustics {
     pub(crate) fn inner(&self) -> &core::Acoustics {
         &self.inner
+    }
+
+    pub(crate) fn model(&self) -> core::WallModel {
+        self.wall_model
     }
 }
 
@@ -367,7 +392,7 @@ pub(crate) fn trace_sound<'py>(
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        let extras = core::Extras { covered, level_of_detail: detail.as_ref() };
+        let extras = core::Extras { covered, level_of_detail: detail.as_ref(), wall_model: acoustics.model() };
         let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })?;

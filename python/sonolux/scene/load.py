@@ -36,6 +36,7 @@ from sonolux.scene.materials import Library
 from sonolux.scene.meshes import build_mesh
 from sonolux.scene.receivers import place_receivers, read_receivers
 from sonolux.scene.schema import (
+    WALL_MODELS,
     Air,
     Context,
     GeometryPart,
@@ -56,7 +57,7 @@ else:  # pragma: no cover - Python 3.10
 ROOT_KEYS = ("name", "settings", "materials", "geometry", "sources", "lights", "receivers",
              "daylight", "workplane", "early", "speech", "waves")
 SETTINGS_KEYS = ("sample_rate_hz", "bands", "bands_hz", "band_range_hz", "energy_drop_db",
-                 "max_time_s", "seed", "threads", "air")
+                 "max_time_s", "seed", "threads", "air", "wall_model")
 AIR_KEYS = ("temperature_c", "humidity_percent", "pressure_kpa")
 GEOMETRY_TYPES = ("shoebox", "mesh")
 #: Vertices closer than this are joined.
@@ -141,6 +142,7 @@ def read_settings(t: Table | None) -> Settings:
         seed=t.integer("seed", d.seed, lo=0, hi=MAX_SEED),
         threads=t.integer("threads", d.threads, lo=0, hi=MAX_THREADS),
         air=air,
+        wall_model=t.string("wall_model", None, choices=WALL_MODELS),
     )
 
 

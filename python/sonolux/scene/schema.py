@@ -86,6 +86,10 @@ class Material:
         return convert_coefficients(self.scattering, self.scattering_bands, bands)
 
 
+#: The tracer's wall models (``[settings] wall_model``; sonolux_core::sound::reflectance).
+WALL_MODELS = ("random-incidence", "locally-reacting")
+
+
 @dataclass(frozen=True)
 class Air:
     """The air the sound travels through (ISO 9613-1 inputs)."""
@@ -116,6 +120,10 @@ class Settings:
     threads: int = 0  # 0 = all cores
     air: Air = field(default_factory=Air)
     bands: str = OCTAVE
+    #: How a surface's absorption depends on the angle of incidence (:data:`WALL_MODELS`;
+    #: docs/walls.md); None: automatic, "locally-reacting" in a bake with waves (the wave
+    #: solver's wall), else "random-incidence".
+    wall_model: str | None = None
 
     @property
     def band_set(self) -> BandSet:

@@ -38,6 +38,7 @@ from sonolux.scene.sofa_directivity import sofa_gains
 from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
+from sonolux.sound import walls as sound_walls
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField, with_source_energy
@@ -200,7 +201,15 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
-    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"])
+    wall_model, wall_why = sound_walls.resolve(scene, options)
+    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model)
+    wall_kept = [list(k) for k in acoustics.kept_constant()]
+    if log:
+        log(wall_why)
+        note = sound_walls.describe_kept(acoustics.kept_constant(),
+                                         [m.name for m in scene.materials], scene.settings.bands_hz)
+        if note:
+            log(note)
     edges_hz = scene.settings.band_set.edges_hz
     sources = [engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, edges_hz))
                for s in scene.sources]
@@ -256,6 +265,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "elevation_bands": options.elevation_bands, "air_attenuation_per_m": arrays["air"].tolist(),
         "source_names": None if runs == [None] else [scene.sources[k].name for k in picked],
         "bands": scene.settings.bands,
+        "wall_model": wall_model, "wall_model_kept_constant": wall_kept,
         "speech": None if scene.speech is None else scene.speech.as_dict(),
         "receiver_channels": channels_record(scene),
         "source_directivity": [s.directivity for s in src],

@@ -69,7 +69,8 @@ def format_info(field: SoundField, path: str | Path | None = None) -> str:
         f"{se['sample_rate_hz']} Hz, then {d['late_bin_s'] * 1e3:g} ms bins",
         f"  storage     {_storage_line(field, d)}",
         f"  bake        {se['estimator']} estimator, {se['rays']:,} rays per source"
-        f" (range {first:,}..{end:,}), seed {se['seed']}",
+        f" (range {first:,}..{end:,}), seed {se['seed']}, walls "
+        f"{se.get('wall_model', 'random-incidence')}",
         f"  traced      {st['segments']:,} segments, {st['surface_hits']:,} surface hits, "
         f"{st['escaped_rays']:,} escaped, in {st.get('seconds', float('nan')):.2f} s "
         f"({rate:,.0f} rays/s, {seg_rate:,.0f} segments/s)",

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 from sonolux.errors import SettingError, SonoluxError, check_number, format_value, number_allowed
 from sonolux.limits import MAX_RAYS, MAX_TIME_S
+from sonolux.scene.schema import WALL_MODELS
 
 ESTIMATORS = ("paper", "rain", "nee", "auto")
 #: The most receivers one diffuse reflection of the "nee" estimator connects to (the core's bound).
@@ -71,6 +72,10 @@ class SoundOptions:
     sources: the names of the scene's sources to bake (None: all). Each source is traced
         alone and keeps its own field (docs/fieldfile.md); a bake of some of them gives each
         the bits it has in a bake of all.
+    wall_model: how a surface's absorption depends on the angle of incidence,
+        "random-incidence" or "locally-reacting" (docs/walls.md); None = the scene's
+        ``[settings] wall_model``, else "locally-reacting" with waves (the wave solver's
+        wall, so that the hybrid has one wall model) and "random-incidence" without.
     """
 
     rays: int | str = "auto"
@@ -93,6 +98,7 @@ class SoundOptions:
     crossover_hz: float | None = None
     wave_time_budget_s: float | None = None
     sources: tuple[str, ...] | None = None
+    wall_model: str | None = None
 
     def validate(self) -> SoundOptions:
         """Every option checked by :func:`sonolux.errors.check_number` (the test shared with
@@ -146,6 +152,8 @@ class SoundOptions:
                      none_ok=True, unit="Hz")
         check_number("sound option wave_time_budget_s", self.wave_time_budget_s, 0.0, 1e6,
                      lo_open=True, none_ok=True, unit="s")
+        if self.wall_model is not None and self.wall_model not in WALL_MODELS:
+            raise bad("wall_model", self.wall_model, " or ".join(WALL_MODELS) + " or None")
         if self.waves is False and self.crossover_hz is not None:
             raise bad("crossover_hz", self.crossover_hz, "only with waves = true")
         if self.waves and self.ray_range is not None:

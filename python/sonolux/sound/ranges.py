@@ -23,6 +23,7 @@ from sonolux import range_bake, ranges
 from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
+from sonolux.sound import walls
 from sonolux.sound.bake import add_waves, ray_count
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
@@ -106,12 +107,15 @@ class SoundRanges:
 
     def trace(self, first: int, end: int, threads: int | None = None,
               progress: ranges.Progress | None = None) -> SoundSum:
-        # The rays alone; the waves are added once, to the whole field (finish).
+        # The rays alone; the waves are added once, to the whole field (finish). The rays keep
+        # the wall model the hybrid chose (the waves' wall: sound/walls.py).
+        scene = self.loaded_scene(threads)
         options = replace(self.options, ray_range=(first, end),
                           max_field_bytes=self.max_field_bytes,
                           memory_bytes=getattr(self, "memory_bytes", None), waves=False,
-                          crossover_hz=None)
-        return SoundSum.of(bake_whole(self.loaded_scene(threads), options, progress=progress))
+                          crossover_hz=None,
+                          wall_model=walls.resolve(scene, self.options)[0])
+        return SoundSum.of(bake_whole(scene, options, progress=progress))
 
     def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
         return part if total is None else total.add(part)

@@ -156,7 +156,8 @@ pub(crate) fn specular_path(ctx: &Context, tree: &ImageTree, node: u32, receiver
 
 /// The energy per band that a valid path brings, written into `out`: the source's power and
 /// directivity towards the first leg, spreading over the unfolded length, each reflection's
-/// (1 − α)(1 − s) and (with level of detail) Rindel's specular share, and the air.
+/// (1 − α)(1 − s) (α at the reflection's angle of incidence with locally reacting walls) and
+/// (with level of detail) Rindel's specular share, and the air.
 pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: DVec3, receiver: DVec3, out: &mut [f64]) {
     let set = ctx.settings;
     let nb = out.len();
@@ -178,9 +179,14 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
     }
     let n = path.points.len();
     let mut shares = vec![1.0; nb];
+    let mut absorption = vec![0.0; nb];
     for (k, (&p, &tri)) in path.points.iter().zip(&path.triangles).enumerate() {
         let m = ctx.mesh.material[tri as usize] as usize * nb;
-        let alpha = &ctx.acoustics.absorption[m..m + nb];
+        // The absorption at this reflection's angle of incidence, as the tracer applies it
+        // (sound/reflectance.rs): the leg arriving from the previous point meets the plane.
+        let arriving = (p - if k == 0 { source } else { path.points[k - 1] }).normalize_or_zero();
+        let cos_incidence = arriving.dot(ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize].normal).abs();
+        let alpha = ctx.walls.absorption(&ctx.acoustics.absorption, m, cos_incidence, &mut absorption);
         let scat = &ctx.acoustics.scattering[m..m + nb];
         for b in 0..nb {
             out[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);

@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use crate::bvh::Bvh;
 use crate::error::CoreError;
 use crate::mesh::Mesh;
-use crate::sound::{Acoustics, Directivity, SoundSource};
+use crate::sound::{Acoustics, Directivity, SoundSource, WallModel, Walls};
 pub use image_sources::ImageTree;
 pub use planes::Planes;
 
@@ -64,6 +64,9 @@ pub struct EarlySettings {
     pub plane_tolerance_m: f64,
     /// Worker threads, 0 = all cores. Does not change the result.
     pub threads: usize,
+    /// How a reflection's absorption depends on its angle of incidence
+    /// ([`crate::sound::reflectance`]): give the tracer of a hybrid the same.
+    pub wall_model: WallModel,
 }
 
 impl EarlySettings {
@@ -82,6 +85,7 @@ impl EarlySettings {
             diffraction_piece_m: 0.25,
             plane_tolerance_m: 1e-3,
             threads: 0,
+            wall_model: WallModel::RandomIncidence,
         }
     }
 
@@ -220,6 +224,8 @@ pub(crate) struct Context<'a> {
     pub settings: &'a EarlySettings,
     /// Level of detail (with `settings.level_of_detail`): Rindel's K on every reflection.
     pub lod: Option<&'a lod::LevelOfDetail>,
+    /// Each reflection's absorption at its angle of incidence, as the tracer's.
+    pub walls: Walls,
     /// Offset (m) that keeps a visibility ray from finding the surface it starts on.
     pub epsilon_m: f64,
 }
@@ -280,6 +286,7 @@ pub fn early_arrivals(
         gains,
         settings,
         lod: detail.as_ref(),
+        walls: Walls::new(settings.wall_model, acoustics),
         epsilon_m: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
     };
     let max_path_m = settings.max_time_s * settings.speed_of_sound_m_s;

@@ -17,6 +17,7 @@ pub mod field;
 pub mod nee;
 pub mod pattern;
 pub mod receivers;
+pub mod reflectance;
 pub mod stats;
 mod trace;
 
@@ -33,6 +34,7 @@ use crate::parallel::{fill_blocks, run_chunks, Progress};
 pub use field::{Accumulator, Deposits, Layout};
 pub use pattern::Pattern;
 pub use receivers::{ReceiverPattern, Receivers};
+pub use reflectance::{WallModel, Walls};
 pub use stats::SoundStats;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -350,6 +352,8 @@ pub(crate) struct Scene<'a> {
     pub receiver_tree: Option<&'a nee::ReceiverTree>,
     /// Level of detail: Rindel's K turns part of each specular reflection into scattering.
     pub lod: Option<&'a LevelOfDetail>,
+    /// How each surface's absorption depends on the angle of incidence ([`reflectance`]).
+    pub walls: Walls,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -388,7 +392,7 @@ pub fn trace_sound_hybrid(
     covered: Option<SpecularCoverage>,
     progress: impl FnMut(&Progress) -> bool,
 ) -> Result<SoundResult, CoreError> {
-    trace_sound_with(mesh, bvh, acoustics, sources, receivers, settings, Extras { covered, level_of_detail: None }, progress)
+    trace_sound_with(mesh, bvh, acoustics, sources, receivers, settings, Extras { covered, ..Extras::default() }, progress)
 }
 
 /// What a bake may add to the plain tracer.
@@ -399,6 +403,9 @@ pub struct Extras<'a> {
     /// Level of detail ([`crate::early::lod`]): each reflection's scattering becomes
     /// s' = 1 − (1 − s) K, K computed exactly as the image sources compute it.
     pub level_of_detail: Option<&'a LevelOfDetail>,
+    /// How a surface's absorption depends on the angle of incidence ([`reflectance`]): the
+    /// default keeps each band's coefficient at every angle.
+    pub wall_model: WallModel,
 }
 
 /// [`trace_sound`] with [`Extras`].
@@ -477,6 +484,7 @@ pub fn trace_sound_with(
         covered,
         receiver_tree: receiver_tree.as_ref(),
         lod: extras.level_of_detail,
+        walls: Walls::new(extras.wall_model, acoustics),
     };
     let quantum = trace::quantum(sources, receivers.radius_m, receivers.peak_gain());
     let n = settings.end_ray - settings.first_ray;

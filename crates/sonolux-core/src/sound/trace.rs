@@ -44,6 +44,8 @@ pub(crate) struct Worker {
     /// Per band, with level of detail: Rindel's K at a reflection, and the scattering s' it gives.
     shares: Vec<f64>,
     scattering: Vec<f64>,
+    /// Per band: a surface's absorption at the angle a ray meets it (locally reacting walls).
+    absorption: Vec<f64>,
 }
 
 impl Worker {
@@ -58,6 +60,7 @@ impl Worker {
             tally: vec![0.0; stats::KINDS * n_bands],
             shares: vec![0.0; n_bands],
             scattering: vec![0.0; n_bands],
+            absorption: vec![0.0; n_bands],
         }
     }
 }
@@ -87,7 +90,7 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
     let lay = &scene.layout;
     let nb = scene.acoustics.n_bands;
     let air = &set.air_attenuation_per_m[..nb];
-    let Worker { stats: st, deposits: buf, stamp, energy, deposit, gain, tally, shares, scattering } = w;
+    let Worker { stats: st, deposits: buf, stamp, energy, deposit, gain, tally, shares, scattering, absorption } = w;
     let mut rng = Stream::new(set.seed, s as u64, index);
     // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
     let e = &mut energy[..nb];
@@ -199,7 +202,9 @@ pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, 
         let point = pos + dir * length;
         let material = scene.mesh.material[tri] as usize;
         let m = material * nb;
-        let alpha = &scene.acoustics.absorption[m..m + nb];
+        // The absorption at this angle of incidence (sound/reflectance.rs): on incidence, so
+        // it acts on the whole reflection, specular and scattered parts alike.
+        let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), &mut absorption[..nb]);
         let mut scat = &scene.acoustics.scattering[m..m + nb];
         for b in 0..nb {
             tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];

@@ -51,47 +51,9 @@ impl Admittance {
     }
 }
 
-/// Random-incidence absorption of a wall of real specific admittance g (Paris 1928).
-pub fn paris_absorption(g: f64) -> f64 {
-    if g <= 0.0 {
-        return 0.0;
-    }
-    8.0 * g * (1.0 + g / (1.0 + g) - 2.0 * g * ((1.0 + g) / g).ln())
-}
-
-/// The admittance at which Paris' absorption peaks (0.951 at g ≈ 0.64), by golden section.
-fn paris_peak() -> f64 {
-    let (mut a, mut b) = (0.1, 2.0);
-    let r = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..100 {
-        let (c, d) = (b - r * (b - a), a + r * (b - a));
-        if paris_absorption(c) > paris_absorption(d) {
-            b = d
-        } else {
-            a = c
-        }
-    }
-    0.5 * (a + b)
-}
-
-/// The smaller real admittance with random-incidence absorption `alpha`, and whether `alpha`
-/// had to be clamped to the peak.
-pub fn admittance_from_random(alpha: f64) -> (f64, bool) {
-    let peak = paris_peak();
-    if alpha >= paris_absorption(peak) {
-        return (peak, alpha > paris_absorption(peak) + 1e-12);
-    }
-    let (mut lo, mut hi) = (0.0, peak);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if paris_absorption(mid) < alpha {
-            lo = mid
-        } else {
-            hi = mid
-        }
-    }
-    (0.5 * (lo + hi), false)
-}
+// Paris' random-incidence absorption and its inverse are shared with the tracer's locally
+// reacting walls (one wall model on both sides of the crossover): they live in `crate::wall`.
+pub use crate::wall::{admittance_from_random, paris_absorption};
 
 /// Normal-incidence absorption of a real specific admittance g: 4g/(1 + g)².
 pub fn normal_absorption_of(g: f64) -> f64 {
@@ -172,21 +134,5 @@ impl Plane {
     pub(crate) fn slope(&self, y: C64) -> C64 {
         let d = self.a + y * self.c;
         -2.0 * self.c * self.a.re / (d * d)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn paris_peaks_at_0951() {
-        let g = paris_peak();
-        assert!((paris_absorption(g) - 0.951).abs() < 5e-4, "{}", paris_absorption(g));
-        // Small admittances absorb 8g at random incidence.
-        assert!((paris_absorption(1e-4) / 8e-4 - 1.0).abs() < 0.01);
-        let (g, clamped) = admittance_from_random(0.3);
-        assert!(!clamped && (paris_absorption(g) - 0.3).abs() < 1e-9);
-        assert!(admittance_from_random(0.99).1);
     }
 }
