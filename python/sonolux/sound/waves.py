@@ -7,9 +7,12 @@ core's wave solver (FDTD, ``docs/waves.md``) does. A hybrid bake runs both and j
   materials averaged over its bands up to 1 kHz, V the mesh's volume; Schroeder, "Die
   statistischen Parameter der Frequenzkurven von grossen Räumen", Acustica 4, 1954) marks
   where a room's modes overlap; the tracer is sound from about twice that. The grid allows
-  f_grid = the largest maximum frequency whose run fits the memory budget and the time budget
-  (cells × steps at the rate measured on this machine by a short run on the scene's own grid,
-  :func:`measured_rate`). The crossover is the band edge (geometric mean
+  f_grid = the largest maximum frequency whose run fits the memory budget (the bake's
+  ``max_field_bytes``, else 4 GiB) and the grid budget (:data:`GRID_UPDATE_BUDGET` cell updates
+  over the bake): numbers of the scene alone, so the crossover is the same on every machine.
+  The time it will take is predicted from the rate measured on this machine by a short run on
+  the chosen grid (:func:`measured_rate`), printed, and a warning when it is over the time
+  budget. The crossover is the band edge (geometric mean
   of two neighbouring band centres) nearest max(2·f_S, the lowest edge) in log frequency, but
   not above f_grid/√2; or the edge nearest a crossover the user gives. Whole bands go to one
   side: **no band straddles the crossover**, since it always lies on a band edge. The grid is
@@ -82,7 +85,8 @@ class Crossover:
     schroeder_hz: float
     grid_limit_hz: float
     why: str
-    #: The solver's rate measured on this machine before the choice (cell updates/s).
+    #: The solver's rate measured on this machine on the chosen grid (cell updates/s): for the
+    #: printed time only, the choice does not depend on it (nan when not measured).
     updates_per_s: float
 
 
@@ -162,69 +166,77 @@ def with_scene(scene: Any, options: Any) -> Any:
 
 
 def check_scene(scene: Any) -> None:
-    """Refuses, before anything is baked, a scene the waves cannot take: fewer than two bands,
-    or a source that is not omnidirectional. The solver's source is a point monopole; a
-    directional source would be a set of weighted monopoles matched to the pattern's low-order
-    spherical harmonics (Bilbao and Hamilton, IEEE/ACM TASLP 27(2), 2019), which is not built:
-    until it is, a hybrid bake of a directional source would give omni low bands under directional
-    high ones, so it is refused instead."""
+    """Refuses, before anything is baked, a scene the waves cannot take: fewer than two bands.
+    Directional sources are clusters of monopoles fitted to their pattern per band
+    (:mod:`sonolux.sound.wave_sources`)."""
     bands = np.asarray(scene.settings.bands_hz, float)
     if bands.size < 2:
         raise SettingError("waves need at least two bands (one below the crossover, one above): "
                            f"the scene has {bands.size}")
-    for i, src in enumerate(scene.sources):
-        if src.directivity != "omni":
-            name = getattr(src, "name", None) or f"#{i + 1}"
-            raise SettingError(f"waves: source {name} has directivity = {src.directivity!r}, but "
-                               "the wave solver's sources are omnidirectional (allowed with waves: "
-                               "'omni'); bake this scene without waves, or make the source omni")
+
+
+#: The automatic crossover's grid budget, in air-cell updates over the whole bake (cells × steps
+#: × sources): 3·10¹¹, the default time budget of 600 s at 0.5 G updates/s, the rate the
+#: solver keeps on one loaded core of the machine it was built on (docs/waves.md, "Performance":
+#: 1.2-2.2 G/s per idle core). A number of the scene alone, so that the crossover, and with it
+#: the bits of the hybrid, are the same on every machine; the time it will take there is
+#: measured and printed, not used.
+GRID_UPDATE_BUDGET = 3e11
+#: The automatic crossover's memory budget when the bake gives none (``max_field_bytes``): the
+#: core's default ``memory_limit_bytes`` (4 GiB), not what this machine has free (that would
+#: make the crossover depend on the machine). A machine with less is refused by the core's own
+#: estimate before the run, naming the largest frequency that fits.
+GRID_MEMORY_BYTES = 4 << 30
 
 
 def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | None,
                      time_budget_s: float, memory_limit_bytes: int,
-                     absorption: np.ndarray) -> Crossover:
+                     absorption: np.ndarray, update_budget: float = GRID_UPDATE_BUDGET,
+                     measure: bool = True) -> Crossover:
     """The crossover of a hybrid bake of ``scene`` (see the module's doc); ``absorption``
-    float64[material, band], the bake's."""
+    float64[material, band], the bake's. A function of the scene, ``crossover_hz``,
+    ``memory_limit_bytes`` and ``update_budget`` only: the machine's speed, measured on the
+    chosen grid (``measure``), gives the predicted time that is printed, and a warning in
+    ``why`` when it is over ``time_budget_s`` (the crossover is not lowered for it)."""
     from sonolux.scene.summary import theory
 
     check_scene(scene)
     bands = np.asarray(scene.settings.bands_hz, float)
     edges = band_edges_hz(bands)
-    th = theory(scene)
-    f_s = schroeder_hz(th)
+    f_s = schroeder_hz(theory(scene))
     c, threads = scene.settings.speed_of_sound_m_s, scene.settings.threads
-    n_rec = BALL_POINTS * scene.receivers.count
+    n_rec, n_src = BALL_POINTS * scene.receivers.count, len(scene.sources)
 
     def estimate(f_max: float) -> dict[str, int]:
         s = wave_settings(f_max, duration_s + 0.05, c, threads, memory_limit_bytes)
         return engine.wave_memory_estimate(s, scene.geometry, n_rec, bands)
 
+    def updates(f_max: float) -> float:
+        e = estimate(f_max)
+        return float(e["cells"]) * e["steps"] * n_src
+
     probe = wave_settings(bands[0], duration_s + 0.05, c, threads, memory_limit_bytes)
     f_mem = engine.wave_max_frequency(probe, scene.geometry, n_rec, bands, memory_limit_bytes) or 0.0
-    # The rate, measured on the grid the target asks for (or the largest that fits).
-    wish = crossover_hz if crossover_hz is not None else max(2.0 * f_s, edges[0])
-    probe_hz = min(max(wish, edges[0]) * math.sqrt(2), f_mem) if f_mem > 0 else edges[0]
-    rate = measured_rate(scene, absorption, probe_hz, memory_limit_bytes)
-    # Run time grows as f⁴ (cells f³, steps f): bisect the budget in log frequency.
+    # Cell updates grow as f⁴ (cells f³, steps f): bisect the budget in log frequency.
     lo, hi = 1.0, max(f_mem, 2.0)
-    if run_seconds(estimate(hi), rate) <= time_budget_s:
-        f_time = hi
+    if updates(hi) <= update_budget:
+        f_work = hi
     else:
         while hi / lo > 1.01:
             mid = math.sqrt(lo * hi)
-            lo, hi = (mid, hi) if run_seconds(estimate(mid), rate) <= time_budget_s else (lo, mid)
-        f_time = lo
-    f_grid = min(f_mem, f_time)
-    limit = ("memory" if f_mem <= f_time else f"the time budget of {time_budget_s:g} s at the "
-             f"{rate / 1e9:.2f} G cell updates/s measured on this machine")
+            lo, hi = (mid, hi) if updates(mid) <= update_budget else (lo, mid)
+        f_work = lo
+    f_grid = min(f_mem, f_work)
+    limit = (f"memory, {memory_limit_bytes / 2**30:.3g} GiB" if f_mem <= f_work else
+             f"the grid budget of {update_budget:.3g} cell updates")
     fits = edges[edges * math.sqrt(2) <= f_grid]
     if crossover_hz is None:
         target = max(2.0 * f_s, edges[0])
         if fits.size == 0:
             raise SettingError(f"waves: the grid allows up to {f_grid:.0f} Hz ({limit}), too little "
                                f"for a crossover at the lowest band edge {edges[0]:.0f} Hz (its grid "
-                               f"needs {edges[0] * math.sqrt(2):.0f} Hz); raise the budget or bake "
-                               "without --waves")
+                               f"needs {edges[0] * math.sqrt(2):.0f} Hz); give a larger memory "
+                               "budget or bake without --waves")
         x = float(fits[np.argmin(np.abs(np.log(fits / target)))])
         why = (f"crossover {x:.0f} Hz: Schroeder frequency {f_s:.0f} Hz (2000·√(T/V)), "
                f"2·f_S = {2 * f_s:.0f} Hz, snapped to a band edge within the grid's limit of "
@@ -238,8 +250,19 @@ def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | Non
                                + (f"{fits.max():.0f} Hz" if fits.size else "none"))
         why = (f"crossover {x:.0f} Hz: the band edge nearest the {crossover_hz:g} Hz asked "
                f"(Schroeder frequency {f_s:.0f} Hz)")
+    f_max = x * math.sqrt(2)
+    # The machine's speed: measured on the chosen grid, for the printed time only.
+    rate = measured_rate(scene, absorption, f_max, memory_limit_bytes) if measure else math.nan
+    predicted = updates(f_max) / rate
+    if predicted > time_budget_s:
+        faster = fits[[updates(e * math.sqrt(2)) / rate <= time_budget_s for e in fits]]
+        why += (f"; warning: about {predicted:.0f} s at the {rate / 1e9:.2f} G cell updates/s "
+                f"measured here, over the time budget of {time_budget_s:g} s (the crossover is "
+                "not lowered for it, so that every machine bakes the same bits): "
+                + (f"give crossover_hz = {faster.max():.0f} or less to stay within it"
+                   if faster.size else "no crossover stays within it"))
     k = int(np.searchsorted(edges, x) + 1)
-    return Crossover(crossover_hz=x, wave_bands=k, max_frequency_hz=x * math.sqrt(2),
+    return Crossover(crossover_hz=x, wave_bands=k, max_frequency_hz=f_max,
                      schroeder_hz=f_s, grid_limit_hz=f_grid, why=why, updates_per_s=rate)
 
 
@@ -247,11 +270,16 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                duration_s: float, memory_limit_bytes: int,
                bins: tuple[np.ndarray, np.ndarray], directions: tuple[int, int], *,
                progress: bool | Callable[[int, int, float], bool] = False,
-               log: Callable[[str], None] | None = None) -> dict[str, Any]:
+               log: Callable[[str], None] | None = None,
+               directivities: list[Any] | None = None) -> dict[str, Any]:
     """One wave run per source; returns energy float32[receiver, direction, band, time] (every
     band, the caller keeps the wave bands), pressure float32[receiver, time] at sample_rate_hz
     (the low part, see the module's doc), and stats. ``bins``: the field's (bin_start_s,
-    bin_width_s) and (azimuth, elevation) bands, where the direct sound is put."""
+    bin_width_s) and (azimuth, elevation) bands, where the direct sound is put.
+    ``directivities``: each source's engine directivity (None or omitted: omni); a directional
+    source is a cluster of monopoles fitted to it per band (:mod:`sonolux.sound.wave_sources`)."""
+    from sonolux.sound import wave_sources
+
     bands = np.asarray(scene.settings.bands_hz, float)
     c = scene.settings.speed_of_sound_m_s
     pulse_s = 6.0 / (math.pi * cross.max_frequency_hz)  # the pulse's delay, 6σ
@@ -271,9 +299,33 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         label = f"waves {scene.name} source {i + 1}/{len(scene.sources)}"
         callback = ProgressLine(label, unit="steps") if progress is True else (progress or None)
         source_m = np.asarray(src.position_m, float)
-        out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
-                                    source_m[None], receivers, settings, binning, callback,
-                                    without_direct=True)
+        pattern = None if directivities is None else directivities[i]
+        if pattern is None or src.directivity == "omni":
+            out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
+                                        source_m[None], receivers, settings, binning, callback,
+                                        without_direct=True)
+            gains = None
+        else:
+            fitted = wave_sources.fit(src, pattern, bands.size)
+            longer = wave_settings(cross.max_frequency_hz, duration_s + wave_sources.pulse_delay_s(
+                bands, cross.max_frequency_hz), c, scene.settings.threads, memory_limit_bytes)
+            cluster = wave_sources.terms(source_m, fitted, bands, cross.max_frequency_hz,
+                                         longer.spacing_m, longer.sample_rate_hz,
+                                         int(longer.steps), c)
+            if log:
+                top = fitted.residual[:cross.wave_bands]
+                log(f"waves: source {src.name or i + 1} ({src.directivity}) as {len(cluster[0])} "
+                    f"monopoles, spherical harmonics of order 0-1 fitted per band; the pattern's "
+                    f"energy above order 1: {', '.join(f'{100 * r:.1f}%' for r in top)} in the "
+                    "wave bands")
+            out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
+                                        source_m[None], receivers, longer, binning, callback,
+                                        without_direct=True, terms=cluster)
+            out["pressure_pa"] = out["pressure_pa"][:, :int(settings.steps)]
+            out["source_pressure_1m_pa"] = out["source_pressure_1m_pa"][:int(settings.steps)]
+            towards = centres - source_m
+            norm = np.linalg.norm(towards, axis=1, keepdims=True)
+            gains = np.asarray(pattern.gains(towards / np.maximum(norm, 1e-12), bands.size), float)
         if out["cancelled"]:
             raise SonoluxError("the wave simulation was stopped before its end")
         # The sphere's energy: the room's part averaged over its points ([receiver][point] in
@@ -283,7 +335,7 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         e = np.einsum("rp,rp...->r...", w, out["energy"].astype(np.float64).reshape(
             len(centres), BALL_POINTS, *out["energy"].shape[1:]))
         add_direct(e, centres, scene.receivers.radius_m, source_m, arrays["air"], c, bins,
-                   directions)
+                   directions, gains)
         e *= src.power_w
         # The pressure: the centre's (the listener's ear is at one point).
         out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
@@ -356,11 +408,13 @@ def ball_mean_inverse_square(radius_m: float, distance_m: np.ndarray,
 
 def add_direct(energy: np.ndarray, centres_m: np.ndarray, radius_m: float, source_m: np.ndarray,
                air_per_m: np.ndarray, c: float, bins: tuple[np.ndarray, np.ndarray],
-               directions: tuple[int, int]) -> None:
+               directions: tuple[int, int], gains: np.ndarray | None = None) -> None:
     """Adds, in place, each sphere's mean of the source's direct sound (per joule of source
     energy, :func:`ball_mean_inverse_square`, air as exp(−m·r)) to energy float64[receiver,
     direction, band, time]: at the times r/c it arrives, from the source's direction (from every
-    direction alike when the source is in the sphere, the mean of a source at the centre)."""
+    direction alike when the source is in the sphere, the mean of a source at the centre).
+    ``gains`` float64[receiver, band]: a directional source's energy gain towards each sphere's
+    centre (its pattern's mean over the sphere when the source is inside is 1)."""
     start, width = (np.asarray(b, float) for b in bins)
     n_t = min(energy.shape[-1], start.size)
     n_az, n_el = directions
@@ -380,7 +434,8 @@ def add_direct(energy: np.ndarray, centres_m: np.ndarray, radius_m: float, sourc
         if dk < radius_m:
             energy[k, :, :, :n_t] += per_bin[None] / (n_az * n_el)
         else:
-            energy[k, direction_bin(source_m - centres_m[k], n_az, n_el), :, :n_t] += per_bin
+            g = 1.0 if gains is None else gains[k][:, None]
+            energy[k, direction_bin(source_m - centres_m[k], n_az, n_el), :, :n_t] += per_bin * g
     del width
 
 
@@ -467,6 +522,31 @@ def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int,
     stored = np.concatenate([out[..., :eb], late.astype(np.float32)], axis=-1)
     joined = CompactArray.of(stored, eb, split)
     return joined if tracer.envelope is None or settings is None else reduced(joined, settings)
+
+
+#: What a joined field's ``waves`` keeps (the pressure besides), and ``settings["waves"]``.
+WAVE_KEYS = ("crossover_hz", "wave_bands", "max_frequency_hz", "schroeder_hz", "sample_rate_hz")
+
+
+def with_wave_part(field: Any, part: dict[str, Any]) -> Any:
+    """``field`` (the rays, whole) joined with the waves of ``part``
+    (:func:`sonolux.sound.bake.wave_part`): its wave bands replaced (:func:`keep_wave_bands`),
+    the waves' pressure and crossover kept. The same for a bake done at once and for the merge
+    of its ray ranges, so both give the same bits."""
+    from dataclasses import replace
+
+    settings = {k: v for k, v in field.settings.items() if k != "with_waves"}
+    energy = keep_wave_bands(field.energy, part["energy"], int(part["wave_bands"]), settings)
+    waves = {k: part[k] for k in ("pressure", *WAVE_KEYS)}
+    stats = dict(field.stats, waves={"runs": part.get("stats", []),
+                                     "seconds": part.get("seconds")})
+    settings["waves"] = {k: waves[k] for k in WAVE_KEYS}
+    return replace(field, energy=energy, stats=stats, settings=settings, waves=waves)
+
+
+def is_wave_part(waves: dict[str, Any] | None) -> bool:
+    """Whether a field's ``waves`` is a part not yet joined (a ray range's, from ray 0)."""
+    return waves is not None and "energy" in waves
 
 
 # --- what every consumer of the field uses ---------------------------------------------------
