@@ -321,8 +321,6 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, longer, binning, callback,
                                         without_direct=True, terms=cluster)
-            out["pressure_pa"] = out["pressure_pa"][:, :int(settings.steps)]
-            out["source_pressure_1m_pa"] = out["source_pressure_1m_pa"][:int(settings.steps)]
             towards = centres - source_m
             norm = np.linalg.norm(towards, axis=1, keepdims=True)
             gains = np.asarray(pattern.gains(towards / np.maximum(norm, 1e-12), bands.size), float)
@@ -340,8 +338,11 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         # The pressure: the centre's (the listener's ear is at one point).
         out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
         energy = e if energy is None else energy + e
+        # The impulse response (time 0 at emission) as long as an omni run's: a directional
+        # run is longer by its pulse's delay.
         p = low_pressure(out, bands, cross.wave_bands, arrays["air"], c,
-                         float(scene.settings.sample_rate_hz)) * math.sqrt(src.power_w)
+                         float(scene.settings.sample_rate_hz))[:, :int(settings.steps)]
+        p = p * math.sqrt(src.power_w)
         pressure = p if pressure is None else pressure + p
         stats.append(dict(out["stats"]))
     assert energy is not None and pressure is not None
