@@ -518,7 +518,7 @@ def test_the_spheres_mean_of_the_direct_sound_is_the_closed_form(d):
     """The density over r integrates to [2πR + π(R² − d²)/d·ln|(R + d)/(R − d)|]/(4πV) (its
     limits 3/(4πR²) at the centre, 1/(4πd²)·(1 + O(R²/d²)) far away): to 10⁻⁶, the midpoint
     rule's error with 4,000 steps over a density with a kink at |R − d|."""
-    from sonolux.sound.waves import ball_mean_inverse_square
+    from sonolux.sound.wave_spheres import ball_mean_inverse_square
 
     radius = 0.3
     lo, hi = max(d - radius, 0.0), d + radius
