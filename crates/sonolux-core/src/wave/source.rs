@@ -105,8 +105,11 @@ pub(crate) struct Injector {
     scale: f64,
     pulse: SourcePulse,
     dt: f64,
-    terms: Vec<(Vec<(usize, f64)>, Vec<f64>)>,
+    terms: Vec<FedNodes>,
 }
+
+/// A term's nodes with their trilinear weights, and its signal.
+type FedNodes = (Vec<(usize, f64)>, Vec<f64>);
 
 impl Injector {
     pub fn new(grid: &Grid, positions: &[DVec3], pulse: SourcePulse, c: f64, dt: f64) -> Result<Injector, CoreError> {
