@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -21,7 +20,7 @@ from scipy import fft as sfft
 import sonolux
 from sonolux import engine
 from sonolux.analysis.decay import decay_times
-from sonolux.errors import InvalidInputError, SettingError, SonoluxError
+from sonolux.errors import InvalidInputError, SettingError
 from sonolux.fieldfile import open_field, save_fields
 from sonolux.sound.bake import bake
 from sonolux.sound.synthesis import band_split_weights
@@ -362,67 +361,6 @@ def test_options_refuse_a_lone_crossover():
         bake(scene, rays=1000, waves=True, crossover_hz=5)
 
 
-HYBRID = dict(rays=4_000, waves=True, crossover_hz=250, max_time_s=0.15)
-
-
-@pytest.fixture(scope="module")
-def small_hybrid():
-    scene = room([[2.9, 2.1, 1.2], [2.5, 0.7, 1.6]])
-    return scene, bake(scene, **HYBRID)
-
-
-@pytest.mark.parametrize("storage", ["compact", "full"])
-def test_ray_ranges_of_a_hybrid_merge_to_the_bits_of_one_bake(small_hybrid, storage):
-    """The waves are deterministic and belong to the bake: the range from ray 0 computes them
-    once and carries them unjoined; the merge that completes the rays joins them. Energy and
-    wave pressure: the same bits as the bake done at once (exact, both storages)."""
-    scene, _ = small_hybrid
-    whole = bake(scene, **HYBRID, storage=storage)
-    parts = [bake(scene, **HYBRID, storage=storage, ray_range=r)
-             for r in ((1_500, 4_000), (0, 1_500))]
-    assert parts[0].waves is None and parts[1].waves["energy"].shape[2] == 1
-    assert all(p.settings["with_waves"] for p in parts)
-    merged = parts[0].merge(parts[1])
-    np.testing.assert_array_equal(np.asarray(merged.energy), np.asarray(whole.energy))
-    np.testing.assert_array_equal(merged.waves["pressure"], whole.waves["pressure"])
-    assert merged.settings["waves"] == whole.settings["waves"] and merged.counts is None
-    # Two parts that both start at ray 0 would count their rays (and the waves) twice.
-    with pytest.raises(SonoluxError, match="twice"):
-        parts[1].merge(bake(scene, **HYBRID, storage=storage, ray_range=(0, 10)))
-
-
-def test_command_line_ranges_of_a_hybrid_merge_to_the_bits_of_one_bake(small_hybrid, tmp_path,
-                                                                         capsys):
-    """Ranges of a hybrid and ``sonolux merge``: the files carry the waves' part (the one from
-    ray 0) and merge to the bits of the one-piece bake; parts that make the whole without the
-    waves' part are refused, naming it (the waves would be missing)."""
-    from sonolux import cli
-    from sonolux.sound import ranges
-
-    scene, whole = small_hybrid
-    # The part from ray 0 through the checkpointed range baker (what `sonolux bake --range`
-    # runs), the other through the plain one.
-    parts = [ranges.bake(scene, checkpoint=tmp_path / "p0.h5", range_rays=1_000,
-                         ray_range=(0, 2_500), **HYBRID),
-             bake(scene, **HYBRID, ray_range=(2_500, 4_000))]
-    files = []
-    for k, p in enumerate(parts):
-        files.append(tmp_path / f"part{k}.h5")
-        save_fields(files[-1], sound=p)
-    out = tmp_path / "merged.h5"
-    code = cli.main(["merge", str(files[1]), str(files[0]), "-o", str(out)])
-    assert code == 0, capsys.readouterr().err
-    merged = open_field(out)
-    np.testing.assert_array_equal(np.asarray(merged.energy), np.asarray(whole.energy))
-    np.testing.assert_array_equal(merged.waves["pressure"], whole.waves["pressure"])
-    # Without the part from ray 0 there are no waves to join: refused, naming them.
-    alone = bake(scene, **HYBRID, ray_range=(0, 2_500))
-    save_fields(tmp_path / "other.h5", sound=replace(alone, waves=None))
-    code = cli.main(["merge", str(tmp_path / "other.h5"), str(files[1]), "-o",
-                     str(tmp_path / "bad.h5")])
-    assert code == 2 and "none holds its waves" in capsys.readouterr().err
-
-
 def locally_reacting_modal_decay(size_m, source_m, receivers_m, admittance, bands_hz, air_per_m):
     """T30 and EDT per octave of a rectangular room whose walls are locally reacting with real
     specific admittances ``admittance`` = {axis: (at 0, at L)}, from its modes (Morse and Bolt,
@@ -590,3 +528,4 @@ def test_a_compact_hybrid_keeps_the_full_hybrids_sums_and_decays():
     dr = decay_times(r.sum(axis=1), rays.bin_start_s, rays.bin_width_s)
     for k in ("t20_s", "edt_s"):
         assert np.max(np.abs(dc[k][:, 2:] / dr[k][:, 2:] - 1)) < 0.01, (k, dc[k] / dr[k])
+
