@@ -233,12 +233,12 @@ def test_automatic_crossover_depends_on_the_scene_alone():
         choose_crossover(scene, 0.5, update_budget=need / 1000, **kw)
 
 
-def directional_room(receivers, directivity="cardioid", forward=(1, 0, 0)):
+def directional_room(receivers, directivity="cardioid", forward=(1, 0, 0), source=SOURCE):
     return sonolux.load_scene({
         "name": "cardioid-box", "settings": {"bands_hz": [125, 250, 500, 1000], "seed": 3},
         "materials": {"m": {"absorption": 0.15, "scattering": 0.7}},
         "geometry": [{"type": "shoebox", "size_m": list(SIZE), "materials": {"default": "m"}}],
-        "sources": [{"name": "talker", "position_m": list(SOURCE), "directivity": directivity,
+        "sources": [{"name": "talker", "position_m": list(source), "directivity": directivity,
                      "forward": list(forward)}],
         "receivers": {"type": "points", "positions_m": [list(map(float, r)) for r in receivers],
                       "radius_m": 0.3},
@@ -529,3 +529,11 @@ def test_a_compact_hybrid_keeps_the_full_hybrids_sums_and_decays():
     for k in ("t20_s", "edt_s"):
         assert np.max(np.abs(dc[k][:, 2:] / dr[k][:, 2:] - 1)) < 0.01, (k, dc[k] / dr[k])
 
+
+
+def test_a_directional_source_against_a_wall_is_refused_by_name():
+    """A directional source closer to a wall than half a grid cell cannot have its cluster of
+    monopoles around it: refused, naming the source, the distance needed and what to do."""
+    scene = directional_room([[2.9, 2.1, 1.2]], source=(0.01, 1.1, 1.4))
+    with pytest.raises(SettingError, match=r"talker \(cardioid\).*within 34 mm.*omni"):
+        bake(scene, **DIRECTIONAL)

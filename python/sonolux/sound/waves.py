@@ -313,6 +313,13 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
             cluster = wave_sources.terms(source_m, fitted, bands, cross.max_frequency_hz,
                                          longer.spacing_m, longer.sample_rate_hz,
                                          int(longer.steps), c)
+            if np.any(np.abs(scene.geometry.winding_numbers(cluster[0])) < 0.5):
+                raise SettingError(
+                    f"waves: source {src.name or i + 1} ({src.directivity}) at "
+                    f"{tuple(round(float(v), 3) for v in source_m)} m is within "
+                    f"{500 * settings.spacing_m:.0f} mm (half the grid's {1e3 * settings.spacing_m:.0f} mm "
+                    "cell) of a wall: its cluster of monopoles needs that much air on every side; "
+                    "move it into the room or make it omni")
             if log:
                 top = fitted.residual[:cross.wave_bands]
                 log(f"waves: source {src.name or i + 1} ({src.directivity}) as {len(cluster[0])} "
