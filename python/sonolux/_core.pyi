@@ -211,6 +211,9 @@ def simulate_waves(
     binning: SoundSettings | None = None,
     progress: _Progress | None = None,
     without_direct: bool = False,
+    term_positions_m: NDArray[np.float64] | None = None,
+    term_signals_m3_s2: NDArray[np.float64] | None = None,
+    pulse_delay_s: float = 0.0,
 ) -> dict[str, Any]: ...
 
 @final

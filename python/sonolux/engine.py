@@ -273,21 +273,27 @@ def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: 
                    sources_m: Any, receivers_m: Any, settings: WaveSettings,
                    binning: SoundSettings | None = None,
                    progress: Progress | None = None, *,
-                   without_direct: bool = False) -> dict[str, Any]:
+                   without_direct: bool = False,
+                   terms: tuple[np.ndarray, np.ndarray, float] | None = None) -> dict[str, Any]:
     """Runs the wave solver over the geometry (all sources at once, coherently): absorption
     float64[material, band] at ``band_centres_hz``; sources and receivers float64[k, 3]. Returns
     pressure_pa float32[receiver, time] and velocity_m_s float32[receiver, axis, time] at
     ``sample_rate_hz``, the pulse's free-field pressure at 1 m, stats, and with ``binning`` (the
     bake's SoundSettings) energy float32[receiver, direction, band, time] per joule of source
     energy (with ``without_direct``, of the room's part alone: each source's free-field direct
-    sound taken out first); see ``_core.simulate_waves``."""
+    sound taken out first). ``terms``: a directional source, (positions float64[term, 3],
+    volume accelerations float64[term, step], pulse delay s) in place of ``sources_m``'
+    pulses; see ``_core.simulate_waves``."""
     a = np.ascontiguousarray(absorption, dtype=np.float64)
     if a.ndim != 2:
         raise InvalidInputError(f"absorption: expected shape (material, band), got {a.shape}")
     return _converted(core().simulate_waves, geometry._native, a,
                       [float(f) for f in band_centres_hz], _points(sources_m, "sources_m"),
                       _points(receivers_m, "receivers_m"), settings, binning, progress,
-                      bool(without_direct))
+                      bool(without_direct),
+                      *(() if terms is None else
+                        (_points(terms[0], "term_positions_m"),
+                         np.ascontiguousarray(terms[1], dtype=np.float64), float(terms[2]))))
 
 
 def wave_memory_estimate(settings: WaveSettings, geometry: Geometry, n_receivers: int,

@@ -33,6 +33,9 @@ Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m
                            emission; attrs sample_rate_hz, crossover_hz, wave_bands (bands
                            [0, wave_bands) of energy came from the waves), max_frequency_hz,
                            schroeder_hz
+    /sound/waves/energy    (the ray-range part from ray 0 of a hybrid bake only) float32[receiver,
+                           direction, wave band, time]: the waves' energy, not yet in
+                           /sound/energy; joined when the parts are merged (docs/waves.md)
     /light                 attrs: settings (JSON), stats (JSON), patch_size_m
     /light/patch_resolution uint32[triangle];  /light/patch_offset  uint64[triangle + 1]
     /light/patch_area_m2   float64[patch];  /light/flux_w  float64[patch, channel]
@@ -160,6 +163,9 @@ def _write_sound(f: Any, field: SoundField) -> None:
                          chunks=(1, p.shape[1]) if p.size else None)
         for k in WAVE_ATTRS:
             w.attrs[k] = field.waves[k]
+        if "energy" in field.waves:  # a ray range's waves, not yet joined (docs/waves.md)
+            w.create_dataset("energy", data=np.asarray(field.waves["energy"], np.float32),
+                             compression="gzip", shuffle=True)
 
 
 def _write_source(g: Any, field: SoundField) -> None:
@@ -439,6 +445,12 @@ def _read_waves(c: Checker, g: Any, arrays: dict[str, Any]) -> dict[str, Any]:
         raise FieldFileError(f"{c.path}: /sound/waves: wave_bands = {waves['wave_bands']} and "
                              f"sample_rate_hz = {waves['sample_rate_hz']} do not fit a field "
                              f"of {n_bands} bands")
+    if "energy" in w:  # a ray range's waves, joined when the ranges are merged
+        e = waves["energy"] = c.dataset(w, "energy")
+        shape = (n_rec, arrays["energy"].shape[1], waves["wave_bands"])
+        if e.ndim != 4 or e.shape[:3] != shape or not np.all(np.isfinite(e)):
+            raise FieldFileError(f"{c.path}: /sound/waves/energy must be finite float[receiver, "
+                                 f"direction, wave band = {shape}, time], not shape {e.shape}")
     return waves
 
 

@@ -166,6 +166,11 @@ fn oblique_plane_waves_reflect_as_off_a_locally_reacting_wall() {
 /// within 0.15 dB (`fit.rs`), 3.4% of the reflected energy 1 − α_n; for a small admittance
 /// α_st ≈ 8g and α_n ≈ 4g, so α_st moves by twice what α_n does: |α_st − α| ≤ 2·0.034·(1 − α_n),
 /// plus 0.01 for the part of a fit's reactance that the phase term leaves (measured below).
+/// And since reactive fits are corrected towards their random-incidence coefficient
+/// (`fit::random_absorption_in_band`, 2026-11-27): every band within 0.026 absolute (measured:
+/// worst 0.0247, rising at 125 Hz; 0.031 without the correction, panel at 500 Hz), the
+/// conductances within 2% (0.0509 for 0.05, 0.3043 for 0.3: not corrected, Paris' formula is
+/// theirs; the rest is the half cell of air the fit gives the grid's normal reflection).
 #[test]
 fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
     let h = 0.05;
@@ -173,6 +178,7 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
     let materials: [(&str, [f64; 4]); 4] =
         [("flat 0.05", [0.05; 4]), ("flat 0.3", [0.3; 4]), ("rising", [0.05, 0.15, 0.45, 0.8]), ("panel", [0.3, 0.6, 0.25, 0.1])];
     let mut worst = 0.0f64;
+    let mut worst_abs = 0.0f64;
     for (name, alpha) in materials {
         let mut absorption = vec![0.0; 4];
         absorption.extend_from_slice(&alpha);
@@ -202,8 +208,13 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
             let allowed = 2.0 * (1.0 - 10f64.powf(-0.015)) * (1.0 - alpha_n) + 0.01;
             println!("{name:>9} {:6.1} Hz: α {:.3}, fitted wall's α_st {mean:.4} ({:+.4}; allowed ±{allowed:.3}), α_n {alpha_n:.3}", centres[b], alpha[b], mean - alpha[b]);
             worst = worst.max((mean - alpha[b]).abs() / allowed);
+            worst_abs = worst_abs.max((mean - alpha[b]).abs());
+            if fit.admittance.branches.is_empty() {
+                assert!((mean - alpha[b]).abs() <= 0.02 * alpha[b], "{name} band {b}: {mean}");
+            }
         }
     }
-    println!("worst: {worst:.2} of the allowance");
+    println!("worst: {worst:.2} of the allowance, {worst_abs:.4} absolute");
     assert!(worst < 1.0, "{worst}");
+    assert!(worst_abs < 0.026, "{worst_abs}");
 }

@@ -139,8 +139,13 @@ fn dvec3s(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
 /// each band, the tracer's convention, air included. With `without_direct`, that energy is the
 /// room's part alone: every source's free-field direct sound is taken out of the responses first
 /// (`bands::reflected_energies`; the pressure returned keeps it).
+///
+/// A directional source: `term_positions_m` float64[term, 3] and `term_signals_m3_s2`
+/// float64[term, step], a cluster of monopoles each fed its own volume acceleration (sample n
+/// at n·Δt), with the pulse that normalises the responses centred at `pulse_delay_s`; then
+/// `sources_m` is not emitted (docs/waves.md).
 #[pyfunction]
-#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false))]
+#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false, term_positions_m = None, term_signals_m3_s2 = None, pulse_delay_s = 0.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn simulate_waves<'py>(
     py: Python<'py>,
@@ -153,7 +158,25 @@ pub(crate) fn simulate_waves<'py>(
     binning: Option<PyRef<'py, SoundSettings>>,
     progress: Option<Bound<'py, PyAny>>,
     without_direct: bool,
+    term_positions_m: Option<PyReadonlyArray2<'py, f64>>,
+    term_signals_m3_s2: Option<PyReadonlyArray2<'py, f64>>,
+    pulse_delay_s: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let terms: Vec<core::SourceTerm> = match (&term_positions_m, &term_signals_m3_s2) {
+        (None, None) => Vec::new(),
+        (Some(p), Some(s)) => {
+            let positions = dvec3s("term_positions_m", p)?;
+            let s = s.as_array();
+            if s.nrows() != positions.len() || positions.is_empty() {
+                return Err(invalid(format!("term_signals_m3_s2: {} signals for {} term positions (at least one)", s.nrows(), positions.len())));
+            }
+            positions.into_iter().zip(s.rows()).map(|(position_m, row)| core::SourceTerm { position_m, volume_acceleration_m3_s2: row.to_vec() }).collect()
+        }
+        _ => return Err(invalid("term_positions_m and term_signals_m3_s2 go together")),
+    };
+    if !(pulse_delay_s.is_finite() && (0.0..=settings.inner.duration_s).contains(&pulse_delay_s)) {
+        return Err(invalid(format!("pulse_delay_s = {pulse_delay_s}: must be within [0, duration_s = {}]", settings.inner.duration_s)));
+    }
     let a = absorption.as_array();
     if a.ncols() != band_centres_hz.len() {
         return Err(invalid(format!("absorption: {} bands per material but {} band centres", a.ncols(), band_centres_hz.len())));
@@ -182,13 +205,14 @@ pub(crate) fn simulate_waves<'py>(
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
         pool.install(|| {
-            let res = core::simulate_waves(&geometry.mesh, &materials, &sources, &receivers, &set, |p| {
+            let emitted = if terms.is_empty() { core::Sources::Monopoles(&sources) } else { core::Sources::Terms { terms: &terms, pulse_delay_s } };
+            let res = core::simulate_sources(&geometry.mesh, &materials, &emitted, &receivers, &set, |p| {
                 crate::report_progress(&progress, p, &mut interrupted)
             })?;
             let energy = match &binning {
                 Some(b) => {
                     let layout = b.layout(receivers.len(), band_centres_hz.len());
-                    let direct = without_direct.then_some(core::bands::DirectPaths { sources_m: &sources, receivers_m: &receivers });
+                    let direct = without_direct.then_some(core::bands::DirectPaths { sources_m: &sources, receivers_m: &receivers, terms: &terms });
                     let e = core::bands::reflected_energies(&res, &band_centres_hz, &b.air_attenuation_per_m, b.speed_of_sound_m_s, &layout, direct)?;
                     Some((public_order(&e, &layout), layout))
                 }

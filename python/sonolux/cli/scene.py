@@ -235,9 +235,9 @@ def add_commands(sub) -> None:
                                          "and the grid's budget, printed)")
     bake.add_argument("--wave-time-budget", type=parse.number(0, 1e6, lo_open=True, unit="s"),
                       default=None, metavar="S",
-                      help="with --waves: planned run time the automatic crossover may spend, at "
-                           "the solver's rate measured on this machine (default: the scene's "
-                           "[waves] time_budget_s, else 600 s)")
+                      help="with --waves: warn when the wave run's time predicted at the rate "
+                           "measured here is over S (the crossover does not depend on the machine; "
+                           "default: the scene's [waves] time_budget_s, else 600 s)")
     bake.add_argument("--sound", action=argparse.BooleanOptionalAction, default=None,
                       help="trace sound (default: when the scene has a source and receivers)")
     bake.add_argument("--light", action=argparse.BooleanOptionalAction, default=None,

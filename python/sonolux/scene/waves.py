@@ -4,7 +4,7 @@ rays (docs/waves.md), where they hand over, and how long the automatic crossover
     [waves]
     enabled = true          # bake with waves unless the command line says --no-waves
     crossover_hz = 500      # optional; default: from the Schroeder frequency and the budget
-    time_budget_s = 600     # optional; the planned wave run time the automatic crossover spends
+    time_budget_s = 600     # optional; warn when the predicted wave run time is over it
 
 The command line and the API's options win over the table (``--waves``/``--no-waves``,
 ``--crossover-hz``, ``--wave-time-budget``; :func:`sonolux.sound.waves.with_scene`).

@@ -290,7 +290,25 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         counts=out.get("counts"), quantum=float(out["quantum"]), theory=theory(scene),
         early=arrivals)
     field = with_source_energy(field, energy)
-    return add_waves(scene, options, field, progress=progress, log=log) if options.waves else field
+    if not options.waves:
+        return field
+    if options.ray_range is None:
+        return add_waves(scene, options, field, progress=progress, log=log)
+    return with_wave_range(scene, options, field, first, progress=progress, log=log)
+
+
+def with_wave_range(scene: Scene, options: SoundOptions, field: SoundField, first: int, *,
+                    progress: bool | Callable[[int, int, float], bool] = False,
+                    log: Callable[[str], None] | None = None) -> SoundField:
+    """A ray-range part of a hybrid bake: the waves are deterministic and belong to the bake,
+    not to a range, so the part that starts at ray 0 computes them once and carries them
+    unjoined (``waves["energy"]``, the wave bands); every part says it belongs to a hybrid
+    (``settings["with_waves"]``). The merge that completes the rays joins them
+    (:func:`sonolux.sound.waves.with_wave_part`): the bits of the bake done at once."""
+    field = replace(field, settings=dict(field.settings, with_waves=True))
+    if first != 0:
+        return field
+    return replace(field, waves=wave_part(scene, options, field, progress=progress, log=log))
 
 
 def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
@@ -299,6 +317,16 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
     """The field with its bands below the crossover from the wave solver, and the waves'
     pressure kept (:mod:`sonolux.sound.waves`): the hybrid's second half, after the rays (whole,
     or summed from ranges). The waves use the field's own bins, air and speed of sound."""
+    return wave_sound.with_wave_part(field, wave_part(scene, options, field, progress=progress,
+                                                      log=log))
+
+
+def wave_part(scene: Scene, options: SoundOptions, field: SoundField, *,
+              progress: bool | Callable[[int, int, float], bool] = False,
+              log: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """The waves of a hybrid bake, not yet joined to ``field`` (whose bins, air and speed of
+    sound they use): ``energy`` float32[receiver, direction, wave band, time], the pressure, the
+    crossover and the runs' statistics (:func:`sonolux.sound.waves.with_wave_part` joins them)."""
     started = time.perf_counter()
     rec = field.settings
     arrays = band_arrays(scene)
@@ -320,21 +348,19 @@ def add_waves(scene: Scene, options: SoundOptions, field: SoundField, *,
                                         time_budget_s=(options.wave_time_budget_s
                                                        or wave_sound.DEFAULT_TIME_BUDGET_S),
                                         absorption=arrays["absorption"],
-                                        memory_limit_bytes=limit)
+                                        memory_limit_bytes=(options.max_field_bytes
+                                                            or wave_sound.GRID_MEMORY_BYTES))
+    edges_hz = scene.settings.band_set.edges_hz
     part = wave_sound.bake_waves(scene, arrays, binning, cross, end_s, limit,
                                  (field.bin_start_s, field.bin_width_s),
                                  (rec["azimuth_bands"], rec["elevation_bands"]),
-                                 progress=progress, log=log)
-    energy = wave_sound.keep_wave_bands(field.energy, part.pop("energy"), cross.wave_bands,
-                                        field.settings)
+                                 progress=progress, log=log,
+                                 directivities=[_directivity(s, edges_hz) for s in scene.sources])
+    part["energy"] = np.ascontiguousarray(part["energy"][:, :, :cross.wave_bands])
     part.update(crossover_hz=cross.crossover_hz, wave_bands=cross.wave_bands,
-                max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz)
-    stats = dict(field.stats, waves={"runs": part.pop("stats"),
-                                     "seconds": time.perf_counter() - started})
-    settings = dict(rec, waves={k: part[k] for k in ("crossover_hz", "wave_bands",
-                                                     "max_frequency_hz", "schroeder_hz",
-                                                     "sample_rate_hz")})
-    return replace(field, energy=energy, stats=stats, settings=settings, waves=part)
+                max_frequency_hz=cross.max_frequency_hz, schroeder_hz=cross.schroeder_hz,
+                seconds=time.perf_counter() - started)
+    return part
 
 
 def _directivity(source: Any, edges_hz: np.ndarray) -> Any:

@@ -353,9 +353,25 @@ class SoundField:
             energy = reduced(energy, self.settings)
         if early is not None:
             energy = add_arrivals(energy, early)
-        return with_source_energy(
+        # A hybrid's waves live in the range from ray 0 only (computed once), joined when whole.
+        from sonolux.sound.waves import is_wave_part, with_wave_part
+
+        if is_wave_part(self.waves) and is_wave_part(other.waves):
+            raise SonoluxError("both fields hold the bake's waves (each starts at ray 0): "
+                               "merging them would count those rays twice")
+        waves = self.waves if is_wave_part(self.waves) else other.waves
+        if self.settings.get("with_waves") or other.settings.get("with_waves"):
+            settings["with_waves"] = True
+        merged = with_source_energy(
             SoundField(**{**self.__dict__, "counts": counts, "stats": stats,
-                          "settings": settings, "path": None, "early": early}), energy)
+                          "settings": settings, "path": None, "early": early, "waves": waves}),
+            energy)
+        if covered >= int(self.settings["rays"]) and settings.get("with_waves"):
+            if not is_wave_part(waves):
+                raise SonoluxError("these ranges make a whole hybrid bake, but neither holds its "
+                                   "waves (the range from ray 0 computes them)")
+            merged = replace(with_wave_part(merged, waves), counts=None)
+        return merged
 
 
 def with_source_energy(field: SoundField, stacked: Any) -> SoundField:

@@ -67,8 +67,9 @@ class SoundOptions:
     crossover_hz: where the waves hand over to the rays (snapped to the nearest band edge);
         None = the scene's, else automatic, from the room's Schroeder frequency and the grid's
         budget.
-    wave_time_budget_s: the planned wave run time the automatic crossover may spend; None = the
-        scene's, else 600 s.
+    wave_time_budget_s: the wave run time above which the bake warns (predicted from the rate
+        measured on this machine; it does not move the crossover, which depends on the scene
+        alone); None = the scene's, else 600 s.
     sources: the names of the scene's sources to bake (None: all). Each source is traced
         alone and keeps its own field (docs/fieldfile.md); a bake of some of them gives each
         the bits it has in a bake of all.
@@ -156,7 +157,4 @@ class SoundOptions:
             raise bad("wall_model", self.wall_model, " or ".join(WALL_MODELS) + " or None")
         if self.waves is False and self.crossover_hz is not None:
             raise bad("crossover_hz", self.crossover_hz, "only with waves = true")
-        if self.waves and self.ray_range is not None:
-            raise bad("ray_range", self.ray_range, "none with waves = true (the wave part is "
-                      "not split into ranges: bake the waves in one piece)")
         return self

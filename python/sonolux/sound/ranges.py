@@ -24,13 +24,14 @@ from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.sound import walls
-from sonolux.sound.bake import add_waves, ray_count
+from sonolux.sound.bake import add_waves, ray_count, with_wave_range
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.stats import combine_stats
+from sonolux.sound.waves import is_wave_part, with_wave_part
 from sonolux.version import __version__
 
 #: The SoundField arrays a sum carries besides the counts (small: bins, bands, points).
@@ -64,7 +65,14 @@ class SoundSum:
             if t.early is not None:
                 raise SonoluxError("both ranges hold the bake's early arrivals (each starts at "
                                    "ray 0): summing them would count those rays twice")
-            self.template = replace(t, early=o.early)
+            self.template = t = replace(t, early=o.early)
+        if is_wave_part(o.waves):  # a hybrid's waves: only the range from ray 0 holds them
+            if is_wave_part(t.waves):
+                raise SonoluxError("both ranges hold the bake's waves (each starts at ray 0): "
+                                   "summing them would count those rays twice")
+            self.template = t = replace(t, waves=o.waves)
+        if o.settings.get("with_waves"):
+            self.template = replace(t, settings=dict(t.settings, with_waves=True))
         self.counts = add_counts(self.counts, other.counts)
         self.stats = combine_stats(self.stats, other.stats)
         return self
@@ -128,10 +136,14 @@ class SoundRanges:
 
     def finish(self, total: SoundSum, done: list[ranges.Range]) -> SoundField:
         field = field_of_sum(total, done, self.total, self.fingerprint)
-        if self.options.waves and field.counts is None:
+        if self.options.waves:
             options = replace(self.options, max_field_bytes=self.max_field_bytes)
-            field = add_waves(self.loaded_scene(), options, field, progress=self._log is not None,
-                              log=self._log)
+            if field.counts is None:
+                field = add_waves(self.loaded_scene(), options, field,
+                                  progress=self._log is not None, log=self._log)
+            else:  # a part of a hybrid: the waves go with the part from ray 0 (docs/waves.md)
+                field = with_wave_range(self.loaded_scene(), options, field, self.target[0],
+                                        progress=self._log is not None, log=self._log)
         return field
 
 
@@ -146,6 +158,9 @@ def encode_sum(total: SoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         arrays["grid_index"] = np.asarray(t.grid_index)
     for k, v in (t.early or {}).items():
         arrays[f"early_{k}"] = np.asarray(v)
+    if is_wave_part(t.waves):
+        meta["waves"] = {k: v for k, v in t.waves.items() if k not in ("energy", "pressure")}
+        arrays["waves_energy"], arrays["waves_pressure"] = t.waves["energy"], t.waves["pressure"]
     return _jsonable(meta), arrays
 
 
@@ -158,7 +173,9 @@ def decode_sum(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> SoundSum:
         scene_name=meta["scene_name"], scene_origin=meta["scene_origin"],
         quantum=meta["quantum"], theory=meta["theory"],
         early={k[len("early_"):]: np.asarray(v) for k, v in arrays.items()
-               if k.startswith("early_")} or None)
+               if k.startswith("early_")} or None,
+        waves=dict(meta["waves"], energy=np.asarray(arrays["waves_energy"]),
+                   pressure=np.asarray(arrays["waves_pressure"])) if "waves" in meta else None)
     return SoundSum(counts_of_arrays(arrays), meta["stats"], template)
 
 
@@ -203,8 +220,15 @@ def field_of_sum(total: SoundSum, done: list[ranges.Range], rays: int,
         energy = reduced(energy, t.settings)
         if t.early is not None:  # the exact early arrivals of a hybrid, as a whole bake has
             energy = add_arrivals(energy, t.early)
-    return with_source_energy(replace(t, counts=None if whole else total.counts,
-                                      settings=settings, stats=stats), energy)
+    field = with_source_energy(replace(t, counts=None if whole else total.counts,
+                                       settings=settings, stats=stats), energy)
+    if whole and settings.get("with_waves"):
+        # A hybrid's waves, from the part that holds ray 0, joined as the bake at once joins them.
+        if not is_wave_part(t.waves):
+            raise SonoluxError("these parts make a whole hybrid bake, but none holds its waves "
+                               "(the part from ray 0 computes them): merge that part's field file")
+        field = with_wave_part(field, t.waves)
+    return field
 
 
 def _jsonable(value: Any) -> Any:

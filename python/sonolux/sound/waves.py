@@ -7,9 +7,12 @@ core's wave solver (FDTD, ``docs/waves.md``) does. A hybrid bake runs both and j
   materials averaged over its bands up to 1 kHz, V the mesh's volume; Schroeder, "Die
   statistischen Parameter der Frequenzkurven von grossen Räumen", Acustica 4, 1954) marks
   where a room's modes overlap; the tracer is sound from about twice that. The grid allows
-  f_grid = the largest maximum frequency whose run fits the memory budget and the time budget
-  (cells × steps at the rate measured on this machine by a short run on the scene's own grid,
-  :func:`measured_rate`). The crossover is the band edge (geometric mean
+  f_grid = the largest maximum frequency whose run fits the memory budget (the bake's
+  ``max_field_bytes``, else 4 GiB) and the grid budget (:data:`GRID_UPDATE_BUDGET` cell updates
+  over the bake): numbers of the scene alone, so the crossover is the same on every machine.
+  The time it will take is predicted from the rate measured on this machine by a short run on
+  the chosen grid (:func:`measured_rate`), printed, and a warning when it is over the time
+  budget. The crossover is the band edge (geometric mean
   of two neighbouring band centres) nearest max(2·f_S, the lowest edge) in log frequency, but
   not above f_grid/√2; or the edge nearest a crossover the user gives. Whole bands go to one
   side: **no band straddles the crossover**, since it always lies on a band edge. The grid is
@@ -58,6 +61,7 @@ from sonolux.errors import SettingError, SonoluxError
 from sonolux.memory import budget_bytes, gb
 from sonolux.progress import ProgressLine
 from sonolux.sound.synthesis import band_split_weights
+from sonolux.sound.wave_spheres import BALL_POINTS, add_direct, ball_points, point_weights
 
 #: Cell updates of the short run that measures the solver's rate on the scene's own grid before
 #: the crossover is chosen (:func:`measured_rate`), at least :data:`PROBE_MIN_STEPS` steps:
@@ -82,7 +86,8 @@ class Crossover:
     schroeder_hz: float
     grid_limit_hz: float
     why: str
-    #: The solver's rate measured on this machine before the choice (cell updates/s).
+    #: The solver's rate measured on this machine on the chosen grid (cell updates/s): for the
+    #: printed time only, the choice does not depend on it (nan when not measured).
     updates_per_s: float
 
 
@@ -162,69 +167,77 @@ def with_scene(scene: Any, options: Any) -> Any:
 
 
 def check_scene(scene: Any) -> None:
-    """Refuses, before anything is baked, a scene the waves cannot take: fewer than two bands,
-    or a source that is not omnidirectional. The solver's source is a point monopole; a
-    directional source would be a set of weighted monopoles matched to the pattern's low-order
-    spherical harmonics (Bilbao and Hamilton, IEEE/ACM TASLP 27(2), 2019), which is not built:
-    until it is, a hybrid bake of a directional source would give omni low bands under directional
-    high ones, so it is refused instead."""
+    """Refuses, before anything is baked, a scene the waves cannot take: fewer than two bands.
+    Directional sources are clusters of monopoles fitted to their pattern per band
+    (:mod:`sonolux.sound.wave_sources`)."""
     bands = np.asarray(scene.settings.bands_hz, float)
     if bands.size < 2:
         raise SettingError("waves need at least two bands (one below the crossover, one above): "
                            f"the scene has {bands.size}")
-    for i, src in enumerate(scene.sources):
-        if src.directivity != "omni":
-            name = getattr(src, "name", None) or f"#{i + 1}"
-            raise SettingError(f"waves: source {name} has directivity = {src.directivity!r}, but "
-                               "the wave solver's sources are omnidirectional (allowed with waves: "
-                               "'omni'); bake this scene without waves, or make the source omni")
+
+
+#: The automatic crossover's grid budget, in air-cell updates over the whole bake (cells × steps
+#: × sources): 3·10¹¹, the default time budget of 600 s at 0.5 G updates/s, the rate the
+#: solver keeps on one loaded core of the machine it was built on (docs/waves.md, "Performance":
+#: 1.2-2.2 G/s per idle core). A number of the scene alone, so that the crossover, and with it
+#: the bits of the hybrid, are the same on every machine; the time it will take there is
+#: measured and printed, not used.
+GRID_UPDATE_BUDGET = 3e11
+#: The automatic crossover's memory budget when the bake gives none (``max_field_bytes``): the
+#: core's default ``memory_limit_bytes`` (4 GiB), not what this machine has free (that would
+#: make the crossover depend on the machine). A machine with less is refused by the core's own
+#: estimate before the run, naming the largest frequency that fits.
+GRID_MEMORY_BYTES = 4 << 30
 
 
 def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | None,
                      time_budget_s: float, memory_limit_bytes: int,
-                     absorption: np.ndarray) -> Crossover:
+                     absorption: np.ndarray, update_budget: float = GRID_UPDATE_BUDGET,
+                     measure: bool = True) -> Crossover:
     """The crossover of a hybrid bake of ``scene`` (see the module's doc); ``absorption``
-    float64[material, band], the bake's."""
+    float64[material, band], the bake's. A function of the scene, ``crossover_hz``,
+    ``memory_limit_bytes`` and ``update_budget`` only: the machine's speed, measured on the
+    chosen grid (``measure``), gives the predicted time that is printed, and a warning in
+    ``why`` when it is over ``time_budget_s`` (the crossover is not lowered for it)."""
     from sonolux.scene.summary import theory
 
     check_scene(scene)
     bands = np.asarray(scene.settings.bands_hz, float)
     edges = band_edges_hz(bands)
-    th = theory(scene)
-    f_s = schroeder_hz(th)
+    f_s = schroeder_hz(theory(scene))
     c, threads = scene.settings.speed_of_sound_m_s, scene.settings.threads
-    n_rec = BALL_POINTS * scene.receivers.count
+    n_rec, n_src = BALL_POINTS * scene.receivers.count, len(scene.sources)
 
     def estimate(f_max: float) -> dict[str, int]:
         s = wave_settings(f_max, duration_s + 0.05, c, threads, memory_limit_bytes)
         return engine.wave_memory_estimate(s, scene.geometry, n_rec, bands)
 
+    def updates(f_max: float) -> float:
+        e = estimate(f_max)
+        return float(e["cells"]) * e["steps"] * n_src
+
     probe = wave_settings(bands[0], duration_s + 0.05, c, threads, memory_limit_bytes)
     f_mem = engine.wave_max_frequency(probe, scene.geometry, n_rec, bands, memory_limit_bytes) or 0.0
-    # The rate, measured on the grid the target asks for (or the largest that fits).
-    wish = crossover_hz if crossover_hz is not None else max(2.0 * f_s, edges[0])
-    probe_hz = min(max(wish, edges[0]) * math.sqrt(2), f_mem) if f_mem > 0 else edges[0]
-    rate = measured_rate(scene, absorption, probe_hz, memory_limit_bytes)
-    # Run time grows as f⁴ (cells f³, steps f): bisect the budget in log frequency.
+    # Cell updates grow as f⁴ (cells f³, steps f): bisect the budget in log frequency.
     lo, hi = 1.0, max(f_mem, 2.0)
-    if run_seconds(estimate(hi), rate) <= time_budget_s:
-        f_time = hi
+    if updates(hi) <= update_budget:
+        f_work = hi
     else:
         while hi / lo > 1.01:
             mid = math.sqrt(lo * hi)
-            lo, hi = (mid, hi) if run_seconds(estimate(mid), rate) <= time_budget_s else (lo, mid)
-        f_time = lo
-    f_grid = min(f_mem, f_time)
-    limit = ("memory" if f_mem <= f_time else f"the time budget of {time_budget_s:g} s at the "
-             f"{rate / 1e9:.2f} G cell updates/s measured on this machine")
+            lo, hi = (mid, hi) if updates(mid) <= update_budget else (lo, mid)
+        f_work = lo
+    f_grid = min(f_mem, f_work)
+    limit = (f"memory, {memory_limit_bytes / 2**30:.3g} GiB" if f_mem <= f_work else
+             f"the grid budget of {update_budget:.3g} cell updates")
     fits = edges[edges * math.sqrt(2) <= f_grid]
     if crossover_hz is None:
         target = max(2.0 * f_s, edges[0])
         if fits.size == 0:
             raise SettingError(f"waves: the grid allows up to {f_grid:.0f} Hz ({limit}), too little "
                                f"for a crossover at the lowest band edge {edges[0]:.0f} Hz (its grid "
-                               f"needs {edges[0] * math.sqrt(2):.0f} Hz); raise the budget or bake "
-                               "without --waves")
+                               f"needs {edges[0] * math.sqrt(2):.0f} Hz); give a larger memory "
+                               "budget or bake without --waves")
         x = float(fits[np.argmin(np.abs(np.log(fits / target)))])
         why = (f"crossover {x:.0f} Hz: Schroeder frequency {f_s:.0f} Hz (2000·√(T/V)), "
                f"2·f_S = {2 * f_s:.0f} Hz, snapped to a band edge within the grid's limit of "
@@ -238,8 +251,19 @@ def choose_crossover(scene: Any, duration_s: float, *, crossover_hz: float | Non
                                + (f"{fits.max():.0f} Hz" if fits.size else "none"))
         why = (f"crossover {x:.0f} Hz: the band edge nearest the {crossover_hz:g} Hz asked "
                f"(Schroeder frequency {f_s:.0f} Hz)")
+    f_max = x * math.sqrt(2)
+    # The machine's speed: measured on the chosen grid, for the printed time only.
+    rate = measured_rate(scene, absorption, f_max, memory_limit_bytes) if measure else math.nan
+    predicted = updates(f_max) / rate
+    if predicted > time_budget_s:
+        faster = fits[[updates(e * math.sqrt(2)) / rate <= time_budget_s for e in fits]]
+        why += (f"; warning: about {predicted:.0f} s at the {rate / 1e9:.2f} G cell updates/s "
+                f"measured here, over the time budget of {time_budget_s:g} s (the crossover is "
+                "not lowered for it, so that every machine bakes the same bits): "
+                + (f"give crossover_hz = {faster.max():.0f} or less to stay within it"
+                   if faster.size else "no crossover stays within it"))
     k = int(np.searchsorted(edges, x) + 1)
-    return Crossover(crossover_hz=x, wave_bands=k, max_frequency_hz=x * math.sqrt(2),
+    return Crossover(crossover_hz=x, wave_bands=k, max_frequency_hz=f_max,
                      schroeder_hz=f_s, grid_limit_hz=f_grid, why=why, updates_per_s=rate)
 
 
@@ -247,11 +271,16 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                duration_s: float, memory_limit_bytes: int,
                bins: tuple[np.ndarray, np.ndarray], directions: tuple[int, int], *,
                progress: bool | Callable[[int, int, float], bool] = False,
-               log: Callable[[str], None] | None = None) -> dict[str, Any]:
+               log: Callable[[str], None] | None = None,
+               directivities: list[Any] | None = None) -> dict[str, Any]:
     """One wave run per source; returns energy float32[receiver, direction, band, time] (every
     band, the caller keeps the wave bands), pressure float32[receiver, time] at sample_rate_hz
     (the low part, see the module's doc), and stats. ``bins``: the field's (bin_start_s,
-    bin_width_s) and (azimuth, elevation) bands, where the direct sound is put."""
+    bin_width_s) and (azimuth, elevation) bands, where the direct sound is put.
+    ``directivities``: each source's engine directivity (None or omitted: omni); a directional
+    source is a cluster of monopoles fitted to it per band (:mod:`sonolux.sound.wave_sources`)."""
+    from sonolux.sound import wave_sources
+
     bands = np.asarray(scene.settings.bands_hz, float)
     c = scene.settings.speed_of_sound_m_s
     pulse_s = 6.0 / (math.pi * cross.max_frequency_hz)  # the pulse's delay, 6σ
@@ -271,9 +300,38 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         label = f"waves {scene.name} source {i + 1}/{len(scene.sources)}"
         callback = ProgressLine(label, unit="steps") if progress is True else (progress or None)
         source_m = np.asarray(src.position_m, float)
-        out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
-                                    source_m[None], receivers, settings, binning, callback,
-                                    without_direct=True)
+        pattern = None if directivities is None else directivities[i]
+        if pattern is None or src.directivity == "omni":
+            out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
+                                        source_m[None], receivers, settings, binning, callback,
+                                        without_direct=True)
+            gains = None
+        else:
+            fitted = wave_sources.fit(src, pattern, bands.size)
+            longer = wave_settings(cross.max_frequency_hz, duration_s + wave_sources.pulse_delay_s(
+                bands, cross.max_frequency_hz), c, scene.settings.threads, memory_limit_bytes)
+            cluster = wave_sources.terms(source_m, fitted, bands, cross.max_frequency_hz,
+                                         longer.spacing_m, longer.sample_rate_hz,
+                                         int(longer.steps), c)
+            if np.any(np.abs(scene.geometry.winding_numbers(cluster[0])) < 0.5):
+                raise SettingError(
+                    f"waves: source {src.name or i + 1} ({src.directivity}) at "
+                    f"{tuple(round(float(v), 3) for v in source_m)} m is within "
+                    f"{500 * settings.spacing_m:.0f} mm (half the grid's {1e3 * settings.spacing_m:.0f} mm "
+                    "cell) of a wall: its cluster of monopoles needs that much air on every side; "
+                    "move it into the room or make it omni")
+            if log:
+                top = fitted.residual[:cross.wave_bands]
+                log(f"waves: source {src.name or i + 1} ({src.directivity}) as {len(cluster[0])} "
+                    f"monopoles, spherical harmonics of order 0-1 fitted per band; the pattern's "
+                    f"energy above order 1: {', '.join(f'{100 * r:.1f}%' for r in top)} in the "
+                    "wave bands")
+            out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
+                                        source_m[None], receivers, longer, binning, callback,
+                                        without_direct=True, terms=cluster)
+            towards = centres - source_m
+            norm = np.linalg.norm(towards, axis=1, keepdims=True)
+            gains = np.asarray(pattern.gains(towards / np.maximum(norm, 1e-12), bands.size), float)
         if out["cancelled"]:
             raise SonoluxError("the wave simulation was stopped before its end")
         # The sphere's energy: the room's part averaged over its points ([receiver][point] in
@@ -283,115 +341,21 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         e = np.einsum("rp,rp...->r...", w, out["energy"].astype(np.float64).reshape(
             len(centres), BALL_POINTS, *out["energy"].shape[1:]))
         add_direct(e, centres, scene.receivers.radius_m, source_m, arrays["air"], c, bins,
-                   directions)
+                   directions, gains)
         e *= src.power_w
         # The pressure: the centre's (the listener's ear is at one point).
         out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
         energy = e if energy is None else energy + e
+        # The impulse response (time 0 at emission) as long as an omni run's: a directional
+        # run is longer by its pulse's delay.
         p = low_pressure(out, bands, cross.wave_bands, arrays["air"], c,
-                         float(scene.settings.sample_rate_hz)) * math.sqrt(src.power_w)
+                         float(scene.settings.sample_rate_hz))[:, :int(settings.steps)]
+        p = p * math.sqrt(src.power_w)
         pressure = p if pressure is None else pressure + p
         stats.append(dict(out["stats"]))
     assert energy is not None and pressure is not None
     return {"energy": energy.astype(np.float32), "pressure": pressure.astype(np.float32),
             "sample_rate_hz": float(out["sample_rate_hz"]), "stats": stats}
-
-
-#: Points per receiver sphere: its centre and six on the axes at R·√0.7, equally weighted, a
-#: cubature of the ball exact for polynomials up to degree 3 (the mean of x² over a ball of
-#: radius R is R²/5 = 2·(0.7 R²)/7).
-BALL_POINTS = 7
-
-
-def ball_points(geometry: Any, centres_m: np.ndarray, radius_m: float) -> np.ndarray:
-    """float64[receiver · 7, 3]: each receiver sphere's cubature points, receiver by receiver.
-
-    The tracer's receivers are spheres: its energy is the mean over the sphere's volume
-    (Pope and Chalmers' estimator), which smooths the interference a point would see (at
-    500 Hz, λ/3 for the paper's 0.25 m spheres). The waves take the same mean, over these
-    points, so that both sides of the crossover measure the same thing. A point outside the
-    room (a sphere through a wall) is replaced by the centre."""
-    a = radius_m * math.sqrt(0.7)
-    offsets = np.vstack([np.zeros(3), a * np.eye(3), -a * np.eye(3)])
-    pts = (centres_m[:, None, :] + offsets[None]).reshape(-1, 3)
-    inside = np.abs(geometry.winding_numbers(pts)) > 0.5
-    pts[~inside] = np.repeat(centres_m, BALL_POINTS, axis=0)[~inside]
-    return np.ascontiguousarray(pts)
-
-
-def point_weights(points_m: np.ndarray, source_m: np.ndarray, centres_m: np.ndarray,
-                  near_m: float) -> np.ndarray:
-    """float64[receiver, point]: the weights of each sphere's points in the mean of the room's
-    part, equal, but 0 for a point nearer the source than ``near_m`` (there the grid's field is
-    its own near field of the point source, not the continuous one, and what is left after the
-    direct sound is taken out is not the room's part). A sphere all of whose points are that
-    near keeps its farthest."""
-    r = np.linalg.norm(points_m - source_m, axis=1).reshape(len(centres_m), BALL_POINTS)
-    keep = r >= near_m
-    far = r >= r.max(axis=1, keepdims=True)
-    keep = np.where(keep.any(axis=1, keepdims=True), keep, far)
-    return keep / keep.sum(axis=1, keepdims=True)
-
-
-def ball_mean_inverse_square(radius_m: float, distance_m: np.ndarray,
-                             r_m: np.ndarray) -> np.ndarray:
-    """The mean over a ball of radius R of 1/(4πr²), r the distance from a point source d from
-    the ball's centre, resolved by r: float64[..., len(r_m)] densities per metre of r, so that
-    their integral over r is the mean. The sphere about the source of radius r has the area
-    A(r) inside the ball: 4πr² while the sphere lies inside (r < R − d), 2πr²(1 − cos θ₀) on
-    |R − d| < r < R + d with cos θ₀ = (r² + d² − R²)/(2rd) (its cap inside), 0 elsewhere; the
-    density is A(r)/(4πr²·V), V = 4πR³/3. Its integral is closed (checked in the tests):
-    [2πR + π(R² − d²)/d·ln|(R + d)/(R − d)|]/(4πV), which is 1/(4πd²) far from the ball and
-    3/(4πR²) for a source at its centre. The tracer's sphere receivers measure this mean (each
-    ray's path length in the sphere over its volume)."""
-    d = np.asarray(distance_m, float)[..., None]
-    r = np.asarray(r_m, float)
-    volume = 4.0 / 3.0 * math.pi * radius_m ** 3
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cos0 = (r * r + d * d - radius_m ** 2) / (2.0 * r * d)
-        cap = 0.5 * (1.0 - np.clip(cos0, -1.0, 1.0))
-    share = np.where(r < radius_m - d, 1.0, np.where(r < radius_m + d, np.nan_to_num(cap), 0.0))
-    return share / volume
-
-
-def add_direct(energy: np.ndarray, centres_m: np.ndarray, radius_m: float, source_m: np.ndarray,
-               air_per_m: np.ndarray, c: float, bins: tuple[np.ndarray, np.ndarray],
-               directions: tuple[int, int]) -> None:
-    """Adds, in place, each sphere's mean of the source's direct sound (per joule of source
-    energy, :func:`ball_mean_inverse_square`, air as exp(−m·r)) to energy float64[receiver,
-    direction, band, time]: at the times r/c it arrives, from the source's direction (from every
-    direction alike when the source is in the sphere, the mean of a source at the centre)."""
-    start, width = (np.asarray(b, float) for b in bins)
-    n_t = min(energy.shape[-1], start.size)
-    n_az, n_el = directions
-    d = np.linalg.norm(centres_m - source_m, axis=1)
-    for k, dk in enumerate(d):
-        # Midpoints of 4000 steps over the r the sphere spans (its integral to 10⁻⁶).
-        lo, hi = max(dk - radius_m, 0.0), dk + radius_m
-        step = (hi - lo) / 4000
-        r = lo + step * (np.arange(4000) + 0.5)
-        dens = ball_mean_inverse_square(radius_m, np.array(dk), r) * step
-        t = r / c
-        b = np.clip(np.searchsorted(start, t, side="right") - 1, 0, None)
-        ok = b < n_t
-        per_bin = np.zeros((air_per_m.size, n_t))
-        for band, m in enumerate(air_per_m):
-            per_bin[band] = np.bincount(b[ok], dens[ok] * np.exp(-m * r[ok]), n_t)
-        if dk < radius_m:
-            energy[k, :, :, :n_t] += per_bin[None] / (n_az * n_el)
-        else:
-            energy[k, direction_bin(source_m - centres_m[k], n_az, n_el), :, :n_t] += per_bin
-    del width
-
-
-def direction_bin(from_m: np.ndarray, n_azimuth: int, n_elevation: int) -> int:
-    """The tracer's direction bin of sound arriving from ``from_m`` (``sound::Layout``:
-    azimuth sectors centred on +x counter-clockwise, elevation bands of equal solid angle)."""
-    v = np.asarray(from_m, float) / np.linalg.norm(from_m)
-    w = 2.0 * math.pi / n_azimuth
-    a = int(math.floor((math.atan2(v[1], v[0]) + 0.5 * w) / w)) % n_azimuth
-    e = min(int((min(max(v[2], -1.0), 1.0) + 1.0) * 0.5 * n_elevation), n_elevation - 1)
-    return e * n_azimuth + a
 
 
 def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air_per_m: np.ndarray,
@@ -467,6 +431,31 @@ def keep_wave_bands(tracer: Any, waves: np.ndarray, wave_bands: int,
     stored = np.concatenate([out[..., :eb], late.astype(np.float32)], axis=-1)
     joined = CompactArray.of(stored, eb, split)
     return joined if tracer.envelope is None or settings is None else reduced(joined, settings)
+
+
+#: What a joined field's ``waves`` keeps (the pressure besides), and ``settings["waves"]``.
+WAVE_KEYS = ("crossover_hz", "wave_bands", "max_frequency_hz", "schroeder_hz", "sample_rate_hz")
+
+
+def with_wave_part(field: Any, part: dict[str, Any]) -> Any:
+    """``field`` (the rays, whole) joined with the waves of ``part``
+    (:func:`sonolux.sound.bake.wave_part`): its wave bands replaced (:func:`keep_wave_bands`),
+    the waves' pressure and crossover kept. The same for a bake done at once and for the merge
+    of its ray ranges, so both give the same bits."""
+    from dataclasses import replace
+
+    settings = {k: v for k, v in field.settings.items() if k != "with_waves"}
+    energy = keep_wave_bands(field.energy, part["energy"], int(part["wave_bands"]), settings)
+    waves = {k: part[k] for k in ("pressure", *WAVE_KEYS)}
+    stats = dict(field.stats, waves={"runs": part.get("stats", []),
+                                     "seconds": part.get("seconds")})
+    settings["waves"] = {k: waves[k] for k in WAVE_KEYS}
+    return replace(field, energy=energy, stats=stats, settings=settings, waves=waves)
+
+
+def is_wave_part(waves: dict[str, Any] | None) -> bool:
+    """Whether a field's ``waves`` is a part not yet joined (a ray range's, from ray 0)."""
+    return waves is not None and "energy" in waves
 
 
 # --- what every consumer of the field uses ---------------------------------------------------

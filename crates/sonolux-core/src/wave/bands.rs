@@ -169,11 +169,14 @@ pub fn direction_energies(
     reflected_energies(result, band_centres_hz, air_attenuation_per_m, speed_of_sound_m_s, layout, None)
 }
 
-/// Where the sources and receivers of a run are, for [`reflected_energies`].
+/// Where the sources and receivers of a run are, for [`reflected_energies`]: the monopoles
+/// emitting the run's pulse (`sources_m`), or the terms of a directional source (`terms`, each
+/// a monopole with its own signal; `sources_m` is then ignored).
 #[derive(Clone, Copy, Debug)]
 pub struct DirectPaths<'a> {
     pub sources_m: &'a [DVec3],
     pub receivers_m: &'a [DVec3],
+    pub terms: &'a [super::SourceTerm],
 }
 
 /// [`direction_energies`] of the room's part of the field alone: with `direct`, each source's
@@ -227,7 +230,11 @@ pub fn reflected_energies(
                 let mut field = vec![0.0; per_receiver];
                 let mut channels: Vec<Vec<f64>> = (0..4).map(|c| result.pressure_or_velocity(r, c).iter().map(|&x| x as f64).collect()).collect();
                 if let Some(d) = direct {
-                    subtract_direct(&mut channels, result, d.sources_m, d.receivers_m[r], speed_of_sound_m_s);
+                    if d.terms.is_empty() {
+                        subtract_direct(&mut channels, result, d.sources_m, d.receivers_m[r], speed_of_sound_m_s);
+                    } else {
+                        subtract_terms(&mut channels, result, d.terms, d.receivers_m[r], speed_of_sound_m_s);
+                    }
                 }
                 let spectra: Vec<_> = channels.iter().map(|c| filters.deconvolved(c, &inverse)).collect();
                 let len = filters.fft_len;
@@ -279,6 +286,53 @@ fn subtract_direct(channels: &mut [Vec<f64>], result: &WaveResult, sources: &[DV
             let tau = i as f64 * dt - r / c;
             let p = pulse.pressure_at_1m(tau) / r;
             let v = pulse.volume_acceleration(tau) / (four_pi * r * c) + pulse.volume_velocity(tau) / (four_pi * r * r);
+            channels[0][i] -= p;
+            channels[1][i] -= v * n.x;
+            channels[2][i] -= v * n.y;
+            channels[3][i] -= v * n.z;
+        }
+    }
+}
+
+/// [`subtract_direct`] for the terms of a directional source: each term is a monopole whose
+/// volume acceleration a is its signal, so p = ρ·a(τ)/(4πr) and v = a(τ)/(4πrc) + q(τ)/(4πr²),
+/// q the running integral of a (trapezoids), each interpolated at τ = t − r/c by the four-point
+/// cubic (Catmull–Rom: error of order (ωΔt)⁴, 10⁻³ at the grid's f_max, where linear
+/// interpolation would leave 1.6% of the direct sound).
+fn subtract_terms(channels: &mut [Vec<f64>], result: &WaveResult, terms: &[super::SourceTerm], at: DVec3, c: f64) {
+    let dt = 1.0 / result.sample_rate_hz;
+    let rho = result.pulse.air_density_kg_m3;
+    let four_pi = 4.0 * std::f64::consts::PI;
+    for term in terms {
+        let d = at - term.position_m;
+        let r = d.length();
+        if r < 1e-6 {
+            continue;
+        }
+        let a = &term.volume_acceleration_m3_s2;
+        // Sample n of a signal is its value at n·Δt, as the pulse's in [`subtract_direct`].
+        let mut q = vec![0.0; a.len()];
+        for n in 1..a.len() {
+            q[n] = q[n - 1] + 0.5 * (a[n - 1] + a[n]) * dt;
+        }
+        let at_time = |s: &[f64], t: f64| -> f64 {
+            let x = t / dt;
+            if x < 0.0 || s.is_empty() {
+                return 0.0;
+            }
+            let i = x.floor() as i64;
+            let f = x - i as f64;
+            // Before the first sample the signal is 0; past the last it keeps its last value.
+            let v = |k: i64| if k < 0 { 0.0 } else { s.get(k as usize).copied().unwrap_or(s[s.len() - 1]) };
+            let (p0, p1, p2, p3) = (v(i - 1), v(i), v(i + 1), v(i + 2));
+            p1 + 0.5 * f * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
+        };
+        let n = d / r;
+        for i in 0..channels[0].len() {
+            let tau = i as f64 * dt - r / c;
+            let (ai, qi) = (at_time(a, tau), at_time(&q, tau));
+            let p = rho * ai / (four_pi * r);
+            let v = ai / (four_pi * r * c) + qi / (four_pi * r * r);
             channels[0][i] -= p;
             channels[1][i] -= v * n.x;
             channels[2][i] -= v * n.y;

@@ -42,7 +42,7 @@ pub use fit::MaterialFit;
 pub use grid::Grid;
 pub use scheme::WaveSolver;
 pub use settings::{AbsorptionKind, MemoryEstimate, SceneSize, WaveSettings, COURANT_LIMIT, COURANT_MAX};
-pub use source::SourcePulse;
+pub use source::{SourcePulse, SourceTerm, Sources};
 pub use voxel::VoxelStats;
 
 /// Absorption of each material per band: `absorption` is `[material][band]`, flattened, at the
@@ -227,6 +227,19 @@ pub fn simulate_waves(
     simulate_waves_observed(mesh, materials, sources, receivers, settings, progress, |_| {})
 }
 
+/// [`simulate_waves`] of any [`Sources`]: omnidirectional monopoles, or the terms of a
+/// directional source (a cluster of monopoles, each with its own signal).
+pub fn simulate_sources(
+    mesh: &Mesh,
+    materials: &WaveMaterials,
+    sources: &Sources,
+    receivers: &[DVec3],
+    settings: &WaveSettings,
+    progress: impl FnMut(&Progress) -> bool,
+) -> Result<WaveResult, CoreError> {
+    run(mesh, materials, sources, receivers, settings, progress, |_| {})
+}
+
 /// [`simulate_waves`], with `observe` shown the solver after every step: the whole pressure field
 /// ([`WaveSolver::pressure`], every cell a receiver for free) for snapshots, pictures or
 /// checkpoints, at no cost when it returns at once.
@@ -236,13 +249,25 @@ pub fn simulate_waves_observed(
     sources: &[DVec3],
     receivers: &[DVec3],
     settings: &WaveSettings,
+    progress: impl FnMut(&Progress) -> bool,
+    observe: impl FnMut(&WaveSolver),
+) -> Result<WaveResult, CoreError> {
+    run(mesh, materials, &Sources::Monopoles(sources), receivers, settings, progress, observe)
+}
+
+fn run(
+    mesh: &Mesh,
+    materials: &WaveMaterials,
+    sources: &Sources,
+    receivers: &[DVec3],
+    settings: &WaveSettings,
     mut progress: impl FnMut(&Progress) -> bool,
     mut observe: impl FnMut(&WaveSolver),
 ) -> Result<WaveResult, CoreError> {
     let (mut solver, mut stats) = build_solver(mesh, materials, settings, receivers.len())?;
     let dt = settings.time_step_s();
-    let pulse = SourcePulse::for_max_frequency(settings.max_frequency_hz, settings.air_density_kg_m3);
-    let injector = source::Injector::new(solver.grid(), sources, pulse, settings.speed_of_sound_m_s, dt)?;
+    let pulse = sources.pulse(settings.max_frequency_hz, settings.air_density_kg_m3);
+    let injector = source::Injector::of(solver.grid(), sources, pulse, settings.speed_of_sound_m_s, dt)?;
     let stencils = receivers
         .iter()
         .enumerate()

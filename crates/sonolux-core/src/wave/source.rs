@@ -16,6 +16,14 @@
 //! frequencies are barely excited, while f_max/16 is still within 14 dB of the peak.
 //! t₀ = 6σ starts it from 1.5·10⁻⁸ of its peak. q₀ is chosen for a free-field pressure peak of
 //! 1 Pa at 1 m.
+//!
+//! **Directional sources** are clusters of such monopoles, each fed its own volume acceleration
+//! ([`SourceTerm`]): weighted monopoles matched to a directivity's low-order spherical harmonics
+//! (Bilbao and Hamilton, "Directional sources in wave-based acoustic simulation", IEEE/ACM TASLP
+//! 27(2), 2019). The terms and their signals are computed by the caller (the library fits them
+//! to the source's pattern per band, docs/waves.md); the core injects each as the monopole above,
+//! with the pulse delayed by [`Sources::Terms`]' `pulse_delay_s` so that the signals' filters
+//! have room before it.
 
 use std::f64::consts::PI;
 
@@ -61,15 +69,47 @@ impl SourcePulse {
     }
 }
 
+/// One monopole of a directional source's cluster: where it is and its volume acceleration q̇
+/// (m³/s²) at every time step from 0 (zero after the last).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceTerm {
+    pub position_m: DVec3,
+    pub volume_acceleration_m3_s2: Vec<f64>,
+}
+
+/// What a run emits: monopoles all emitting the pulse (omnidirectional sources, at once), or the
+/// terms of a directional source with the pulse (their reference, what the responses are
+/// normalised by) centred at `pulse_delay_s` (at least the pulse's own 6σ).
+#[derive(Clone, Copy, Debug)]
+pub enum Sources<'a> {
+    Monopoles(&'a [DVec3]),
+    Terms { terms: &'a [SourceTerm], pulse_delay_s: f64 },
+}
+
+impl Sources<'_> {
+    /// The pulse of a run at `max_frequency_hz`, delayed as the sources say.
+    pub fn pulse(&self, max_frequency_hz: f64, air_density_kg_m3: f64) -> SourcePulse {
+        let pulse = SourcePulse::for_max_frequency(max_frequency_hz, air_density_kg_m3);
+        match self {
+            Sources::Monopoles(_) => pulse,
+            Sources::Terms { pulse_delay_s, .. } => SourcePulse { delay_s: pulse.delay_s.max(*pulse_delay_s), ..pulse },
+        }
+    }
+}
+
 /// The nodes the sources feed and their weights (sorted by node, shared nodes summed), and the
-/// factor c²Δt²ρ/Δx³.
+/// factor c²Δt²ρ/Δx³. Terms of a directional source: each term's nodes and signal.
 #[derive(Clone, Debug)]
 pub(crate) struct Injector {
     nodes: Vec<(usize, f64)>,
     scale: f64,
     pulse: SourcePulse,
     dt: f64,
+    terms: Vec<FedNodes>,
 }
+
+/// A term's nodes with their trilinear weights, and its signal.
+type FedNodes = (Vec<(usize, f64)>, Vec<f64>);
 
 impl Injector {
     pub fn new(grid: &Grid, positions: &[DVec3], pulse: SourcePulse, c: f64, dt: f64) -> Result<Injector, CoreError> {
@@ -90,12 +130,52 @@ impl Injector {
             }
         });
         let h = grid.spacing_m;
-        Ok(Injector { nodes, scale: c * c * dt * dt * pulse.air_density_kg_m3 / (h * h * h), pulse, dt })
+        Ok(Injector { nodes, scale: c * c * dt * dt * pulse.air_density_kg_m3 / (h * h * h), pulse, dt, terms: Vec::new() })
+    }
+
+    /// The injector of `sources` (see [`Sources`]).
+    pub fn of(grid: &Grid, sources: &Sources, pulse: SourcePulse, c: f64, dt: f64) -> Result<Injector, CoreError> {
+        let terms = match sources {
+            Sources::Monopoles(positions) => return Injector::new(grid, positions, pulse, c, dt),
+            Sources::Terms { terms, .. } => terms,
+        };
+        if terms.is_empty() {
+            return Err(CoreError::invalid("source_terms", "a directional source needs at least one term"));
+        }
+        let mut out = Vec::with_capacity(terms.len());
+        for (i, t) in terms.iter().enumerate() {
+            if let Some(k) = t.volume_acceleration_m3_s2.iter().position(|v| !v.is_finite()) {
+                return Err(CoreError::invalid("source_terms", format!("term {i}'s signal is not finite at step {k}")));
+            }
+            out.push((weights_in_air(grid, t.position_m, "source term", i)?, t.volume_acceleration_m3_s2.clone()));
+        }
+        let h = grid.spacing_m;
+        Ok(Injector { nodes: Vec::new(), scale: c * c * dt * dt * pulse.air_density_kg_m3 / (h * h * h), pulse, dt, terms: out })
     }
 
     /// What step n adds to u^{n+1}.
     pub fn at_step(&self, n: u64, out: &mut Vec<(usize, f32)>) {
         out.clear();
+        if !self.terms.is_empty() {
+            // Every term's share of each node, summed in the terms' order (fixed: same bits on
+            // any thread count), then sorted by node with shared nodes summed.
+            let mut sum: Vec<(usize, f64)> = Vec::new();
+            for (nodes, signal) in &self.terms {
+                let q = self.scale * signal.get(n as usize).copied().unwrap_or(0.0);
+                sum.extend(nodes.iter().map(|&(i, w)| (i, w * q)));
+            }
+            sum.sort_by_key(|s| s.0);
+            sum.dedup_by(|b, a| {
+                if a.0 == b.0 {
+                    a.1 += b.1;
+                    true
+                } else {
+                    false
+                }
+            });
+            out.extend(sum.into_iter().map(|(i, v)| (i, v as f32)));
+            return;
+        }
         let q = self.scale * self.pulse.volume_acceleration(n as f64 * self.dt);
         out.extend(self.nodes.iter().map(|&(i, w)| (i, (w * q) as f32)));
     }

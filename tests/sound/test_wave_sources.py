@@ -1,0 +1,142 @@
+"""Directional sources in the waves (``sonolux.sound.wave_sources``): the per-band fit of a
+pattern's order-0/1 spherical harmonics, and the far field of the injected cluster against the
+target pattern, band by band. Each check states its tolerance and why."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy import fft as sfft
+
+import sonolux
+from sonolux import engine
+from sonolux.scene.directivity import first_order, node_directions
+from sonolux.sound import wave_sources
+
+pytestmark = pytest.mark.usefixtures("core")
+
+BANDS = np.array([63.0, 125.0, 250.0, 500.0])
+FORWARD, UP = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+
+
+def pattern(gains_per_band):
+    """An engine pattern from axially symmetric energy gains float64[theta, band]."""
+    g = np.ascontiguousarray(np.asarray(gains_per_band, float)[:, None, :])
+    return engine.Directivity.pattern(g, FORWARD, UP)
+
+
+def source(name="custom"):
+    return SimpleNamespace(directivity=name, forward=FORWARD, name="s")
+
+
+@pytest.mark.parametrize("name", ["cardioid", "supercardioid", "hypercardioid", "figure-of-eight"])
+def test_the_first_order_family_is_fitted_exactly(name):
+    """a + (1 − a)·cos θ is order 1: the fit keeps it to the lattice's quadrature error (1e-3 of
+    the energy; 4096 directions), signed behind the hypercardioid's and the figure-of-eight's
+    null, and radiates the source's power (mean energy gain 1)."""
+    from sonolux.scene.directivity import FIRST_ORDER
+
+    a = FIRST_ORDER[name]
+    d = pattern(first_order(a, len(BANDS))[:, 0, :])
+    fit = wave_sources.fit(source(name), d, len(BANDS))
+    assert np.all(fit.residual < 1e-3)
+    u = wave_sources.fibonacci_directions(2000)
+    target = np.asarray(d.gains(u, len(BANDS)))
+    np.testing.assert_allclose(fit.energy_gain(u), target, atol=0.02 * target.max())
+    np.testing.assert_allclose(fit.energy_gain(u).mean(axis=0), 1.0, atol=1e-3)
+
+
+def test_a_pattern_of_higher_order_reports_what_the_fit_leaves_out():
+    """A beam of amplitude cos⁴(θ/2) = (1 + 2x + x²)/4 (x = cos θ) has an order-2 part: its
+    order-0/1 fit keeps ⟨A⟩² + (3⟨Ax⟩)²/3 = 1/9 + 1/12 of ⟨A²⟩ = 1/5, so the residual is exactly
+    1 − (7/36)/(1/5) = 1/36 (tolerance 1e-3: the tabulated pattern's bilinear interpolation and
+    the lattice's quadrature)."""
+    th = np.arccos(node_directions(symmetric=True)[:, 0, 0])
+    beam = np.cos(th / 2) ** 8
+    d = pattern(np.column_stack([np.ones_like(th), beam, beam, beam]))
+    fit = wave_sources.fit(source(), d, len(BANDS))
+    assert fit.residual[0] < 1e-3  # omni
+    np.testing.assert_allclose(fit.residual[1:], 1 / 36, atol=1e-3)
+
+
+@pytest.fixture(scope="module")
+def far_field():
+    """Impulse responses of an omni run and of a cluster run (band 63 Hz omni, 125 Hz cardioid,
+    both fitted and injected at once) at 12 receivers 2 m around the source in a 12 m box
+    with absorbing walls (0.9), grid up to 250 Hz. The first reflection comes ≥ 23 ms after the
+    direct sound with ≤ 0.5% of its energy (0.1 reflected, 2 m against ≥ 10 m)."""
+    size = 12.0
+    scene = sonolux.load_scene({
+        "name": "anechoic-box", "settings": {"bands_hz": BANDS.tolist()},
+        "materials": {"m": {"absorption": 0.9}},
+        "geometry": [{"type": "shoebox", "size_m": [size] * 3, "materials": {"default": "m"}}],
+        "sources": [{"position_m": [6.03, 5.97, 6.01]}],
+        "receivers": {"type": "points", "positions_m": [[1.0, 1.0, 1.0]]},
+    })
+    src = np.array([6.03, 5.97, 6.01])
+    angles = np.radians(np.arange(0, 360, 30) + 7.0)
+    r = 2.0
+    receivers = src + r * np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
+    th = np.arccos(node_directions(symmetric=True)[:, 0, 0])
+    cardioid = (0.5 + 0.5 * np.cos(th)) ** 2
+    gains = np.column_stack([np.ones_like(th), cardioid, cardioid, cardioid])
+    d = pattern(gains)
+    fit = wave_sources.fit(source(), d, len(BANDS))
+    absorption = np.full((1, len(BANDS)), 0.9)
+    f_max = 250.0
+    delay = wave_sources.pulse_delay_s(BANDS, f_max)
+    settings = engine.WaveSettings(max_frequency_hz=f_max, duration_s=delay + 0.06)
+    cluster = wave_sources.terms(src, fit, BANDS, f_max, settings.spacing_m,
+                                 settings.sample_rate_hz, int(settings.steps), 343.0)
+    omni = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers, settings)
+    directional = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers,
+                                        settings, terms=cluster)
+    return omni, directional, d, receivers - src, r
+
+
+def windowed_spectrum(out, r, half_s=0.03):
+    """|H(f)|² of each receiver's impulse response (the run divided by its pulse), windowed
+    about the direct sound's arrival r/c (a Tukey window), and the frequencies."""
+    p = np.asarray(out["pressure_pa"], np.float64)
+    fs = float(out["sample_rate_hz"])
+    n_fft = sfft.next_fast_len(4 * p.shape[1], real=True)
+    ref = sfft.rfft(np.asarray(out["source_pressure_1m_pa"]), n_fft)
+    keep = np.abs(ref) > 1e-6 * np.abs(ref).max()
+    h = sfft.irfft(sfft.rfft(p, n_fft, axis=1) * np.where(keep, 1 / np.where(keep, ref, 1), 0),
+                   n_fft, axis=1)
+    t = np.arange(n_fft) / fs
+    t = np.where(t > n_fft / fs / 2, t - n_fft / fs, t)  # the non-causal part before 0
+    x = np.abs(t - r / 343.0) / half_s
+    window = np.where(x < 0.5, 1.0, np.where(x < 1.0, 0.5 * (1 + np.cos(2 * np.pi * (x - 0.5))),
+                                             0.0))
+    spectrum = np.abs(sfft.rfft(h * window, n_fft, axis=1)) ** 2
+    return spectrum, sfft.rfftfreq(n_fft, 1 / fs)
+
+
+def test_the_injected_cluster_radiates_the_pattern_of_each_band(far_field):
+    """Energy gain of the cluster over the omni source at the same receivers, windowed ±30 ms
+    about the direct sound, against the target pattern per band: 63 Hz omni, 125 and 250 Hz
+    cardioid (normalised: 3 on axis, 0 behind). Averaged over each band's core (a quarter band
+    either side of the centre: the coefficients blend across the edges, as the energy bands'
+    crossovers do). Measured: 0.065 / 0.078 / 0.129 worst. Tolerance 0.1 at 63 and 125 Hz (the
+    window's 33 Hz resolution mixes the neighbouring band's pattern into 63 Hz; the fit is exact,
+    order 1, and the cluster's centred difference loses (kΔx)²/24 ≤ 0.4% of amplitude at 125
+    Hz); at 250 Hz, the grid's f_max, 0.05 + 6% (the difference's 1.6% of amplitude there, 3.3%
+    of energy, and the grid's direction-dependent dispersion, ≤ 1.1%)."""
+    omni, directional, d, towards, r = far_field
+    e_omni, f = windowed_spectrum(omni, r)
+    e_dir, _ = windowed_spectrum(directional, r)
+    u = towards / np.linalg.norm(towards, axis=1, keepdims=True)
+    target = np.asarray(d.gains(u, len(BANDS)))
+    for b, centre in enumerate(BANDS[:3]):
+        band = (f > centre / 2 ** 0.25) & (f < centre * 2 ** 0.25)
+        measured = e_dir[:, band].mean(axis=1) / e_omni[:, band].mean(axis=1)
+        np.testing.assert_allclose(measured, target[:, b], atol=0.1 if b < 2 else 0.05,
+                                   rtol=0.0 if b < 2 else 0.06, err_msg=f"band {centre:g} Hz")
+    # And the cardioid's front-to-back ratio at 125 Hz is large (the target's is infinite).
+    band = (f > 125 / math.sqrt(2)) & (f < 125 * math.sqrt(2))
+    ratio = e_dir[:, band].mean(axis=1) / e_omni[:, band].mean(axis=1)
+    assert ratio.max() / max(ratio.min(), 1e-9) > 30.0
