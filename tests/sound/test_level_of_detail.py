@@ -124,7 +124,7 @@ BOX_BANDS = [63, 125, 250, 500, 1000, 2000, 4000]
 BOX_ALPHA_HARD, BOX_ALPHA_ROOM = 0.03, 0.12
 
 
-def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True):
+def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True, rays: str = "octave"):
     """8 × 6 × 3 m; the west wall and its boxes hard (α 0.03, s 0.05), the rest α 0.12, s 0.2;
     nine listeners at 1.2 m. Level of detail applies to every reflection (max_order 0: the
     direct sound exact, every reflection the particles')."""
@@ -144,7 +144,8 @@ def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True):
         "receivers": {"type": "points", "radius_m": 0.3,
                       "positions_m": [[x, y, 1.2] for x in (1.5, 3.5, 5.5)
                                       for y in (1.2, 3.0, 4.8)]},
-        "early": {"max_order": 0, "diffraction": False, "level_of_detail": level_of_detail},
+        "early": {"max_order": 0, "diffraction": False, "level_of_detail": level_of_detail,
+                  "level_of_detail_rays": rays},
     }
     if boxes:
         data["geometry"].append({"type": "mesh", "file": str(obj), "material": "hard"})
@@ -249,12 +250,32 @@ def test_small_boxes_leave_the_low_bands_and_keep_their_absorption_area(tmp_path
     assert 0.0 < added[1] < 0.1
 
 
-def test_a_room_without_small_features_is_baked_as_before(tmp_path):
-    # The flat-wall room has one piece (its shell): no level, the plain bake, the same bits.
+def test_what_is_traced_as_one_geometry(tmp_path):
+    # Without level of detail, or with rays shared by a level and no small feature (the flat
+    # wall's room is one piece, its shell), the bake is the plain one: the same bits as before.
+    # With the default rays per octave an octave bake traces each band alone; the box wall's
+    # two levels (63-125 Hz without the boxes) then share one simplified geometry.
     from sonolux.sound import levels
     from sonolux.sound.bake import band_arrays
-    scene = box_room(tmp_path, False)
-    assert levels.plan(scene, band_arrays(scene)) is None
+    for scene in (box_room(tmp_path, True, level_of_detail=False),
+                  box_room(tmp_path, False, rays="level")):
+        assert levels.plan(scene, band_arrays(scene)) is None
+    scene = box_room(tmp_path, True)
+    plan = levels.plan(scene, band_arrays(scene))
+    assert [(p.level.bands.start, p.level.bands.stop) for p in plan] == [(b, b + 1) for b in range(7)]
+    assert plan[0].geometry is plan[1].geometry and plan[2].geometry is scene.geometry
+    assert [p.level.removed for p in plan] == [50, 50, 0, 0, 0, 0, 0]
+
+
+def test_bands_within_an_octave_share_rays():
+    # Thirds: 63-80-100 Hz together, 125 Hz starts the next group (ratio 10^0.3, base 10).
+    from sonolux.scene.simplify import Level
+    from sonolux.sound.levels import by_octave
+    f = 1000.0 * 10.0 ** (0.1 * np.arange(-12, 1))  # 63 Hz … 1 kHz in thirds, exact
+    z = np.zeros((1, f.size))
+    groups = by_octave([Level(slice(0, 13), np.zeros((0, 3), int), np.zeros(0, int), z, z)], f)
+    assert [(g.bands.start, g.bands.stop) for g in groups] == [(0, 3), (3, 6), (6, 9), (9, 12),
+                                                              (12, 13)]
 
 
 def test_per_band_geometry_ranges_merge_to_the_bits_of_one_bake(tmp_path):
