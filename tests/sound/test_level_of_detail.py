@@ -183,14 +183,14 @@ def box_and_flat(tmp_path_factory):
 def test_a_wall_of_small_boxes_decays_more_diffusely_at_4_khz(box_and_flat):
     # Measure of diffuseness: how far T30 lies from Eyring's diffuse-field T60 (Eyring assumes
     # a diffuse field; a specular room with one hard wall decays slower). Measured (100,000
-    # rays, nine listeners): flat wall +8.4 % (every seed alike: uniform scattering, no
-    # re-weighting), box wall +2.3 … +6.1 % over seeds 2-5 (mean +4.3 %; its 0.3 m faces keep
-    # K ≈ 0.07 at 4 kHz, so they scatter; K's per-band weights make it noisy, ±1.5 % a seed).
-    # Asserted: the flat wall's deviation is above the 5 % JND of T30, and the box wall's is
-    # below it by more than that seed-to-seed spread.
+    # rays, nine listeners, each octave its own rays): flat wall +8.4 %, box wall +4.4 … +4.6 %
+    # over seeds 2-5 (its 0.3 m faces keep K ≈ 0.07 at 4 kHz, so they scatter). Asserted: the
+    # flat wall's deviation is above the 5 % JND of T30, and the box wall's is below it by 2 %
+    # of T30, ten times the seed-to-seed spread. (With rays shared by all bands the box wall
+    # gave +2.3 … +6.1 %: K's per-band weights made it noisy.)
     flat = box_and_flat[False]["t30_s"][-1] / eyring_t60_s(False) - 1.0
     box = box_and_flat[True]["t30_s"][-1] / eyring_t60_s(True) - 1.0
-    assert flat > 0.05 and box < flat - 0.015, (flat, box)
+    assert flat > 0.05 and box < flat - 0.02, (flat, box)
 
 
 @pytest.mark.slow
@@ -200,7 +200,7 @@ def test_a_wall_of_small_boxes_is_a_flat_wall_at_low_frequencies(box_and_flat):
     # of the two rooms (0.958: the boxes add 4 % of absorption area whatever the model).
     # With the per-band geometry (sonolux.scene.simplify) the 0.3 m cubes (ka < 1 up to 210 Hz)
     # are replaced at 63-125 Hz by the wall they hang on, which takes their absorption area.
-    # Measured: T30 0.989/0.985, EDT 0.994/0.992 of that ratio (seed 2); the volume they give
+    # Measured: T30 0.989/0.985, EDT 0.993/0.993 of that ratio (seed 2); the volume they give
     # back to the air (+0.9 %) is the largest known bias. With Rindel's K alone: 0.947-0.953.
     expected = eyring_t60_s(True) / eyring_t60_s(False)
     for key in ("t30_s", "edt_s"):

@@ -100,7 +100,7 @@ def _joined_stats(parts: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """The statistics of the levels together: per-band energies joined along the band axis,
     counts summed, ``rays`` the rays of one level (every band saw that many)."""
     out = dict(parts[0])
-    for k, v in parts[0].items():
+    for k in parts[0]:
         if k.startswith("energy_"):
             out[k] = np.concatenate([np.asarray(p[k]) for p in parts])
         elif k in ("segments", "surface_hits", "deposits", "escaped_rays"):
