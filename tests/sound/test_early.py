@@ -246,6 +246,8 @@ def test_hybrid_is_the_same_on_one_and_two_threads():
     ({"transition_ms": 0}, "early.transition_ms"),
     ({"diffraction": "yes"}, "early.diffraction"),
     ({"diffraction_piece_m": -1}, "early.diffraction_piece_m"),
+    ({"level_of_detail_rays": "band"}, "early.level_of_detail_rays"),
+    ({"level_of_detail": 1}, "early.level_of_detail"),
     ({"order": 2}, "early.order"),
 ])
 def test_early_table_is_validated_at_the_edge(early, key):

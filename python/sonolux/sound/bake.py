@@ -276,6 +276,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,
             "diffraction": scene.early.diffraction, "level_of_detail": scene.early.level_of_detail,
+            "level_of_detail_rays": scene.early.level_of_detail_rays,
             "diffraction_piece_m": scene.early.diffraction_piece_m},
         "air": {"temperature_c": scene.settings.air.temperature_c,
                 "humidity_percent": scene.settings.air.humidity_percent,
