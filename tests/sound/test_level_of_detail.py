@@ -97,16 +97,28 @@ def test_level_of_detail_takes_specular_energy_from_small_faces_at_low_frequenci
     # The image sources alone: with level of detail, reflections on the furniture (table top
     # 3 × 1.2 m, chair seats 0.45 m, shelves 0.35 m deep) lose their specular share where the
     # panel is small against the wavelength, reflections on the 7 × 5 m floor and ceiling do
-    # not. So the early specular energy falls more at 125 Hz than at 4 kHz, and never rises.
+    # not. So the early specular energy of the paths both bakes find falls more at 125 Hz than
+    # at 4 kHz, and from 250 Hz (the full mesh) never rises. At 125 Hz the chairs and table legs
+    # (ka < 1) are left out, so paths they blocked, wholly or over part of a receiver's ball,
+    # may appear or grow there: new arrivals hold 125 Hz energy only.
     on = bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 40}), rays=200,
               air_absorption=False, max_time_s=0.1)
     off = bake(furnished(tmp_path, {"max_order": 2, "transition_ms": 40,
                                     "level_of_detail": False}), rays=200,
                air_absorption=False, max_time_s=0.1)
-    e_on, e_off = on.early["energy"], off.early["energy"]
-    assert len(e_on) == len(e_off)
-    assert np.all(e_on <= e_off * (1 + 1e-12))
-    ratio = e_on.sum(axis=0) / e_off.sum(axis=0)
+
+    def keyed(early):
+        keys = zip(early["receiver"].tolist(), np.round(early["time_s"] * 1e9).tolist(),
+                   early["order"].tolist(), early["kind"].tolist())
+        return {k: e for k, e in zip(keys, early["energy"])}
+    e_on, e_off = keyed(on.early), keyed(off.early)
+    assert set(e_off) <= set(e_on)
+    for k in set(e_on) - set(e_off):
+        assert np.all(e_on[k][1:] == 0.0) and e_on[k][0] > 0.0, (k, e_on[k])
+    both_on = np.array([e_on[k] for k in e_off])
+    both_off = np.array(list(e_off.values()))
+    assert np.all(both_on[:, 1:] <= both_off[:, 1:] * (1 + 1e-12))
+    ratio = both_on.sum(axis=0) / both_off.sum(axis=0)
     assert ratio[0] < ratio[-1] and ratio[0] < 0.999, ratio
 
 
