@@ -221,6 +221,8 @@ pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, rece
     let source = tree.nodes[0].position;
     let radius = set.receiver_radius_m;
     let (next, first) = twins(tree);
+    // Each plane's bounding box, for the quick test that a ball cannot see an image.
+    let boxes: Vec<(DVec3, DVec3)> = ctx.planes.planes.iter().map(|p| p.vertices.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))).collect();
     for (i, node) in tree.nodes.iter().enumerate() {
         let length = (node.position - receiver).length();
         if length > max_path_m || !(length > 0.0) || !first[i] {
@@ -229,7 +231,7 @@ pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, rece
         out.checked += 1;
         let same = Twins { next: &next, first: i as u32 };
         let centre = same.path(ctx, tree, receiver);
-        let (path, share) = if radius > 0.0 { seen_over_ball(ctx, tree, same, receiver, radius, centre) } else { (centre, 1.0) };
+        let (path, share) = if radius > 0.0 { seen_over_ball(ctx, tree, same, &boxes, receiver, radius, centre) } else { (centre, 1.0) };
         let Some(path) = path else { continue };
         path_energy(ctx, s, &path, source, receiver, &mut energy);
         if share < 1.0 {
@@ -280,8 +282,11 @@ fn ball_probe(k: usize) -> DVec3 {
 /// use for the reflections' materials (the centre's, or a valid probe's) and that share.
 /// Without this, a receiver whose ball straddles a panel's edge got the whole image where the
 /// particles see part of it (+5 … +8 % early energy near a table edge, docs/early-sound.md).
-fn seen_over_ball(ctx: &Context, tree: &ImageTree, same: Twins, receiver: DVec3, radius: f64, centre: Option<SpecularPath>) -> (Option<SpecularPath>, f64) {
+fn seen_over_ball(ctx: &Context, tree: &ImageTree, same: Twins, boxes: &[(DVec3, DVec3)], receiver: DVec3, radius: f64, centre: Option<SpecularPath>) -> (Option<SpecularPath>, f64) {
     let valid = centre.is_some();
+    if !valid && same.out_of_reach(ctx, tree, boxes, receiver, radius) {
+        return (None, 0.0);
+    }
     if (0..6).all(|k| same.path(ctx, tree, receiver + ball_probe(k) * radius).is_some() == valid) {
         return (centre, if valid { 1.0 } else { 0.0 });
     }
@@ -334,6 +339,38 @@ struct Twins<'a> {
 }
 
 impl Twins<'_> {
+    /// Whether no point of the ball about `receiver` can have a path, for every one of these
+    /// nodes, by the last reflection alone: the ball lies on the image's own side of its plane,
+    /// or the line from every point of the ball to the image crosses the plane outside the
+    /// plane's bounding box `boxes[plane]`. For a point x = c + δ (|δ| ≤ r) the crossing moves
+    /// from the centre's by at most r (1 + D / (|d_img| + |d_c|)), D the centre's distance to
+    /// the image and d the distances to the plane (the crossing is img + (x − img) s with
+    /// s = d_img / (d_img − d_x) ∈ (0, 1)).
+    fn out_of_reach(&self, ctx: &Context, tree: &ImageTree, boxes: &[(DVec3, DVec3)], receiver: DVec3, radius: f64) -> bool {
+        let mut j = self.first;
+        while j != u32::MAX {
+            let node = &tree.nodes[j as usize];
+            if node.plane == NO_PLANE {
+                return false;
+            }
+            let plane = &ctx.planes.planes[node.plane as usize];
+            let (d_r, d_img) = (plane.distance(receiver), plane.distance(node.position));
+            let behind = d_r * d_img > 0.0 && d_r.abs() > radius;
+            let far = d_r * d_img < 0.0 && {
+                let to = node.position - receiver;
+                let crossing = receiver + to * (d_r / (d_r - d_img));
+                let (lo, hi) = boxes[node.plane as usize];
+                let outside = (lo - crossing).max(crossing - hi).max(DVec3::ZERO).length();
+                outside > radius * (1.0 + to.length() / (d_img.abs() + d_r.abs())) * (1.0 + 1e-9) + 1e-9
+            };
+            if !(behind || far) {
+                return false;
+            }
+            j = self.next[j as usize];
+        }
+        true
+    }
+
     /// The first valid path of these nodes to `receiver`.
     fn path(&self, ctx: &Context, tree: &ImageTree, receiver: DVec3) -> Option<SpecularPath> {
         let mut j = self.first;
