@@ -15,7 +15,12 @@ finite-panel specular share K on every reflection of the image sources and the p
 s' = 1 − (1 − s)K, on panels with a diffracting edge; with ``max_order = 0`` and
 ``diffraction = false`` it is a particles-only bake with level of detail),
 ``diffraction_piece_m`` (default 0.25: the longest piece of an edge whose visibility is tested
-as one, in (0, 10] m).
+as one, in (0, 10] m), ``level_of_detail_rays`` (``"octave"``, the default: with level of
+detail each octave of bands traces its own rays; ``"level"``: the bands of one geometry share
+rays, faster, with noisier late decays where the panels' K differs between bands).
+
+With ``level_of_detail``, features small against a band's wavelength (ka < 1) are also left out
+of that band's geometry, replaced by the surface they sit on (:mod:`sonolux.scene.simplify`).
 """
 
 from __future__ import annotations
@@ -25,7 +30,10 @@ from dataclasses import dataclass
 from sonolux.scene.schema import Table
 
 EARLY_KEYS = ("max_order", "transition_ms", "diffraction", "level_of_detail",
-              "diffraction_piece_m")
+              "diffraction_piece_m", "level_of_detail_rays")
+#: How the bands of a bake with level of detail share rays (docs/early-sound.md): "octave",
+#: each octave of bands its own rays; "level", one set of rays for all bands of one geometry.
+LOD_RAYS = ("octave", "level")
 #: Highest image-source order a scene may ask for: the tree grows as about (planes)^order, and
 #: beyond order 12 even a shoebox holds millions of images per source.
 MAX_ORDER = 12
@@ -39,6 +47,7 @@ class EarlySpec:
     diffraction: bool = True
     level_of_detail: bool = False
     diffraction_piece_m: float = 0.25
+    level_of_detail_rays: str = "octave"
 
 
 def _boolean(t: Table, name: str, default: bool) -> bool:
@@ -46,6 +55,13 @@ def _boolean(t: Table, name: str, default: bool) -> bool:
     if not isinstance(v, bool):
         raise t.ctx.error(t.path(name), v, "true or false")
     return v
+
+
+def _choice(t: Table, name: str, default: str, allowed: tuple[str, ...]) -> str:
+    v = t.data.get(name, default)
+    if v not in allowed:
+        raise t.ctx.error(t.path(name), v, " or ".join(f'"{a}"' for a in allowed))
+    return str(v)
 
 
 def read_early(t: Table | None) -> EarlySpec | None:
@@ -70,4 +86,5 @@ def read_early(t: Table | None) -> EarlySpec | None:
         level_of_detail=_boolean(t, "level_of_detail", d.level_of_detail),
         diffraction_piece_m=t.number("diffraction_piece_m", d.diffraction_piece_m, lo=0.0,
                                      lo_open=True, hi=10.0),
+        level_of_detail_rays=_choice(t, "level_of_detail_rays", d.level_of_detail_rays, LOD_RAYS),
     )

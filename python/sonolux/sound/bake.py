@@ -38,6 +38,7 @@ from sonolux.scene.sofa_directivity import sofa_gains
 from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
+from sonolux.sound import levels as sound_levels
 from sonolux.sound import walls as sound_walls
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.compact import CompactArray
@@ -220,18 +221,29 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     early, arrivals = None, None
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
+    levels = sound_levels.plan(scene, arrays, log)
+
+    def parts(b: slice) -> tuple[Any, Any, Any]:
+        """A level's bands: its sources' directivities, early settings and air."""
+        return ([engine.SoundSource(tuple(s.position_m), s.power_w, _directivity(s, edges_hz[b]))
+                 for s in scene.sources],
+                early_sound.early_settings(scene, scene.early, arrays["air"], bands=b),
+                arrays["air"][b].tolist())
     if early is not None and first == 0:
         # The arrivals are deterministic and belong to the bake, not to a ray range: the range
         # that starts at ray 0 computes and stores them once (docs/early-sound.md).
         found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
-                                      settings)
+                                      settings) if levels is None else \
+            sound_levels.early_arrivals(levels, scene, receivers, settings, parts,
+                                        len(scene.settings.bands_hz), acoustics.wall_model)
         arrivals = _stacked_arrivals(early_sound.arrival_table(found), runs,
                                      scene.receivers.count)
         early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
     memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s))
     if log:
         log(memory.describe())
-    out = _trace_tiles(scene, geometry_args=(acoustics, sources), runs=runs, base=base,
+    out = _trace_tiles(scene, geometry_args=(acoustics, sources, levels, parts), runs=runs,
+                       base=base,
                        memory=memory,
                        early=early, callback=callback, split=split,
                        keep_counts=options.ray_range is not None,
@@ -274,6 +286,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         "early": None if early is None else {
             "max_order": early.max_order, "transition_s": early.max_time_s,
             "diffraction": scene.early.diffraction, "level_of_detail": scene.early.level_of_detail,
+            "level_of_detail_rays": scene.early.level_of_detail_rays,
             "diffraction_piece_m": scene.early.diffraction_piece_m},
         "air": {"temperature_c": scene.settings.air.temperature_c,
                 "humidity_percent": scene.settings.air.humidity_percent,
@@ -475,7 +488,7 @@ def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
                              reduction(options, scene.settings.sample_rate_hz))
 
 
-def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], runs: list[int | None],
+def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs: list[int | None],
                  base: dict[str, Any], memory: sound_budget.MemoryPlan, early: Any,
                  callback: Any, split: int, keep_counts: bool,
                  reduce: tuple[int, int]) -> dict[str, Any]:
@@ -486,7 +499,7 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], runs: list[int
     back one after the other along the receiver axis; the time axis returned is the one shown."""
     compact = memory.compact
     partial = (base["first_ray"], base["end_ray"]) != (0, base["rays"])
-    acoustics, sources = geometry_args
+    acoustics, sources, levels, parts = geometry_args
     positions = np.ascontiguousarray(scene.receivers.positions_m, float)
     patterns = receiver_patterns(scene)
     n, size = positions.shape[0], memory.tile_receivers
@@ -503,11 +516,11 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], runs: list[int
                                      scene.receivers.radius_m,
                                      None if patterns is None else patterns[lo:hi])
         for j, only in enumerate(runs):
-            settings = engine.SoundSettings(**dict(base, first_receiver=lo, only_source=only))
             step = k * len(runs) + j
             progress = None if callback is None else _tile_progress(callback, step, steps, t0)
-            out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings,
-                                     progress, early)
+            out = sound_levels.trace(levels, scene, acoustics, sources, receivers,
+                                     dict(base, first_receiver=lo, only_source=only), progress,
+                                     early, parts)
             deposits += int(out["stats"]["deposits"])
             if k == 0:  # every tile retraces the same rays: the first tile's are the bake's
                 stats = out["stats"] if stats is None else combine_stats(stats, out["stats"])

@@ -53,8 +53,10 @@ def bands_per_octave(bands_hz: Sequence[float]) -> float:
 
 
 def early_settings(scene: Scene, spec: EarlySpec, air_per_m: np.ndarray,
-                   log: Callable[[str], None] | None = None) -> Any:
-    """The engine's ``EarlySettings`` for a scene's ``[early]`` table."""
+                   log: Callable[[str], None] | None = None,
+                   bands: slice = slice(None)) -> Any:
+    """The engine's ``EarlySettings`` for a scene's ``[early]`` table, for the scene's bands or
+    the slice ``bands`` of them (a level of :mod:`sonolux.sound.levels`)."""
     t, why = transition_s(scene, spec)
     if log:
         log(f"early sound: image sources to order {spec.max_order}, {why}"
@@ -63,8 +65,8 @@ def early_settings(scene: Scene, spec: EarlySpec, air_per_m: np.ndarray,
     return engine.EarlySettings(
         max_order=spec.max_order, max_time_s=t,
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s,
-        air_attenuation_per_m=[float(a) for a in air_per_m],
-        band_centres_hz=[float(f) for f in scene.settings.band_set.exact_hz],
+        air_attenuation_per_m=[float(a) for a in np.asarray(air_per_m)[bands]],
+        band_centres_hz=[float(f) for f in scene.settings.band_set.exact_hz[bands]],
         # The core puts a band's edges at centre · 2^(±1/(2 b)); this b gives IEC 61260-1's
         # base-10 edges centre · G^(±1/(2 per_octave)), G = 10^(3/10).
         bands_per_octave=scene.settings.band_set.per_octave / (0.3 * math.log2(10.0)),

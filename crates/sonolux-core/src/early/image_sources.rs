@@ -225,14 +225,26 @@ pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, rece
     let mut out = PairArrivals::new(nb);
     let mut energy = vec![0.0; nb];
     let source = tree.nodes[0].position;
+    let radius = set.receiver_radius_m;
+    let (next, first) = twins(tree);
+    // Each plane's bounding box, for the quick test that a ball cannot see an image.
+    let boxes: Vec<(DVec3, DVec3)> = ctx.planes.planes.iter().map(|p| p.vertices.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))).collect();
     for (i, node) in tree.nodes.iter().enumerate() {
         let length = (node.position - receiver).length();
-        if length > max_path_m || !(length > 0.0) {
+        if length > max_path_m || !(length > 0.0) || !first[i] {
             continue;
         }
         out.checked += 1;
-        let Some(path) = specular_path(ctx, tree, i as u32, receiver) else { continue };
+        let same = Twins { next: &next, first: i as u32 };
+        let centre = same.path(ctx, tree, receiver);
+        let (path, share) = if radius > 0.0 { seen_over_ball(ctx, tree, same, &boxes, receiver, radius, centre) } else { (centre, 1.0) };
+        let Some(path) = path else { continue };
         path_energy(ctx, s, &path, source, receiver, &mut energy);
+        if share < 1.0 {
+            for e in energy.iter_mut() {
+                *e *= share;
+            }
+        }
         let from_direction = (node.position - receiver) / length;
         let a = Arrival {
             source: s as u32,
@@ -245,4 +257,135 @@ pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, rece
         out.push(a, &energy);
     }
     out
+}
+
+/// Probes of the unit ball for [`seen_over_ball`]: its six poles, then `BALL_POINTS` points of
+/// equal volume (a Fibonacci spiral of directions, radii at the cube roots of stratified
+/// fractions), fixed so that every run tests the same points.
+const BALL_POINTS: usize = 64;
+
+fn ball_probe(k: usize) -> DVec3 {
+    const POLES: [DVec3; 6] = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z];
+    if k < 6 {
+        return POLES[k];
+    }
+    let i = (k - 6) as f64 + 0.5;
+    let n = BALL_POINTS as f64;
+    let z = 1.0 - 2.0 * i / n;
+    let phi = i * PI * (3.0 - 5f64.sqrt());
+    let rho = (1.0 - z * z).max(0.0).sqrt();
+    // The radius of the i-th of n shells of equal volume, visited in a shuffled order (7 is
+    // prime to 64) so that neighbouring directions do not share a radius.
+    let shell = ((k - 6) * 7 % BALL_POINTS) as f64 + 0.5;
+    (shell / n).cbrt() * DVec3::new(rho * phi.cos(), rho * phi.sin(), z)
+}
+
+/// Which part of the receiver's ball sees an image, as the particles measure it: a particle
+/// deposits energy × chord / volume in the ball, so it estimates the mean over the ball of the
+/// image's 1/d² wherever the image's path is valid. The centre alone decides when it agrees with
+/// the ball's six poles (the usual case, one path check more per pole); otherwise the share is
+/// the 1/d²-weighted fraction of `BALL_POINTS` probes whose path is valid. Returns the path to
+/// use for the reflections' materials (the centre's, or a valid probe's) and that share.
+/// Without this, a receiver whose ball straddles a panel's edge got the whole image where the
+/// particles see part of it (+5 … +8 % early energy near a table edge, docs/early-sound.md).
+fn seen_over_ball(ctx: &Context, tree: &ImageTree, same: Twins, boxes: &[(DVec3, DVec3)], receiver: DVec3, radius: f64, centre: Option<SpecularPath>) -> (Option<SpecularPath>, f64) {
+    let valid = centre.is_some();
+    if !valid && same.out_of_reach(ctx, tree, boxes, receiver, radius) {
+        return (None, 0.0);
+    }
+    if (0..6).all(|k| same.path(ctx, tree, receiver + ball_probe(k) * radius).is_some() == valid) {
+        return (centre, if valid { 1.0 } else { 0.0 });
+    }
+    let image = tree.nodes[same.first as usize].position;
+    let (mut seen, mut all) = (0.0, 0.0);
+    let mut path = centre;
+    for k in 6..6 + BALL_POINTS {
+        let x = receiver + ball_probe(k) * radius;
+        let w = 1.0 / (x - image).length_squared();
+        all += w;
+        if let Some(p) = same.path(ctx, tree, x) {
+            seen += w;
+            path.get_or_insert(p);
+        }
+    }
+    if seen > 0.0 {
+        (path, seen / all)
+    } else {
+        (None, 0.0)
+    }
+}
+
+/// For each node, the next node of the same order at the same image position (`u32::MAX`:
+/// none), and whether it is the first of them. Two walls meeting at a right angle mirror a
+/// source to one image in either order; which order's path is valid changes across the plane
+/// through their common edge, so a receiver's ball can hold both: the image is one arrival,
+/// heard from wherever either order's path is valid.
+fn twins(tree: &ImageTree) -> (Vec<u32>, Vec<bool>) {
+    use std::collections::HashMap;
+    let scale = tree.nodes.iter().fold(1.0f64, |m, n| m.max(n.position.abs().max_element()));
+    let tol = 1e-9 * scale;
+    let mut last: HashMap<(u32, [i64; 3]), u32> = HashMap::new();
+    let mut next = vec![u32::MAX; tree.nodes.len()];
+    let mut first = vec![true; tree.nodes.len()];
+    for (i, n) in tree.nodes.iter().enumerate() {
+        let key = (n.order, (n.position / tol).round().as_i64vec3().to_array());
+        if let Some(prev) = last.insert(key, i as u32) {
+            next[prev as usize] = i as u32;
+            first[i] = false;
+        }
+    }
+    (next, first)
+}
+
+/// The nodes that are one image (see [`twins`]), from `first` along `next`.
+#[derive(Clone, Copy)]
+struct Twins<'a> {
+    next: &'a [u32],
+    first: u32,
+}
+
+impl Twins<'_> {
+    /// Whether no point of the ball about `receiver` can have a path, for every one of these
+    /// nodes, by the last reflection alone: the ball lies on the image's own side of its plane,
+    /// or the line from every point of the ball to the image crosses the plane outside the
+    /// plane's bounding box `boxes[plane]`. For a point x = c + δ (|δ| ≤ r) the crossing moves
+    /// from the centre's by at most r (1 + D / (|d_img| + |d_c|)), D the centre's distance to
+    /// the image and d the distances to the plane (the crossing is img + (x − img) s with
+    /// s = d_img / (d_img − d_x) ∈ (0, 1)).
+    fn out_of_reach(&self, ctx: &Context, tree: &ImageTree, boxes: &[(DVec3, DVec3)], receiver: DVec3, radius: f64) -> bool {
+        let mut j = self.first;
+        while j != u32::MAX {
+            let node = &tree.nodes[j as usize];
+            if node.plane == NO_PLANE {
+                return false;
+            }
+            let plane = &ctx.planes.planes[node.plane as usize];
+            let (d_r, d_img) = (plane.distance(receiver), plane.distance(node.position));
+            let behind = d_r * d_img > 0.0 && d_r.abs() > radius;
+            let far = d_r * d_img < 0.0 && {
+                let to = node.position - receiver;
+                let crossing = receiver + to * (d_r / (d_r - d_img));
+                let (lo, hi) = boxes[node.plane as usize];
+                let outside = (lo - crossing).max(crossing - hi).max(DVec3::ZERO).length();
+                outside > radius * (1.0 + to.length() / (d_img.abs() + d_r.abs())) * (1.0 + 1e-9) + 1e-9
+            };
+            if !(behind || far) {
+                return false;
+            }
+            j = self.next[j as usize];
+        }
+        true
+    }
+
+    /// The first valid path of these nodes to `receiver`.
+    fn path(&self, ctx: &Context, tree: &ImageTree, receiver: DVec3) -> Option<SpecularPath> {
+        let mut j = self.first;
+        while j != u32::MAX {
+            if let Some(p) = specular_path(ctx, tree, j, receiver) {
+                return Some(p);
+            }
+            j = self.next[j as usize];
+        }
+        None
+    }
 }
