@@ -27,25 +27,32 @@ pub struct Ray {
 
 impl Ray {
     /// A ray from `origin` along `dir` (need not be unit length; `t` is in units of `dir`).
+    ///
+    /// Written without branches: the axes depend on the direction, which is random in the
+    /// tracers, so branches on it would be mispredicted about half the time (each query of a
+    /// sound ray's next surface starts here, on the critical path of the ray's bounces).
+    #[inline]
     pub fn new(origin: Vec3, dir: Vec3) -> Ray {
-        let a = dir.abs();
-        let kz = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        // Keep the winding of the sheared triangle independent of the ray's sign.
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let sz = 1.0 / dir[kz];
+        let a = dir.abs().to_array();
+        let d = dir.to_array();
+        // kz: the axis of the largest |component|, the first one on ties (x, then y).
+        let x_largest = (a[0] >= a[1]) & (a[0] >= a[2]);
+        let kz = (!x_largest as usize) * (1 + !(a[1] >= a[2]) as usize);
+        // Keep the winding of the sheared triangle independent of the ray's sign: swap kx and ky
+        // when the ray runs down kz.
+        let (next, after) = ((kz + 1) % 3, (kz + 2) % 3);
+        let swap = (pick(d, kz) < 0.0) as usize;
+        let (kx, ky) = (next ^ ((next ^ after) * swap), after ^ ((next ^ after) * swap));
+        let sz = 1.0 / pick(d, kz);
         Ray {
             origin,
             dir,
-            inv_dir: Vec3::ONE / dir.map(|d| if d == 0.0 { 1e-30f32.copysign(d) } else { d }),
+            inv_dir: Vec3::ONE / Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::splat(1e-30).copysign(dir), dir),
             kx,
             ky,
             kz,
-            sx: dir[kx] * sz,
-            sy: dir[ky] * sz,
+            sx: pick(d, kx) * sz,
+            sy: pick(d, ky) * sz,
             sz,
         }
     }
@@ -54,6 +61,14 @@ impl Ray {
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
     }
+}
+
+/// `v[k]` for k < 3, selected by bit masks: indexing by a run-time axis compiles to branches on
+/// it, and the axes of a random ray are unpredictable.
+#[inline(always)]
+pub(crate) fn pick(v: [f32; 3], k: usize) -> f32 {
+    let lane = |i: usize| v[i].to_bits() & ((k == i) as u32).wrapping_neg();
+    f32::from_bits(lane(0) | lane(1) | lane(2))
 }
 
 /// The nearest hit found so far along a ray.

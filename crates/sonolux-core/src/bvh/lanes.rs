@@ -28,6 +28,10 @@ pub(crate) trait Lanes: Copy {
     fn and(self, a: Self::M, b: Self::M) -> Self::M;
     /// Bit i set where lane i of the mask is true.
     fn bits(self, m: Self::M) -> u32;
+    /// `a` where the mask is true, else `b`.
+    fn select(self, m: Self::M, a: Self::F, b: Self::F) -> Self::F;
+    /// The least of the eight values in every lane (by the x86 `min` rule; exact for numbers).
+    fn hmin(self, a: Self::F) -> Self::F;
     /// Asks the CPU to bring `x` into the cache: a hint, which changes no result.
     fn prefetch<T>(self, x: &T);
 }
@@ -108,6 +112,17 @@ impl Lanes for Portable {
     #[inline(always)]
     fn bits(self, m: u32) -> u32 {
         m
+    }
+    #[inline(always)]
+    fn select(self, m: u32, a: [f32; 8], b: [f32; 8]) -> [f32; 8] {
+        std::array::from_fn(|i| if m & (1 << i) != 0 { a[i] } else { b[i] })
+    }
+    #[inline(always)]
+    fn hmin(self, a: [f32; 8]) -> [f32; 8] {
+        // The same pairing as the AVX2 lanes: halves, then pairs, then neighbours.
+        let m = self.min(a, std::array::from_fn(|i| a[i ^ 4]));
+        let m = self.min(m, std::array::from_fn(|i| m[i ^ 2]));
+        self.min(m, std::array::from_fn(|i| m[i ^ 1]))
     }
     #[inline(always)]
     fn prefetch<T>(self, _: &T) {}
@@ -192,6 +207,17 @@ mod avx2 {
             self.0.avx._mm256_movemask_ps(cast(m)) as u32
         }
         #[inline(always)]
+        fn select(self, m: m32x8, a: f32x8, b: f32x8) -> f32x8 {
+            cast(self.0.avx._mm256_blendv_ps(cast(b), cast(a), cast(m)))
+        }
+        #[inline(always)]
+        fn hmin(self, a: f32x8) -> f32x8 {
+            let avx = self.0.avx;
+            let m = self.min(a, cast(avx._mm256_permute2f128_ps::<1>(cast(a), cast(a))));
+            let m = self.min(m, cast(avx._mm256_permute_ps::<0b01_00_11_10>(cast(m))));
+            self.min(m, cast(avx._mm256_permute_ps::<0b10_11_00_01>(cast(m))))
+        }
+        #[inline(always)]
         fn prefetch<T>(self, x: &T) {
             // One hint per 64-byte line; a prefetch never faults, whatever the address.
             let p = (x as *const T).cast::<i8>();
@@ -246,6 +272,8 @@ mod tests {
                 let (m, n) = (a.lt(ax, ay), a.eq(ax, ay));
                 assert_eq!(a.bits(a.or(m, n)), p.lt(px, py) | p.eq(px, py));
                 assert_eq!(a.bits(a.and(m, a.le(ax, ay))), p.lt(px, py) & p.le(px, py));
+                assert!(same(a.store(a.select(m, ax, ay)), p.select(p.lt(px, py), px, py)));
+                assert!(same(a.store(a.hmin(ax)), p.hmin(px)));
             }
         }
     }

@@ -7,7 +7,7 @@
 
 use super::lanes::Lanes;
 use super::{Node8, Packet, LEAF, PACKET_INDEX};
-use crate::geometry::{Hit, Ray, BOX_EXIT_WIDEN};
+use crate::geometry::{pick, Hit, Ray, BOX_EXIT_WIDEN};
 
 /// Stack entries kept in a fixed array; deeper stacks (pathological trees) spill to the heap.
 const STACK: usize = 32;
@@ -44,7 +44,10 @@ impl<L: Lanes> TravRay<L> {
             near,
             far: [near[0] ^ 1, near[1] ^ 1, near[2] ^ 1],
             k: [ray.kx, ray.ky, ray.kz],
-            org_k: [l.splat(o[ray.kx]), l.splat(o[ray.ky]), l.splat(o[ray.kz])],
+            org_k: {
+                let o = o.to_array();
+                [l.splat(pick(o, ray.kx)), l.splat(pick(o, ray.ky)), l.splat(pick(o, ray.kz))]
+            },
             shear: [l.splat(ray.sx), l.splat(ray.sy), l.splat(ray.sz)],
             t_min: l.splat(t_min),
         }
@@ -82,11 +85,14 @@ fn corner<L: Lanes>(l: L, r: &TravRay<L>, p: &Packet, corner: usize) -> (L::F, L
     (l.sub(x, l.mul(r.shear[0], z)), l.sub(y, l.mul(r.shear[1], z)), z)
 }
 
-/// The nearest of a packet's triangles hit with t in (t_min, t_max): (t, lane). The
-/// watertight test of `geometry::intersect_triangle`, eight triangles at once, operation for
-/// operation (so the same bits), edge cases decided in f64 lane by lane as there.
+/// The nearest of a packet's triangles hit with t in (t_min, t_max): (t, lane), t = +∞ when
+/// none is. The watertight test of `geometry::intersect_triangle`, eight triangles at once,
+/// operation for operation (so the same bits), edge cases decided in f64 lane by lane as there.
+/// The nearest lane is found without branches (a horizontal minimum, then the first lane that
+/// holds it, as the scalar loop keeps the first on ties): whether a ray hits a packet, and in
+/// which lane, is unpredictable, and this test is on the critical path of every query.
 #[inline(always)]
-fn hit_packet<L: Lanes>(l: L, r: &TravRay<L>, p: &Packet, t_max: f32) -> Option<(f32, usize)> {
+fn hit_packet<L: Lanes>(l: L, r: &TravRay<L>, p: &Packet, t_max: f32) -> (f32, usize) {
     let (ax, ay, az) = corner(l, r, p, 0);
     let (bx, by, bz) = corner(l, r, p, 1);
     let (cx, cy, cz) = corner(l, r, p, 2);
@@ -109,21 +115,12 @@ fn hit_packet<L: Lanes>(l: L, r: &TravRay<L>, p: &Packet, t_max: f32) -> Option<
     // det = 0 needs no test of its own: t is then ±∞ or NaN, outside any (t_min, t_max).
     let t = l.div(t_scaled, det);
     let inside = l.and(l.lt(r.t_min, t), l.lt(t, l.splat(t_max)));
-    let mut hits = l.bits(inside) & !l.bits(outside);
-    if hits == 0 {
-        return None;
-    }
-    // The nearest lane; the first one on ties, as the scalar loop would keep it.
-    let t = l.store(t);
-    let mut best = (f32::INFINITY, 0);
-    while hits != 0 {
-        let lane = hits.trailing_zeros() as usize;
-        hits &= hits - 1;
-        if t[lane] < best.0 {
-            best = (t[lane], lane);
-        }
-    }
-    Some(best)
+    let inf = l.splat(f32::INFINITY);
+    // +∞ in the lanes missed (NaN lanes are never inside, so no NaN is left).
+    let t = l.select(outside, inf, l.select(inside, t, inf));
+    let nearest = l.hmin(t);
+    let lane = l.bits(l.eq(t, nearest)).trailing_zeros() as usize;
+    (l.store(nearest)[0], lane & 7)
 }
 
 /// The edge functions recomputed in f64 in the lanes where one of them was zero in f32.
@@ -204,7 +201,7 @@ impl Stack {
 pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
     let r = TravRay::new(l, ray, t_min);
     let mut t_best = t_max;
-    let mut found = None;
+    let mut triangle = u32::MAX;
     let mut stack = Stack::new();
     let mut current = 0u32; // the root
     loop {
@@ -253,16 +250,17 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: 
             }
         } else {
             for p in leaf_packets(current) {
-                if let Some((t, lane)) = hit_packet(l, &r, &packets[p], t_best) {
-                    t_best = t;
-                    found = Some(Hit { t, triangle: packets[p].ids[lane] });
-                }
+                let (t, lane) = hit_packet(l, &r, &packets[p], t_best);
+                // (Selects rather than a branch: whether a packet is hit is unpredictable.)
+                let nearer = t < t_best;
+                triangle = if nearer { packets[p].ids[lane] } else { triangle };
+                t_best = if nearer { t } else { t_best };
             }
         }
         // Next: the nearest pending child that may still hold a nearer hit.
         loop {
             match stack.pop() {
-                None => return found,
+                None => return (triangle != u32::MAX).then_some(Hit { t: t_best, triangle }),
                 Some((child, t)) if t <= t_best => {
                     current = child;
                     break;
@@ -294,7 +292,7 @@ pub(super) fn any<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray
                 current = node.child[first];
                 continue;
             }
-        } else if leaf_packets(current).any(|p| hit_packet(l, &r, &packets[p], t_max).is_some()) {
+        } else if leaf_packets(current).any(|p| hit_packet(l, &r, &packets[p], t_max).0 < t_max) {
             return true;
         }
         match stack.pop() {
