@@ -128,7 +128,7 @@ def next_total(done: int, worst_over_target: float, ceiling: int) -> int:
 
 @dataclass
 class Pilot:
-    """A first round already traced (by :func:`choose_estimator`): its sum, its rays and the
+    """A first round already traced (by :func:`choose`): its sum, its rays and the
     wall time it took. The bake goes on from it as if it had traced it itself."""
 
     state: RoundSum
@@ -167,7 +167,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     between rounds; ``resume`` continues from it, in whichever round it stopped),
     ``range_rays``, ``tasks`` as there. The field's settings carry ``progressive``: the rounds,
     why the bake stopped, the error summary. With ``estimator = "auto"`` the pilots of
-    :func:`choose_estimator` run first, and the chosen estimator's pilot is the first round."""
+    :func:`choose` run first, and the chosen estimator's pilot is the first round."""
     accuracy = (accuracy or Accuracy()).validate()
     options = (options or SoundOptions()).validate()
     if options.ray_range is not None:
@@ -352,7 +352,7 @@ def choose(scene: Scene, options: SoundOptions, accuracy: Accuracy, *,
             # Every receiver connected once: exactly the rain estimator, measured below.
             measured[name] = {"same_as": "rain", "projected_work": math.inf}
             continue
-        trial = replace(options, estimator=name)
+        trial = replace(options, estimator=name, ray_range=None)
         rays = first if name == "paper" else pilot_rays(
             first, measured["paper"]["stats"], name, scene.receivers.count,
             options.nee_receivers)
