@@ -83,16 +83,17 @@ class Errors:
 
 def parameters(omni: np.ndarray, bin_start_s: np.ndarray, bin_width_s: np.ndarray,
                onset_s: np.ndarray, max_decay_s: np.ndarray | None, *,
-               shape_checks: bool = True) -> dict[str, np.ndarray]:
+               fit_limits: bool = True) -> dict[str, np.ndarray]:
     """T30, EDT (s) and C80 (dB) of direction-summed energies float64[receiver, band, time]:
     float64[receiver, band] each, NaN where undefined (:mod:`sonolux.analysis.decay`'s checks;
-    ``shape_checks=False``: without its checks of the decay's shape, ξ and curvature)."""
+    ``fit_limits=False``: without its limits on a fit that exists: ξ, curvature, the record's
+    length)."""
     onset = np.broadcast_to(onset_s[:, None], omni.shape[:2])
     bound = None if max_decay_s is None else np.broadcast_to(max_decay_s[None, :omni.shape[1]],
                                                              omni.shape[:2])
     with np.errstate(invalid="ignore", divide="ignore"):
         times = decay_times(omni, bin_start_s, bin_width_s, onset_s=onset,
-                            max_decay_time_s=bound, shape_checks=shape_checks)
+                            max_decay_time_s=bound, fit_limits=fit_limits)
         clarity = c80(omni, bin_start_s, bin_width_s, onset_s=onset)
     return {"t30": np.asarray(times["t30_s"], float), "edt": np.asarray(times["edt_s"], float),
             "c80": np.where(np.isfinite(clarity), clarity, np.nan)}
@@ -111,12 +112,13 @@ def jackknife(total: np.ndarray, groups: np.ndarray, bin_start_s: np.ndarray,
     g = groups.shape[0]
     leave_out = {name: np.empty((g, *total.shape[:2])) for name in PARAMETERS}
     for k in range(g):
-        # The shape checks (ξ, curvature) are decided on the whole bake: a leave-out gives the
-        # fitted time whatever its shape. Near a check's limit they flip between leave-outs
+        # The limits on a fit (ξ, curvature, the record's length) are decided on the whole
+        # bake: a leave-out gives the fitted time. Near a limit they flip between leave-outs
         # (measured, L-room T30 at 65,536 rays: curvature 1.1 … 11.5 % among the 8, T30
-        # 1.63 … 1.75 s), which would make the SE infinite while the value itself is smooth.
+        # 1.63 … 1.75 s; at 4.8 M rays the record-length estimate −55 dB against its −55 dB
+        # limit), which made the SE infinite while the value itself is smooth.
         part = parameters((total - groups[k]).astype(np.float64), bin_start_s, bin_width_s,
-                          onset, max_decay_s, shape_checks=False)
+                          onset, max_decay_s, fit_limits=False)
         for name in PARAMETERS:
             leave_out[name][k] = part[name]
     se = {}
