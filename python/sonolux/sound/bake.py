@@ -463,8 +463,8 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], runs: list[int
     per_tile = {"deposits": 0, "shadow_rays": 0, "draws": 0}
     t0 = time.perf_counter()
     # Tiled, the nee estimator draws among all the bake's receivers (the untiled bits).
-    whole = (engine.Receivers(positions, scene.receivers.radius_m, patterns)
-             if memory.tiles > 1 and base.get("estimator") == "nee" else None)
+    whole = ({"bake_receivers": engine.Receivers(positions, scene.receivers.radius_m, patterns)}
+             if memory.tiles > 1 and base.get("estimator") == "nee" else {})
     for k, lo in enumerate(range(0, n, size)):
         hi = min(lo + size, n)
         receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
@@ -475,7 +475,7 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any], runs: list[int
             step = k * len(runs) + j
             progress = None if callback is None else _tile_progress(callback, step, steps, t0)
             out = engine.trace_sound(scene.geometry, acoustics, sources, receivers, settings,
-                                     progress, early, bake_receivers=whole)
+                                     progress, early, **whole)
             for key in per_tile:
                 per_tile[key] += int(out["stats"].get(key, 0))
             if k == 0:  # every tile retraces the same rays: the first tile's are the bake's
