@@ -166,6 +166,7 @@ def trace_sound(
     progress: _Progress | None = None,
     early: EarlySettings | None = None,
     cover_early: bool = True,
+    bake_receivers: Receivers | None = None,
 ) -> dict[str, Any]: ...
 
 @final

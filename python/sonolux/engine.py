@@ -243,13 +243,16 @@ def trace_sound(geometry: Geometry, acoustics: Acoustics, sources: Sequence[Soun
                 receivers: Receivers, settings: SoundSettings,
                 progress: Progress | None = None,
                 early: EarlySettings | None = None,
-                cover_early: bool = True) -> dict[str, Any]:
+                cover_early: bool = True,
+                bake_receivers: Receivers | None = None) -> dict[str, Any]:
     """Traces a sound bake; see ``_core.trace_sound`` for the dict it returns (the field is
     float32[receiver, direction, band, time] in J/m²). With ``early``, the specular-only paths
     that :func:`early_arrivals` counts with those settings are left out (unless
-    ``cover_early`` is False), and its level of detail applies to every reflection."""
+    ``cover_early`` is False), and its level of detail applies to every reflection.
+    ``bake_receivers``: the whole bake's receivers when ``receivers`` is a tile of them (from
+    ``settings.first_receiver``): the nee estimator draws among all, as untiled."""
     return core().trace_sound(geometry._native, acoustics, list(sources), receivers, settings,
-                              progress, early, cover_early)
+                              progress, early, cover_early, bake_receivers)
 
 
 def early_arrivals(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],

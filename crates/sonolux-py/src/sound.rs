@@ -360,13 +360,15 @@ impl SoundSettings {
 /// with `cover_early = False` it leaves nothing out (a particles-only bake that takes only the
 /// level of detail from `early`). When `early.level_of_detail`, every reflection's scattering
 /// becomes Rindel's s' = 1 − (1 − s) K (sonolux_core::early::lod), as the image sources apply it.
+/// `bake_receivers` (the whole bake's `Receivers`, when `receivers` is the tile of them from
+/// `settings.first_receiver`): the nee estimator draws among all of them (tiles = untiled bits).
 ///
 /// Returns a dict: energy float32[receiver, direction, band, time] in J/m², bin_start_s and
 /// bin_width_s float64[time], early_bins, late_bin_s, quantum, counts uint64[receiver,
 /// direction, band, time] (only with keep_counts: energy = counts × quantum, exactly), saturated,
 /// cancelled and stats (a dict).
 #[pyfunction]
-#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None, early = None, cover_early = true))]
+#[pyo3(signature = (geometry, acoustics, sources, receivers, settings, progress = None, early = None, cover_early = true, bake_receivers = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_sound<'py>(
     py: Python<'py>,
@@ -378,6 +380,7 @@ pub(crate) fn trace_sound<'py>(
     progress: Option<Bound<'py, PyAny>>,
     early: Option<PyRef<'py, crate::early::EarlySettings>>,
     cover_early: bool,
+    bake_receivers: Option<PyRef<'py, Receivers>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let set = &settings.inner;
     let covered = early.as_ref().filter(|_| cover_early).map(|e| e.coverage());
@@ -387,12 +390,13 @@ pub(crate) fn trace_sound<'py>(
     });
     let threads = check_threads(set.threads)?;
     let sources: Vec<core::SoundSource> = sources.iter().map(|s| s.inner.clone()).collect();
+    let all_receivers = bake_receivers.as_ref().map(|r| &r.inner().centres[..]);
     // Trace with the GIL released; the progress closure takes it back briefly to report and to
     // notice Ctrl-C. The field is copied out in the public order on the bake's own threads.
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        let extras = core::Extras { covered, level_of_detail: detail.as_ref(), wall_model: acoustics.model() };
+        let extras = core::Extras { covered, level_of_detail: detail.as_ref(), wall_model: acoustics.model(), bake_receivers: all_receivers };
         let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })?;
@@ -427,6 +431,8 @@ pub(crate) fn trace_sound<'py>(
     s.set_item("surface_hits", st.surface_hits)?;
     s.set_item("escaped_rays", st.escaped_rays)?;
     s.set_item("deposits", st.deposits)?;
+    s.set_item("shadow_rays", st.shadow_rays)?;
+    s.set_item("draws", st.draws)?;
     s.set_item("max_reflections", st.max_reflections)?;
     s.set_item("mean_free_path_m", st.mean_free_path())?;
     s.set_item("free_path_relative_variance", st.free_path_relative_variance())?;

@@ -114,7 +114,7 @@ def schroeder_curve(energy, noise_floor=None, *, bin_start_s=None, bin_width_s=N
 
 
 def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_floor=None,
-                max_decay_time_s=None, onset_s=None) -> dict:
+                max_decay_time_s=None, onset_s=None, fit_limits=True) -> dict:
     """EDT, T20 and T30 in s by least-squares lines through the EDC (ISO 3382-1 5.3.3, 5.3.4),
     each checked (module docstring); a time that fails a check is NaN with its reason.
 
@@ -124,6 +124,10 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
     ``onset_s`` (scalar or shape (...)): where the response starts (the direct sound, ISO
     3382-1 A.3.4); the ranges are then counted from the curve's level there, so that energy
     before it (a filter's pre-ringing, noise) does not stretch EDT. ``None``: the first bin.
+    ``fit_limits=False`` leaves out checks 3 to 5 (ξ, curvature, the record's length: limits on
+    continuous measures of a fit that exists) and gives the fitted times: for an error estimate
+    of the fitted value (sonolux.sound.accuracy), where those checks were decided on the whole
+    data.
 
     Returns a dict; each entry has the leading shape of ``energy`` (a float or str for 1-D):
       ``edt_s``, ``t20_s``, ``t30_s``    decay times, s (NaN where undefined)
@@ -158,7 +162,8 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
         t, curve = _from_onset(edges[:-1], curve, onsets[i])
         slopes = {}
         for name, (upper, lower) in DECAY_RANGES_DB.items():
-            fit = _checked_fit(t, curve, upper, lower, bounds[i], linear=name != "edt")
+            fit = _checked_fit(t, curve, upper, lower, bounds[i], linear=name != "edt",
+                               limits=fit_limits)
             out[f"{name}_reason"][i] = fit["reason"]
             out[f"{name}_r"][i] = fit["r"]
             out[f"{name}_xi_permille"][i] = 1000.0 * max(0.0, 1.0 - fit["r"] ** 2)
@@ -169,7 +174,7 @@ def decay_times(energy, bin_start_s, bin_width_s, *, compensation="none", noise_
         if slopes["t20"] < 0 and slopes["t30"] < 0:
             c = 100.0 * (slopes["t20"] / slopes["t30"] - 1.0)
             out["curvature_percent"][i] = c
-            if not out["t30_reason"][i] and not out["t20_reason"][i] \
+            if fit_limits and not out["t30_reason"][i] and not out["t20_reason"][i] \
                     and abs(c) > CURVATURE_LIMIT_PERCENT:
                 out["t30_s"][i] = np.nan
                 out["t30_reason"][i] = (
@@ -421,10 +426,11 @@ def _from_onset(t, curve, onset_s):
     return np.concatenate([[onset_s], t[keep]]), shifted
 
 
-def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear):
+def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear, limits=True):
     """The fit over one range and its checks (module docstring, 1-3 and 5; 3 only when
-    ``linear``): {'slope': dB/s, 'r', 'reason': '' or why the time is undefined}. A reason
-    reads 'kind: details', the kind a short fixed text that tables group by."""
+    ``linear``; 3 and 5 only with ``limits``): {'slope': dB/s, 'r', 'reason': '' or why the
+    time is undefined}. A reason reads 'kind: details', the kind a short fixed text that tables
+    group by."""
     if curve["failure"]:
         return {"slope": np.nan, "r": np.nan, "reason": curve["failure"]}
     y, floor_db = curve["edc_db"], curve["floor_db"]
@@ -446,6 +452,8 @@ def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear):
                          f"this room at most {max_decay_time_s:.3g} s (its least absorbing "
                          "surface and the air)")
     # (3) A straight line through the range.
+    elif not limits:
+        pass
     elif linear and 1000.0 * (1.0 - r * r) > XI_LIMIT_PERMILLE:
         out["reason"] = (f"curved decay: ξ = {1000.0 * (1.0 - r * r):.1f} ‰ > "
                          f"{XI_LIMIT_PERMILLE:g} ‰ over {upper:g} to {lower:g} dB "

@@ -203,7 +203,8 @@ def add_commands(sub) -> None:
                            "sound and diffuse rain to every receiver (few receivers, diffuse "
                            "surfaces); nee: rain to --nee-receivers receivers a reflection drawn "
                            "by importance (grids); auto: a short pilot of each, the one that "
-                           "reaches --accuracy sooner (docs/progressive.md)")
+                           "reaches --accuracy with the least counted work (the same choice "
+                           "on any machine; docs/progressive.md)")
     bake.add_argument("--nee-receivers", type=parse.number(1, 256, integer=True), default=8,
                       help="receivers each diffuse reflection connects to with --estimator nee "
                            "(default 8)")

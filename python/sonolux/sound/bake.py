@@ -508,8 +508,12 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs
     counts: list[list[Any]] = [[] for _ in runs]
     out: dict[str, Any] = {}
     stats: dict[str, Any] | None = None
-    deposits = 0
+    # Work done in every tile (the rays' segments are the first tile's: the bake's).
+    per_tile = {"deposits": 0, "shadow_rays": 0, "draws": 0}
     t0 = time.perf_counter()
+    # Tiled, the nee estimator draws among all the bake's receivers (the untiled bits).
+    whole = ({"bake_receivers": engine.Receivers(positions, scene.receivers.radius_m, patterns)}
+             if memory.tiles > 1 and base.get("estimator") == "nee" else {})
     for k, lo in enumerate(range(0, n, size)):
         hi = min(lo + size, n)
         receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
@@ -520,8 +524,9 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs
             progress = None if callback is None else _tile_progress(callback, step, steps, t0)
             out = sound_levels.trace(levels, scene, acoustics, sources, receivers,
                                      dict(base, first_receiver=lo, only_source=only), progress,
-                                     early, parts)
-            deposits += int(out["stats"]["deposits"])
+                                     early, parts, **whole)
+            for key in per_tile:
+                per_tile[key] += int(out["stats"].get(key, 0))
             if k == 0:  # every tile retraces the same rays: the first tile's are the bake's
                 stats = out["stats"] if stats is None else combine_stats(stats, out["stats"])
             early_bins = int(out["early_bins"])
@@ -545,7 +550,7 @@ def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs
     if keep_counts:
         pieces = [c for per in counts for c in per]
         out["counts"] = pieces[0] if len(pieces) == 1 else join(pieces)
-    out["stats"] = dict(stats or out["stats"], deposits=deposits)
+    out["stats"] = dict(stats or out["stats"], **per_tile)
     if split > 1:
         eb = int(out["early_bins"])
         start, width = np.asarray(out["bin_start_s"]), np.asarray(out["bin_width_s"])

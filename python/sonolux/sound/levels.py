@@ -103,7 +103,7 @@ def _joined_stats(parts: Sequence[dict[str, Any]]) -> dict[str, Any]:
     for k in parts[0]:
         if k.startswith("energy_"):
             out[k] = np.concatenate([np.asarray(p[k]) for p in parts])
-        elif k in ("segments", "surface_hits", "deposits", "escaped_rays"):
+        elif k in ("segments", "surface_hits", "deposits", "escaped_rays", "shadow_rays", "draws"):
             out[k] = sum(p[k] for p in parts)
     out["max_reflections"] = max(p.get("max_reflections", 0) for p in parts)
     hits = sum(p.get("surface_hits", 0) for p in parts)
@@ -116,13 +116,14 @@ def _joined_stats(parts: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sources: Any,
           receivers: Any, settings: dict[str, Any], progress: Any, early: Any,
-          parts: Callable[[slice], tuple[Any, Any, Any]]) -> dict[str, Any]:
+          parts: Callable[[slice], tuple[Any, Any, Any]], **whole: Any) -> dict[str, Any]:
     """``engine.trace_sound`` of one tile and run: plain without levels; with them, each level
     on its geometry and bands (``parts(bands)`` gives that level's (sources, early settings,
-    air)), the fields joined along the band axis."""
+    air)), the fields joined along the band axis. ``whole``: passed on to every trace (the
+    bake's receivers when this is a tile of them)."""
     if levels is None:
         return engine.trace_sound(scene.geometry, acoustics, sources, receivers,
-                                  engine.SoundSettings(**settings), progress, early)
+                                  engine.SoundSettings(**settings), progress, early, **whole)
     outs = []
     for j, lg in enumerate(levels):
         b = lg.level.bands
@@ -133,7 +134,7 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
         step = None if progress is None else _level_progress(progress, j, len(levels))
         outs.append(engine.trace_sound(lg.geometry, acoustics_b, src, receivers,
                                        engine.SoundSettings(**dict(settings, air_attenuation_per_m=air)),
-                                       step, early_b))
+                                       step, early_b, **whole))
         if outs[-1]["cancelled"]:
             break
     out = dict(outs[0])

@@ -30,8 +30,10 @@ class SoundOptions:
         "rain" pays off with few receivers and diffuse surfaces. "nee": rain through
         ``nee_receivers`` receivers a diffuse reflection, drawn by importance and weighted by
         1/(M p) (unbiased; crates/sonolux-core/src/sound/nee.rs): rain's smooth diffuse part at a
-        cost that does not grow with the receivers. "auto": a short pilot bake of each and the
-        one whose measured standard error × √time is smallest (:mod:`sonolux.sound.choose`).
+        cost that does not grow with the receivers. "auto": a pilot of each (the first round of
+        its progressive bake) and the one whose counted work × (standard error / target)² is
+        smallest: the same choice on any machine; the chosen pilot is kept as round 1
+        (:func:`sonolux.sound.progressive.choose`).
     nee_receivers: M, the receivers each diffuse reflection connects to with "nee" (1–256).
     azimuth_bands: number of azimuth sectors, the first centred on 0° (+x, front).
     elevation_bands: 1 (horizontal only, as the paper) or more bands of equal solid angle

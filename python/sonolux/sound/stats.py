@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 
 #: Statistics that add up over ranges; ``energy_*`` arrays add up too.
-SUMMED_STATS = ("rays", "segments", "surface_hits", "escaped_rays", "deposits", "seconds")
+SUMMED_STATS = ("rays", "segments", "surface_hits", "escaped_rays", "deposits", "shadow_rays",
+                "draws", "seconds")
 
 
 def combine_stats(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:

@@ -348,8 +348,12 @@ pub(crate) struct Scene<'a> {
     pub epsilon: f64,
     /// Specular-only paths counted elsewhere (None: the tracer counts everything).
     pub covered: Option<SpecularCoverage>,
-    /// The receivers' tree of the sampled rain estimator (None for the others).
+    /// The receivers' tree of the sampled rain estimator (None for the others), over
+    /// `tree_centres`: the whole bake's receivers, of which this run's are `first_receiver..`
+    /// when it traces a tile ([`Extras::bake_receivers`]), else this run's (offset 0).
     pub receiver_tree: Option<&'a nee::ReceiverTree>,
+    pub tree_centres: &'a [DVec3],
+    pub tree_offset: usize,
     /// Level of detail: Rindel's K turns part of each specular reflection into scattering.
     pub lod: Option<&'a LevelOfDetail>,
     /// How each surface's absorption depends on the angle of incidence ([`reflectance`]).
@@ -406,6 +410,11 @@ pub struct Extras<'a> {
     /// How a surface's absorption depends on the angle of incidence ([`reflectance`]): the
     /// default keeps each band's coefficient at every angle.
     pub wall_model: WallModel,
+    /// The centres of every receiver of the whole bake, when this run traces a tile of them
+    /// (receivers `first_receiver..` of these): the nee estimator then draws among all of them
+    /// and deposits only into the tile's, so that tiles give the bits of the untiled bake.
+    /// None: the run's receivers are the bake's.
+    pub bake_receivers: Option<&'a [DVec3]>,
 }
 
 /// [`trace_sound`] with [`Extras`].
@@ -466,7 +475,17 @@ pub fn trace_sound_with(
     let layout = settings.layout(receivers.len(), nb);
     let convex = mesh.is_closed_convex();
     let scattering: Vec<&[f64]> = acoustics.scattering.chunks(nb).collect();
-    let receiver_tree = matches!(settings.estimator, Estimator::Nee { .. }).then(|| nee::ReceiverTree::new(&receivers.centres, receivers.radius_m));
+    let (tree_centres, tree_offset) = match extras.bake_receivers {
+        Some(all) => {
+            let first = settings.first_receiver as usize;
+            if all.iter().any(|c| !c.is_finite()) || first.checked_add(receivers.len()).is_none_or(|end| end > all.len()) || all[first..first + receivers.len()] != receivers.centres[..] {
+                return Err(CoreError::invalid("bake_receivers", format!("this run's {} receivers are not receivers {first}.. of the bake's {}", receivers.len(), all.len())));
+            }
+            (all, first)
+        }
+        None => (&receivers.centres[..], 0),
+    };
+    let receiver_tree = matches!(settings.estimator, Estimator::Nee { .. }).then(|| nee::ReceiverTree::new(tree_centres, receivers.radius_m));
     let scene = Scene {
         mesh,
         bvh,
@@ -483,6 +502,8 @@ pub fn trace_sound_with(
         epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
         covered,
         receiver_tree: receiver_tree.as_ref(),
+        tree_centres,
+        tree_offset,
         lod: extras.level_of_detail,
         walls: Walls::new(extras.wall_model, acoustics),
     };
@@ -508,9 +529,7 @@ pub fn trace_sound_with(
     for w in &workers {
         stats.merge(&w.stats);
     }
-    if settings.estimator.rains() && settings.first_ray == 0 {
-        trace::direct_sound(&scene, &field);
-    }
+    // (The rains' exact direct sound is deposited by the rays, a share a block: trace::direct_share.)
     stats.finish();
     Ok(SoundResult { layout, field, stats, cancelled })
 }

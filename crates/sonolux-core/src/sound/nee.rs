@@ -37,8 +37,10 @@
 //! Random numbers: the draws of a reflection are keyed by (seed, source, ray, event) through
 //! [`keyed_uniform`] with a receiver key no receiver has, so they do not touch the ray's stream
 //! (the ray's path is the rain estimator's path) and are the same whatever the threads or ranges.
-//! The tree depends on the receivers of the run: a bake traced in receiver tiles draws within
-//! each tile (the same expectation, other bits than the untiled bake).
+//! A bake traced in receiver tiles (a memory budget smaller than its field) gives each tile the
+//! whole bake's receivers ([`super::Extras::bake_receivers`]): the draws are made among all of
+//! them, as in the untiled bake, and a tile deposits only the connections to its own receivers,
+//! with their keys in the whole bake: the tiles together are the untiled bake, bit for bit.
 
 use glam::DVec3;
 
@@ -212,7 +214,9 @@ pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: 
     let (deposit, gain) = scratch;
     let Some(tree) = scene.receiver_tree else { return };
     let set = scene.settings;
-    let centres = &scene.receivers.centres;
+    // The tree's receivers: the whole bake's, of which this run traces `offset..offset + own`.
+    let centres = scene.tree_centres;
+    let (offset, own) = (scene.tree_offset, scene.receivers.centres.len());
     let radius = scene.receivers.radius_m;
     let n_receivers = centres.len();
     // Draw the m receivers, or take each once when there are no more than m.
@@ -224,6 +228,7 @@ pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: 
         }
         n_picks = n_receivers;
     } else {
+        st.draws += u64::from(m);
         for j in 0..m as u64 {
             let u = keyed_uniform(set.seed, key[0], key[1], DRAW_KEY, key[2] * MAX_CONNECTIONS as u64 + j);
             if let Some((r, p)) = tree.sample(point, normal, radius, centres, u) {
@@ -245,7 +250,9 @@ pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: 
         n_picks = w;
     }
     for &(r, weight) in &picks[..n_picks] {
-        super::trace::connect(scene, r as usize, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain));
+        // A receiver of another tile: that tile's run deposits it (the same draws there).
+        let Some(r) = (r as usize).checked_sub(offset).filter(|&r| r < own) else { continue };
+        super::trace::connect(scene, r, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain));
     }
 }
 

@@ -26,6 +26,13 @@ pub struct SoundStats {
     pub escaped_rays: u64,
     pub escapes: Vec<Escape>,
     pub deposits: u64,
+    /// Visibility (any-hit) tests of the rain and nee connections: one a connection to a
+    /// receiver in front of the surface, in a room that is not convex.
+    pub shadow_rays: u64,
+    /// Receivers drawn from the nee estimator's tree (M a diffuse reflection when the bake has
+    /// more than M receivers). With the segments and deposits: the counted work of a bake, the
+    /// same on any machine (the automatic estimator ranks by it: docs/progressive.md).
+    pub draws: u64,
     pub max_reflections: u64,
     /// Per band, fixed point: emitted, absorbed by surfaces, by air, escaped, left in rays when
     /// they stopped, and the net change from re-weighting at a reflection whose scattering
@@ -102,6 +109,8 @@ impl SoundStats {
         self.surface_hits += o.surface_hits;
         self.escaped_rays += o.escaped_rays;
         self.deposits += o.deposits;
+        self.shadow_rays += o.shadow_rays;
+        self.draws += o.draws;
         self.max_reflections = self.max_reflections.max(o.max_reflections);
         for (a, b) in self.energy.iter_mut().zip(&o.energy) {
             for (x, y) in a.iter_mut().zip(b) {
