@@ -248,7 +248,9 @@ impl Receivers {
     /// Calls `f` once for every sphere that the segment origin + t·dir, t in [0, length],
     /// crosses (dir is a unit vector). `stamp` is scratch of one u64 per receiver and
     /// `segment_id` must differ between calls: together they keep a sphere that spans several
-    /// cells from being counted twice.
+    /// cells from being counted twice. Inlined into the tracer: most segments end at the
+    /// rejection by their ends or at a sphere test or two; the cell walk is a call.
+    #[inline]
     pub fn crossings(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
         if self.centres.is_empty() {
             return;
@@ -272,6 +274,12 @@ impl Receivers {
             }
             return;
         }
+        self.walk(origin, dir, length, stamp, segment_id, f);
+    }
+
+    /// [`Receivers::crossings`] through the cells of the grid.
+    #[inline(never)]
+    fn walk(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
         // Clip the segment to the grid's box.
         let hi = self.hi;
         let inv = dir.map(|d| if d == 0.0 { 1e300f64.copysign(d) } else { 1.0 / d });
