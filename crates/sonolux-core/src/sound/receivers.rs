@@ -291,8 +291,11 @@ impl Receivers {
         if t_enter > t_exit {
             return;
         }
-        // Walk the cells (Amanatides and Woo 1987).
-        let p = (origin + dir * t_enter - self.lo) / self.cell;
+        // Walk the cells (Amanatides and Woo 1987). Products with the reciprocals instead of
+        // divisions: the walk only decides which cells' spheres are tested, each by its exact
+        // chord, so its rounding moves no bits (a sphere lies inside its cells, never only in
+        // a corner that a rounding could skip).
+        let p = (origin + dir * t_enter - self.lo) * self.cell.recip();
         let mut idx = [0i64; 3];
         let mut step = [0i64; 3];
         let mut t_next = [f64::INFINITY; 3];
@@ -303,12 +306,12 @@ impl Receivers {
             idx[a] = (p[a] as i64).clamp(0, self.dims[a] as i64 - 1);
             if dir[a] > 0.0 {
                 step[a] = 1;
-                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * self.cell[a] / dir[a];
-                t_delta[a] = self.cell[a] / dir[a];
+                t_delta[a] = self.cell[a] * inv[a];
+                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * t_delta[a];
             } else if dir[a] < 0.0 {
                 step[a] = -1;
-                t_next[a] = t_enter + (idx[a] as f64 - p[a]) * self.cell[a] / dir[a];
-                t_delta[a] = -self.cell[a] / dir[a];
+                t_delta[a] = -self.cell[a] * inv[a];
+                t_next[a] = t_enter + (p[a] - idx[a] as f64) * t_delta[a];
             }
         }
         loop {
