@@ -7,7 +7,7 @@
 //! plane are a few vector multiplies and divisions with no branch, and the nearest is the first
 //! lane holding their minimum. A branchy loop over the planes mispredicted at every segment (the
 //! nearest wall is as good as random): before this layout the plane loop was 45 % of a bake of
-//! a paper room with one receiver (docs/bvh.md, "Where a convex segment's time goes").
+//! a paper room with one receiver (docs/convex.md, "Where a convex segment's time goes").
 //!
 //! The triangles of each plane are kept so that a hit still names its triangle (and so its
 //! material): a point on a plane is located among that plane's few triangles by their edges.
