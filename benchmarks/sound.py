@@ -132,7 +132,9 @@ def measure_sonolux(name: str, scene, rate_seconds: float) -> dict:
         n_cal = 200 if est == "rain" else 5000
         cal = bake(scene, n_cal, est, 2)
         net = n_cal / max(cal.stats["seconds"] - res["setup_s"], 1e-3)
-        n = int(min(max(rate_seconds * net, n_cal), 5_000_000))
+        # At least 20 calibrations' worth: a bake of a few times the calibration's rays is mostly
+        # the fixed cost (paper-large's field), and the slope below would then be noise.
+        n = int(min(max(rate_seconds * net, 20 * n_cal), 5_000_000))
         n = int(round(n, -len(str(n)) + 2))  # two significant digits
         r = {"rays": n, "rays_per_s": {}, "segments_per_s": {}, "seconds": {}}
         for th in sorted(THREAD_COUNTS, reverse=True):
@@ -160,8 +162,10 @@ def measure_sonolux(name: str, scene, rate_seconds: float) -> dict:
     cal = bake(scene, 5000, "paper", 2, air_absorption=True)
     f = bake(scene, p["rays"], "paper", 2, air_absorption=True)
     slope = (f.stats["seconds"] - cal.stats["seconds"]) / max(p["rays"] - 5000, 1)
+    # the slope only when the bake is mostly tracing (else its rate, fixed cost included)
+    net = 1 / slope if slope > 0 and f.stats["seconds"] > 2 * cal.stats["seconds"] else f.stats["rays_per_second"]
     res["paper_air_on"] = {"rays": p["rays"], "rays_per_s_2t": f.stats["rays_per_second"],
-                           "net_rays_per_s_2t": 1 / slope if slope > 0 else f.stats["rays_per_second"]}
+                           "net_rays_per_s_2t": net}
     log(f"  paper, air on (the scene's), 2 threads, {p['rays']:,} rays: {f.stats['seconds']:.2f} s, "
         f"{f.stats['rays_per_second']:,.0f} rays/s")
     return res
