@@ -163,7 +163,8 @@ def measure_sonolux(name: str, scene, rate_seconds: float) -> dict:
     f = bake(scene, p["rays"], "paper", 2, air_absorption=True)
     slope = (f.stats["seconds"] - cal.stats["seconds"]) / max(p["rays"] - 5000, 1)
     # the slope only when the bake is mostly tracing (else its rate, fixed cost included)
-    net = 1 / slope if slope > 0 and f.stats["seconds"] > 2 * cal.stats["seconds"] else f.stats["rays_per_second"]
+    tracing = slope > 0 and f.stats["seconds"] > 2 * cal.stats["seconds"]
+    net = 1 / slope if tracing else f.stats["rays_per_second"]
     res["paper_air_on"] = {"rays": p["rays"], "rays_per_s_2t": f.stats["rays_per_second"],
                            "net_rays_per_s_2t": net}
     log(f"  paper, air on (the scene's), 2 threads, {p['rays']:,} rays: {f.stats['seconds']:.2f} s, "
