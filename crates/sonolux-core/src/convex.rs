@@ -2,8 +2,17 @@
 //! ray is the first of the room's planes that the ray leaves through, so a hit costs one dot
 //! product and one division per plane, with no hierarchy to walk and no way to leak.
 //!
+//! The planes are tested all at once: their normals and offsets are stored lane by lane
+//! ([`PlaneBlock`], four planes a block, a shoebox's six in two), so that the distances to every
+//! plane are a few vector multiplies and divisions with no branch, and the nearest is the first
+//! lane holding their minimum. A branchy loop over the planes mispredicted at every segment (the
+//! nearest wall is as good as random): before this layout the plane loop was 45 % of a bake of
+//! a paper room with one receiver (docs/convex.md, "Where a convex segment's time goes").
+//!
 //! The triangles of each plane are kept so that a hit still names its triangle (and so its
 //! material): a point on a plane is located among that plane's few triangles by their edges.
+//! A caller that needs only the material ([`Surfaces::exact_triangles`] false: the sound tracer
+//! without level of detail) skips that search on planes whose triangles share one material.
 //! [`Surfaces`] is what both tracers ask: these planes when they apply, the BVH otherwise.
 
 use glam::{DVec3, Vec3};
@@ -23,6 +32,21 @@ struct Face {
     /// This face's triangles are `tris[first..first + count]`.
     first: u32,
     count: u32,
+    /// Whether all of this face's triangles have one material (then any of them names it).
+    one_material: bool,
+}
+
+/// Planes tested at once: one lane a plane.
+const LANES: usize = 4;
+
+/// [`LANES`] planes, component by component (structure of arrays). A block's unused lanes hold
+/// a zero normal: a ray never moves towards them.
+#[derive(Clone, Copy, Debug, Default)]
+struct PlaneBlock {
+    nx: [f64; LANES],
+    ny: [f64; LANES],
+    nz: [f64; LANES],
+    offset: [f64; LANES],
 }
 
 /// A triangle of a face, as three inward edge normals in its plane: a point p of the plane lies
@@ -34,10 +58,78 @@ struct FaceTriangle {
     limit: [f64; 3],
 }
 
+/// The six planes of a box whose walls face the axes (every normal has two zero components):
+/// per axis, the plane on its low side (normal component < 0) and on its high side.
+///
+/// A ray can leave only through one plane an axis, chosen by the sign of its direction along
+/// it, so the nearest exit is the smallest of three distances (the slab test, Kay & Kajiya 1986)
+/// instead of a search over six. Each distance is computed with the same operations on the same
+/// numbers as the test of every plane (whose other products are exact zeros), so both give the
+/// same bits.
+#[derive(Clone, Copy, Debug)]
+struct AxisBox {
+    /// `[axis][side]`: the face's index, its normal's non-zero component, its offset.
+    face: [[u32; 2]; 3],
+    normal: [[f64; 2]; 3],
+    offset: [[f64; 2]; 3],
+}
+
+impl AxisBox {
+    fn new(faces: &[Face]) -> Option<AxisBox> {
+        if faces.len() != 6 {
+            return None;
+        }
+        let mut b = AxisBox { face: [[u32::MAX; 2]; 3], normal: [[0.0; 2]; 3], offset: [[0.0; 2]; 3] };
+        for (k, f) in faces.iter().enumerate() {
+            let n = f.normal.to_array();
+            let axis = (0..3).find(|&a| n[a] != 0.0)?;
+            if (0..3).any(|a| a != axis && n[a] != 0.0) {
+                return None;
+            }
+            let side = usize::from(n[axis] > 0.0);
+            if b.face[axis][side] != u32::MAX {
+                return None;
+            }
+            (b.face[axis][side], b.normal[axis][side], b.offset[axis][side]) = (k as u32, n[axis], f.offset);
+        }
+        Some(b)
+    }
+
+    /// [`ConvexRoom::nearest_plane`] for the box: (plane, distance ≥ 0), without a branch on the
+    /// data. The side of each axis is chosen by the sign bit of the direction, so that a ray
+    /// parallel to an axis (±0) meets that side's plane at gap / +0 = +∞ (or NaN for an origin on
+    /// the plane, which the minimum skips) instead of being masked; an origin inside the room
+    /// (every tracer's) has gap > 0 there. At an exact tie (an edge) the plane of the lower axis.
+    #[inline(always)]
+    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+        let (o, d) = (origin.to_array(), dir.to_array());
+        let mut t = [0.0; 3];
+        let mut k = [0u32; 3];
+        for a in 0..3 {
+            let side = usize::from(d[a].is_sign_positive());
+            let n = self.normal[a][side];
+            t[a] = (self.offset[a][side] - n * o[a]) / (n * d[a]);
+            k[a] = self.face[a][side];
+        }
+        let low = t[0].min(t[1]).min(t[2]);
+        let mask = (0..3).fold(0u32, |m, a| m | (u32::from(t[a] == low) << a));
+        // No finite or infinite distance at all (a NaN direction): plane 0 at +∞.
+        let (plane, t) = match mask.trailing_zeros() as usize {
+            a @ 0..3 => (k[a] as usize, low),
+            _ => (0, f64::INFINITY),
+        };
+        (plane, t.max(0.0))
+    }
+}
+
 /// The planes of a closed convex mesh, with their triangles.
 #[derive(Clone, Debug)]
 pub struct ConvexRoom {
     faces: Vec<Face>,
+    /// The faces' planes lane by lane: plane k is lane k % LANES of block k / LANES.
+    blocks: Vec<PlaneBlock>,
+    /// The same planes as a box facing the axes, when they are one.
+    axis_box: Option<AxisBox>,
     tris: Vec<FaceTriangle>,
 }
 
@@ -88,7 +180,8 @@ impl ConvexRoom {
         let mut faces = Vec::with_capacity(planes.len());
         let mut tris = Vec::with_capacity(live.len());
         for (normal, offset, members) in planes {
-            faces.push(Face { normal, offset, first: tris.len() as u32, count: members.len() as u32 });
+            let one_material = members.iter().all(|&i| mesh.material[i] == mesh.material[members[0]]);
+            faces.push(Face { normal, offset, first: tris.len() as u32, count: members.len() as u32, one_material });
             for i in members {
                 let corners = mesh.corners(i).map(|v| v.as_dvec3());
                 let mut edge = [DVec3::ZERO; 3];
@@ -105,7 +198,13 @@ impl ConvexRoom {
                 tris.push(FaceTriangle { id: i as u32, edge, limit });
             }
         }
-        Some(ConvexRoom { faces, tris })
+        let mut blocks = vec![PlaneBlock::default(); faces.len().div_ceil(LANES)];
+        for (k, f) in faces.iter().enumerate() {
+            let (b, l) = (&mut blocks[k / LANES], k % LANES);
+            (b.nx[l], b.ny[l], b.nz[l], b.offset[l]) = (f.normal.x, f.normal.y, f.normal.z, f.offset);
+        }
+        let axis_box = AxisBox::new(&faces);
+        Some(ConvexRoom { faces, blocks, axis_box, tris })
     }
 
     pub fn n_faces(&self) -> usize {
@@ -124,25 +223,62 @@ impl ConvexRoom {
 
     /// Where the ray origin + t·dir (unit dir, origin inside or on the boundary) leaves the
     /// room: the smallest t over the planes it moves towards, never below 0, so that an origin
-    /// a rounding error outside a wall meets that wall at once instead of escaping.
+    /// a rounding error outside a wall meets that wall at once instead of escaping. The exit's
+    /// triangle is the one holding the exit point.
     #[inline]
     pub fn exit(&self, origin: DVec3, dir: DVec3) -> Exit {
-        // The smallest gap / towards over the planes ahead, compared as cross products
-        // (towards > 0) so that only the winner costs a division.
-        let (mut best_gap, mut best_towards) = (f64::INFINITY, 1.0);
-        let mut best = 0usize;
-        for (k, f) in self.faces.iter().enumerate() {
-            let towards = f.normal.dot(dir);
-            if towards > 0.0 {
-                let gap = f.offset - f.normal.dot(origin);
-                if gap * best_towards < best_gap * towards {
-                    (best_gap, best_towards, best) = (gap, towards, k);
-                }
-            }
+        self.exit_with(origin, dir, true)
+    }
+
+    /// [`ConvexRoom::exit`]; with `exact` false the triangle is only one of the exit plane's
+    /// with the exit point's material (its first), found without a search when all the
+    /// plane's triangles share a material.
+    #[inline(always)]
+    pub fn exit_with(&self, origin: DVec3, dir: DVec3, exact: bool) -> Exit {
+        let (k, t) = self.nearest_plane(origin, dir);
+        let face = &self.faces[k];
+        let triangle = if !exact && face.one_material { self.tris[face.first as usize].id } else { self.locate(face, origin + dir * t) };
+        Exit { t, triangle, normal: face.normal }
+    }
+
+    /// The plane the ray leaves through and the distance to it (≥ 0): every plane's distance
+    /// gap / towards (towards = normal · dir > 0: the planes ahead; the others +∞), computed
+    /// lane by lane with the same operations, in the same order, as the dot products of glam,
+    /// then the first plane holding the smallest. No plane ahead (a zero or non-finite dir):
+    /// plane 0 at +∞.
+    #[inline(always)]
+    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+        if let Some(b) = &self.axis_box {
+            return b.nearest_plane(origin, dir);
         }
-        let face = &self.faces[best];
-        let t = (best_gap / best_towards).max(0.0);
-        Exit { t, triangle: self.locate(face, origin + dir * t), normal: face.normal }
+        self.nearest_of_all_planes(origin, dir)
+    }
+
+    /// [`ConvexRoom::nearest_plane`] by testing every plane.
+    #[inline]
+    fn nearest_of_all_planes(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+        let mut best_t = f64::INFINITY;
+        let mut best = 0usize;
+        for (j, b) in self.blocks.iter().enumerate() {
+            let mut t = [f64::INFINITY; LANES];
+            for l in 0..LANES {
+                let towards = b.nx[l] * dir.x + b.ny[l] * dir.y + b.nz[l] * dir.z;
+                let gap = b.offset[l] - (b.nx[l] * origin.x + b.ny[l] * origin.y + b.nz[l] * origin.z);
+                let q = gap / towards;
+                t[l] = if towards > 0.0 { q } else { f64::INFINITY };
+            }
+            // The block's smallest and its first lane, without a branch on the data (which
+            // plane is nearest is as good as random from one segment to the next).
+            // Plain compares (no NaN handling: a NaN lane would need a NaN origin).
+            let min = |a: f64, b: f64| if b < a { b } else { a };
+            let low = min(min(t[0], t[1]), min(t[2], t[3]));
+            let mask = (0..LANES).fold(0u32, |m, l| m | (u32::from(t[l] == low) << l));
+            let first = mask.trailing_zeros() as usize; // LANES and more when low is NaN: unused then
+            let better = low < best_t;
+            best = if better { j * LANES + first } else { best };
+            best_t = if better { low } else { best_t };
+        }
+        (best, best_t.max(0.0))
     }
 
     /// The triangle of `face` that holds `p` (a point on its plane): the first that contains it,
@@ -172,6 +308,10 @@ impl ConvexRoom {
 pub struct Surfaces<'a> {
     bvh: &'a Bvh,
     room: Option<ConvexRoom>,
+    /// Whether a hit must name the very triangle hit (true unless [`Surfaces::exact_triangles`]
+    /// says otherwise); when false, a convex room's hit names a triangle of the exit plane with
+    /// the hit's material.
+    exact: bool,
     /// Unit normal of each mesh triangle, computed once (the BVH path asks for one a segment).
     normals: Vec<Vec3>,
 }
@@ -183,24 +323,39 @@ impl<'a> Surfaces<'a> {
         let room = if convex { ConvexRoom::of_convex(mesh) } else { None };
         let room = room.filter(starts_inside);
         let normals = if room.is_some() { Vec::new() } else { (0..mesh.triangles.len()).map(|i| mesh.normal(i)).collect() };
-        Surfaces { bvh, room, normals }
+        Surfaces { bvh, room, exact: true, normals }
+    }
+
+    /// Whether a hit must name the very triangle it lands on (the light tracer's patches, level
+    /// of detail's panels: true, the default) or only a triangle with its material, which
+    /// spares a convex room's search among a plane's triangles when they share a material.
+    /// The material, distance and normal are the same either way, and so are the bits of a
+    /// tracer that reads only those.
+    pub fn exact_triangles(mut self, exact: bool) -> Surfaces<'a> {
+        self.exact = exact;
+        self
     }
 
     /// The nearest surface along origin + t·dir (unit dir): its distance, mesh triangle and unit
     /// normal (facing either way; the planes' is precomputed).
-    #[inline]
+    /// The planes' test is inlined into the tracer (a call and its frame cost as much as the
+    /// test); the BVH's query is a call, as it always was.
+    #[inline(always)]
     pub fn nearest(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
         match &self.room {
             Some(room) => {
-                let exit = room.exit(origin, dir);
+                let exit = room.exit_with(origin, dir, self.exact);
                 Some((exit.t, exit.triangle as usize, exit.normal))
             }
-            None => {
-                let hit = self.bvh.closest_hit(&Ray::new(origin.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
-                let tri = hit.triangle as usize;
-                Some((hit.t as f64, tri, self.normals[tri].as_dvec3()))
-            }
+            None => self.nearest_in_bvh(origin, dir),
         }
+    }
+
+    #[inline(never)]
+    fn nearest_in_bvh(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+        let hit = self.bvh.closest_hit(&Ray::new(origin.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
+        let tri = hit.triangle as usize;
+        Some((hit.t as f64, tri, self.normals[tri].as_dvec3()))
     }
 }
 
@@ -272,6 +427,86 @@ mod tests {
         }
         // Points within f32 rounding of a shared edge may go either way: a handful at most.
         assert!(same as f64 > 0.9999 * n as f64, "{same} of {n}");
+    }
+
+    /// A prism over a regular `n`-gon (radius 2, height 1.5), wound counter-clockwise seen
+    /// from outside, with a material per side and one for both caps: n + 2 planes.
+    fn prism(n: usize) -> Mesh {
+        let mut vertices = Vec::new();
+        for z in [0.0f32, 1.5] {
+            for k in 0..n {
+                let a = std::f32::consts::TAU * k as f32 / n as f32 + 0.3;
+                vertices.push(Vec3::new(2.0 * a.cos(), 2.0 * a.sin(), z));
+            }
+        }
+        let n32 = n as u32;
+        let (mut triangles, mut material) = (Vec::new(), Vec::new());
+        for k in 1..n32 - 1 {
+            triangles.push([0, k + 1, k]); // bottom, seen from below
+            triangles.push([n32, n32 + k, n32 + k + 1]); // top
+            material.extend([0, 0]);
+        }
+        for k in 0..n32 {
+            let j = (k + 1) % n32;
+            triangles.push([k, j, n32 + j]);
+            triangles.push([k, n32 + j, n32 + k]);
+            material.extend([1 + k, 1 + k]);
+        }
+        Mesh::new(vertices, triangles, material).unwrap()
+    }
+
+    /// The rule the planes were tested by before they were tested at once: a loop over the
+    /// planes ahead comparing gap / towards as cross products. (plane, t).
+    fn exit_one_by_one(room: &ConvexRoom, origin: DVec3, dir: DVec3) -> (usize, f64) {
+        let (mut best_gap, mut best_towards, mut best) = (f64::INFINITY, 1.0, 0usize);
+        for (k, f) in room.faces.iter().enumerate() {
+            let towards = f.normal.dot(dir);
+            if towards > 0.0 {
+                let gap = f.offset - f.normal.dot(origin);
+                if gap * best_towards < best_gap * towards {
+                    (best_gap, best_towards, best) = (gap, towards, k);
+                }
+            }
+        }
+        (best, (best_gap / best_towards).max(0.0))
+    }
+
+    #[test]
+    fn planes_tested_at_once_agree_with_the_loop_over_them() {
+        // A box (6 planes, 2 blocks) and prisms of 5, 7 and 14 sides (7, 9, 16 planes: blocks
+        // partly and wholly filled); origins inside, on and a rounding error outside the walls.
+        let meshes = [box_mesh(), prism(5), prism(7), prism(14)];
+        for (m, mesh) in meshes.iter().enumerate() {
+            let room = ConvexRoom::new(mesh).expect("convex");
+            let (lo, hi) = (mesh.vertices.iter().fold(Vec3::INFINITY, |a, v| a.min(*v)).as_dvec3(), mesh.vertices.iter().fold(Vec3::NEG_INFINITY, |a, v| a.max(*v)).as_dvec3());
+            let mut rng = Stream::new(11, m as u64, 0);
+            let (mut n, mut same) = (0, 0);
+            while n < 100_000 {
+                let o = lo + (hi - lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                if !room.holds(o, 1e-9) {
+                    continue;
+                }
+                let d = uniform_sphere(rng.uniform(), rng.uniform());
+                // Every tenth origin moved onto the wall ahead of it (and a hair beyond).
+                let o = if n % 10 == 0 { o + d * (room.exit(o, d).t * (1.0 + 1e-15)) } else { o };
+                let (plane, t) = exit_one_by_one(&room, o, d);
+                let exit = room.exit(o, d);
+                // The box's slab test and the test of every plane: the same plane and bits.
+                assert_eq!(room.nearest_of_all_planes(o, d).1.to_bits(), t.to_bits());
+                n += 1;
+                // The same distance to the bit, the same plane except at an exact tie (an edge).
+                assert_eq!(exit.t.to_bits(), t.to_bits(), "mesh {m}: t {} vs {t}", exit.t);
+                same += usize::from(exit.normal == room.faces[plane].normal);
+                // Without the exact triangle: the same plane, distance and material.
+                let quick = room.exit_with(o, d, false);
+                assert_eq!((quick.t.to_bits(), quick.normal), (exit.t.to_bits(), exit.normal));
+                assert_eq!(mesh.material[quick.triangle as usize], mesh.material[exit.triangle as usize]);
+            }
+            assert!(same as f64 >= 0.9999 * n as f64, "mesh {m}: {same} of {n}");
+        }
+        assert_eq!(ConvexRoom::new(&prism(14)).unwrap().blocks.len(), 4);
+        assert!(ConvexRoom::new(&box_mesh()).unwrap().axis_box.is_some());
+        assert!(ConvexRoom::new(&prism(4)).unwrap().axis_box.is_none(), "a box turned 0.3 rad about z");
     }
 
     #[test]

@@ -495,7 +495,8 @@ pub fn trace_sound_with(
         settings,
         layout: layout.clone(),
         convex,
-        surfaces: Surfaces::new(mesh, bvh, convex, |r| sources.iter().all(|s| r.contains(s.position))),
+        // The tracer reads a hit's material, not its triangle, unless level of detail asks for the panel.
+        surfaces: Surfaces::new(mesh, bvh, convex, |r| sources.iter().all(|s| r.contains(s.position))).exact_triangles(extras.level_of_detail.is_some()),
         air: settings.air_attenuation_per_m.iter().any(|&a| a > 0.0),
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),

@@ -248,7 +248,9 @@ impl Receivers {
     /// Calls `f` once for every sphere that the segment origin + t·dir, t in [0, length],
     /// crosses (dir is a unit vector). `stamp` is scratch of one u64 per receiver and
     /// `segment_id` must differ between calls: together they keep a sphere that spans several
-    /// cells from being counted twice.
+    /// cells from being counted twice. Inlined into the tracer: most segments end at the
+    /// rejection by their ends or at a sphere test or two; the cell walk is a call.
+    #[inline]
     pub fn crossings(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
         if self.centres.is_empty() {
             return;
@@ -272,6 +274,12 @@ impl Receivers {
             }
             return;
         }
+        self.walk(origin, dir, length, stamp, segment_id, f);
+    }
+
+    /// [`Receivers::crossings`] through the cells of the grid.
+    #[inline(never)]
+    fn walk(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
         // Clip the segment to the grid's box.
         let hi = self.hi;
         let inv = dir.map(|d| if d == 0.0 { 1e300f64.copysign(d) } else { 1.0 / d });
@@ -283,8 +291,11 @@ impl Receivers {
         if t_enter > t_exit {
             return;
         }
-        // Walk the cells (Amanatides and Woo 1987).
-        let p = (origin + dir * t_enter - self.lo) / self.cell;
+        // Walk the cells (Amanatides and Woo 1987). Products with the reciprocals instead of
+        // divisions: the walk only decides which cells' spheres are tested, each by its exact
+        // chord, so its rounding moves no bits (a sphere lies inside its cells, never only in
+        // a corner that a rounding could skip).
+        let p = (origin + dir * t_enter - self.lo) * self.cell.recip();
         let mut idx = [0i64; 3];
         let mut step = [0i64; 3];
         let mut t_next = [f64::INFINITY; 3];
@@ -295,12 +306,12 @@ impl Receivers {
             idx[a] = (p[a] as i64).clamp(0, self.dims[a] as i64 - 1);
             if dir[a] > 0.0 {
                 step[a] = 1;
-                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * self.cell[a] / dir[a];
-                t_delta[a] = self.cell[a] / dir[a];
+                t_delta[a] = self.cell[a] * inv[a];
+                t_next[a] = t_enter + ((idx[a] + 1) as f64 - p[a]) * t_delta[a];
             } else if dir[a] < 0.0 {
                 step[a] = -1;
-                t_next[a] = t_enter + (idx[a] as f64 - p[a]) * self.cell[a] / dir[a];
-                t_delta[a] = -self.cell[a] / dir[a];
+                t_delta[a] = -self.cell[a] * inv[a];
+                t_next[a] = t_enter + (p[a] - idx[a] as f64) * t_delta[a];
             }
         }
         loop {
