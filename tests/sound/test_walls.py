@@ -133,7 +133,7 @@ def test_locally_reacting_rays_follow_the_locally_reacting_rooms_models():
     modes (with every mode absorbed at the full rate the modal model's T30 is 0.55 s): this is
     why the waves, not the rays, take the bands where it matters. With the angle-independent
     α of a plain bake the rays' EDT is 0.763 s, +21 %: asserted to fail."""
-    from tests.sound.test_waves import (
+    from tests.sound.test_waves_paper_room import (
         admittance_from_random,
         iso_3382_2_sigma,
         locally_reacting_modal_decay,

@@ -41,11 +41,10 @@ from sonolux.sound import early as early_sound
 from sonolux.sound import levels as sound_levels
 from sonolux.sound import walls as sound_walls
 from sonolux.sound import waves as wave_sound
-from sonolux.sound.compact import CompactArray
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.receiver_patterns import channels_record, receiver_patterns
-from sonolux.sound.stats import combine_stats
+from sonolux.sound.tiles import trace_tiles
 
 #: A compact field's stored late bins: the shortest T60 over this many (0.6 dB of decay a bin),
 #: at most MAX_COMPACT_LATE_BIN_S. Measured to keep EDT, T20 and T30 within 0.5 % of the full
@@ -242,7 +241,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s))
     if log:
         log(memory.describe())
-    out = _trace_tiles(scene, geometry_args=(acoustics, sources, levels, parts), runs=runs,
+    out = trace_tiles(scene, geometry_args=(acoustics, sources, levels, parts), runs=runs,
                        base=base,
                        memory=memory,
                        early=early, callback=callback, split=split,
@@ -488,80 +487,6 @@ def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
                              reduction(options, scene.settings.sample_rate_hz))
 
 
-def _trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs: list[int | None],
-                 base: dict[str, Any], memory: sound_budget.MemoryPlan, early: Any,
-                 callback: Any, split: int, keep_counts: bool,
-                 reduce: tuple[int, int]) -> dict[str, Any]:
-    """Traces the receivers tile by tile (each tile every ray: the same bits as all at once),
-    and in each tile the sources of ``runs`` one by one (None: all sources together), on the
-    one geometry (its BVH built once). Each tile's field is kept compact, its stored late bins
-    shown ``split`` to a bin (or dense for ``storage="full"``). The fields of the runs come
-    back one after the other along the receiver axis; the time axis returned is the one shown."""
-    compact = memory.compact
-    partial = (base["first_ray"], base["end_ray"]) != (0, base["rays"])
-    acoustics, sources, levels, parts = geometry_args
-    positions = np.ascontiguousarray(scene.receivers.positions_m, float)
-    patterns = receiver_patterns(scene)
-    n, size = positions.shape[0], memory.tile_receivers
-    steps = memory.tiles * len(runs)
-    energies: list[list[Any]] = [[] for _ in runs]
-    counts: list[list[Any]] = [[] for _ in runs]
-    out: dict[str, Any] = {}
-    stats: dict[str, Any] | None = None
-    # Work done in every tile (the rays' segments are the first tile's: the bake's).
-    per_tile = {"deposits": 0, "shadow_rays": 0, "draws": 0}
-    t0 = time.perf_counter()
-    # Tiled, the nee estimator draws among all the bake's receivers (the untiled bits).
-    whole = ({"bake_receivers": engine.Receivers(positions, scene.receivers.radius_m, patterns)}
-             if memory.tiles > 1 and base.get("estimator") == "nee" else {})
-    for k, lo in enumerate(range(0, n, size)):
-        hi = min(lo + size, n)
-        receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
-                                     scene.receivers.radius_m,
-                                     None if patterns is None else patterns[lo:hi])
-        for j, only in enumerate(runs):
-            step = k * len(runs) + j
-            progress = None if callback is None else _tile_progress(callback, step, steps, t0)
-            out = sound_levels.trace(levels, scene, acoustics, sources, receivers,
-                                     dict(base, first_receiver=lo, only_source=only), progress,
-                                     early, parts, **whole)
-            for key in per_tile:
-                per_tile[key] += int(out["stats"].get(key, 0))
-            if k == 0:  # every tile retraces the same rays: the first tile's are the bake's
-                stats = out["stats"] if stats is None else combine_stats(stats, out["stats"])
-            early_bins = int(out["early_bins"])
-            energy = out.pop("energy")
-            if compact:
-                # A part of a bake keeps every early cell (parts add up exactly); a whole bake
-                # keeps its strongest early arrivals and an envelope of the rest.
-                energy = CompactArray.of(energy, early_bins, split)
-                energy = energy if partial else energy.reduce(*reduce)
-            energies[j].append(energy)
-            if keep_counts:
-                counts[j].append(CompactArray.of(out.pop("counts"), early_bins, split)
-                                 if compact else out.pop("counts"))
-            if out["cancelled"] or out["saturated"]:
-                break
-        if out["cancelled"] or out["saturated"]:
-            break
-    join = CompactArray.concatenate if compact else np.concatenate
-    pieces = [e for per in energies for e in per]
-    out["energy"] = pieces[0] if len(pieces) == 1 else join(pieces)
-    if keep_counts:
-        pieces = [c for per in counts for c in per]
-        out["counts"] = pieces[0] if len(pieces) == 1 else join(pieces)
-    out["stats"] = dict(stats or out["stats"], **per_tile)
-    if split > 1:
-        eb = int(out["early_bins"])
-        start, width = np.asarray(out["bin_start_s"]), np.asarray(out["bin_width_s"])
-        n_late = (start.size - eb) * split
-        fine = float(width[-1]) / split if n_late else 0.0
-        late0 = float(start[eb]) if n_late else 0.0
-        out["bin_start_s"] = np.concatenate([start[:eb], late0 + fine * np.arange(n_late)])
-        out["bin_width_s"] = np.concatenate([width[:eb], np.full(n_late, fine)])
-    return out
-
-
 def traced_sources(scene: Scene, options: SoundOptions) -> list[int]:
     """The indices of the scene's sources the bake traces: ``options.sources`` by name (in the
     scene's order), or all; an unknown name is an error naming the scene's sources."""
@@ -598,11 +523,3 @@ def _stacked_arrivals(arrivals: dict[str, np.ndarray], runs: list[int | None],
 def reduction(options: SoundOptions, sample_rate_hz: float) -> tuple[int, int]:
     """(arrivals kept, samples per envelope bin) of a compact field's early part."""
     return options.compact_arrivals, max(1, round(options.compact_envelope_s * sample_rate_hz))
-
-
-def _tile_progress(callback: Callable[[int, int, float], bool], tile: int, tiles: int,
-                   t0: float) -> Callable[[int, int, float], bool]:
-    """The progress of one tile as the progress of the whole bake."""
-    def report(done: int, total: int, _elapsed: float) -> bool:
-        return callback(tile * total + done, tiles * total, time.perf_counter() - t0)
-    return report
