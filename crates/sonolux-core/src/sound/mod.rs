@@ -369,8 +369,8 @@ fn chunk_size(estimator: Estimator, receivers: usize) -> u64 {
     }
 }
 
-/// Traces a bake (or the range of it the settings name) into a sound field.
-#[allow(clippy::too_many_arguments)]
+/// Traces a bake (or the range of it the settings name) into a sound field: the plain tracer,
+/// [`trace_sound_with`] and no [`Extras`].
 pub fn trace_sound(
     mesh: &Mesh,
     bvh: &Bvh,
@@ -380,23 +380,7 @@ pub fn trace_sound(
     settings: &SoundSettings,
     progress: impl FnMut(&Progress) -> bool,
 ) -> Result<SoundResult, CoreError> {
-    trace_sound_hybrid(mesh, bvh, acoustics, sources, receivers, settings, None, progress)
-}
-
-/// [`trace_sound`] leaving out the specular-only paths that `covered` names (the hybrid with
-/// [`crate::early`]'s image sources); `None` is [`trace_sound`].
-#[allow(clippy::too_many_arguments)]
-pub fn trace_sound_hybrid(
-    mesh: &Mesh,
-    bvh: &Bvh,
-    acoustics: &Acoustics,
-    sources: &[SoundSource],
-    receivers: &Receivers,
-    settings: &SoundSettings,
-    covered: Option<SpecularCoverage>,
-    progress: impl FnMut(&Progress) -> bool,
-) -> Result<SoundResult, CoreError> {
-    trace_sound_with(mesh, bvh, acoustics, sources, receivers, settings, Extras { covered, ..Extras::default() }, progress)
+    trace_sound_with(mesh, bvh, acoustics, sources, receivers, settings, Extras::default(), progress)
 }
 
 /// What a bake may add to the plain tracer.
