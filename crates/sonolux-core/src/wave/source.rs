@@ -120,15 +120,7 @@ impl Injector {
         for (i, p) in positions.iter().enumerate() {
             nodes.extend(weights_in_air(grid, *p, "source", i)?);
         }
-        nodes.sort_by_key(|n| n.0);
-        nodes.dedup_by(|b, a| {
-            if a.0 == b.0 {
-                a.1 += b.1;
-                true
-            } else {
-                false
-            }
-        });
+        sum_shared_nodes(&mut nodes);
         let h = grid.spacing_m;
         Ok(Injector { nodes, scale: c * c * dt * dt * pulse.air_density_kg_m3 / (h * h * h), pulse, dt, terms: Vec::new() })
     }
@@ -164,21 +156,27 @@ impl Injector {
                 let q = self.scale * signal.get(n as usize).copied().unwrap_or(0.0);
                 sum.extend(nodes.iter().map(|&(i, w)| (i, w * q)));
             }
-            sum.sort_by_key(|s| s.0);
-            sum.dedup_by(|b, a| {
-                if a.0 == b.0 {
-                    a.1 += b.1;
-                    true
-                } else {
-                    false
-                }
-            });
+            sum_shared_nodes(&mut sum);
             out.extend(sum.into_iter().map(|(i, v)| (i, v as f32)));
             return;
         }
         let q = self.scale * self.pulse.volume_acceleration(n as f64 * self.dt);
         out.extend(self.nodes.iter().map(|&(i, w)| (i, (w * q) as f32)));
     }
+}
+
+/// Sorts (node, value) pairs by node (stably: equal nodes keep their order, so the sums are the
+/// same bits on any thread count) and sums the values of a node that appears more than once.
+fn sum_shared_nodes(pairs: &mut Vec<(usize, f64)>) {
+    pairs.sort_by_key(|p| p.0);
+    pairs.dedup_by(|b, a| {
+        if a.0 == b.0 {
+            a.1 += b.1;
+            true
+        } else {
+            false
+        }
+    });
 }
 
 /// Trilinear weights of the air nodes around a source or receiver, or an error naming it.
