@@ -49,17 +49,29 @@ def test_the_first_order_family_is_fitted_exactly(name):
     np.testing.assert_allclose(fit.energy_gain(u).mean(axis=0), 1.0, atol=1e-3)
 
 
-def test_a_pattern_of_higher_order_reports_what_the_fit_leaves_out():
-    """A beam of amplitude cos⁴(θ/2) = (1 + 2x + x²)/4 (x = cos θ) has an order-2 part: its
-    order-0/1 fit keeps ⟨A⟩² + (3⟨Ax⟩)²/3 = 1/9 + 1/12 of ⟨A²⟩ = 1/5, so the residual is exactly
-    1 − (7/36)/(1/5) = 1/36 (tolerance 1e-3: the tabulated pattern's bilinear interpolation and
-    the lattice's quadrature)."""
+def beam_pattern(power):
+    """An axial beam of amplitude cos^power(θ/2) = ((1 + x)/2)^(power/2) (x = cos θ), omni in
+    the first band."""
     th = np.arccos(node_directions(symmetric=True)[:, 0, 0])
-    beam = np.cos(th / 2) ** 8
-    d = pattern(np.column_stack([np.ones_like(th), beam, beam, beam]))
-    fit = wave_sources.fit(source(), d, len(BANDS))
+    beam = np.cos(th / 2) ** (2 * power)
+    return pattern(np.column_stack([np.ones_like(th), beam, beam, beam]))
+
+
+@pytest.mark.parametrize("power, orders, residual", [
+    (4, 1, 1 / 36), (4, 2, 0.0), (6, 1, 0.09), (6, 2, 1 / 400)])
+def test_a_pattern_of_higher_order_reports_what_the_fit_leaves_out(power, orders, residual):
+    """Beams of amplitude ((1 + x)/2)^n have closed-form Legendre expansions: n = 2 is
+    (4P₀ + 6P₁ + 2P₂)/12, so an order-0/1 fit leaves (1/6)²/5 of ⟨A²⟩ = 1/5, 1/36, and order 2
+    leaves nothing; n = 3 is (2P₀ + 3.6P₁ + 2P₂ + 0.4P₃)/8, ⟨A²⟩ = 1/7: order 1 leaves 0.09,
+    order 2 leaves (0.05²/7)·7 = 1/400. Tolerance 1e-3: the tabulated pattern's bilinear
+    interpolation and the lattice's quadrature."""
+    fit = wave_sources.fit(source(), beam_pattern(power), len(BANDS),
+                           np.full(len(BANDS), orders))
     assert fit.residual[0] < 1e-3  # omni
-    np.testing.assert_allclose(fit.residual[1:], 1 / 36, atol=1e-3)
+    np.testing.assert_allclose(fit.residual[1:], residual, atol=1e-3)
+    # The fit radiates the source's power: mean energy gain 1.
+    u = wave_sources.fibonacci_directions(2000)
+    np.testing.assert_allclose(fit.energy_gain(u).mean(axis=0), 1.0, atol=2e-3)
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +99,7 @@ def far_field():
     fit = wave_sources.fit(source(), d, len(BANDS))
     absorption = np.full((1, len(BANDS)), 0.9)
     f_max = 250.0
-    delay = wave_sources.pulse_delay_s(BANDS, f_max)
+    delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
     settings = engine.WaveSettings(max_frequency_hz=f_max, duration_s=delay + 0.06)
     cluster = wave_sources.terms(src, fit, BANDS, f_max, settings.spacing_m,
                                  settings.sample_rate_hz, int(settings.steps), 343.0)

@@ -290,7 +290,9 @@ def test_a_directional_source_bakes_with_waves():
     lines: list[str] = []
     front = bake(directional_room(pts, forward=(1, 0, 0)), **DIRECTIONAL, log=lines.append)
     back = bake(directional_room(pts, forward=(-1, 0, 0)), **DIRECTIONAL)
-    assert any("7 monopoles" in s and "order 0-1" in s for s in lines), lines
+    # The first-order family is order 1 exactly: a fourth-order difference along x, 4 terms
+    # about the centre's.
+    assert any("5 monopoles" in s and "order 0-1/0-1 per wave band" in s for s in lines), lines
     direct = slice(0, int(0.0085 * front.sample_rate_hz))
     d_front = front.energy[0, :, :2, direct].sum(dtype=np.float64)
     d_back = back.energy[0, :, :2, direct].sum(dtype=np.float64)
@@ -444,9 +446,20 @@ def test_a_compact_hybrid_keeps_the_full_hybrids_sums_and_decays():
 
 
 
-def test_a_directional_source_against_a_wall_is_refused_by_name():
-    """A directional source closer to a wall than half a grid cell cannot have its cluster of
-    monopoles around it: refused, naming the source, the distance needed and what to do."""
-    scene = directional_room([[2.9, 2.1, 1.2]], source=(0.01, 1.1, 1.4))
-    with pytest.raises(SettingError, match=r"talker \(cardioid\).*within 34 mm.*omni"):
+def test_a_directional_source_against_a_wall_is_refused_by_name_before_any_ray(monkeypatch):
+    """A directional source nearer a wall than its cluster reaches (a cardioid: 2 cells, 137 mm
+    on the 354 Hz crossover's 68.5 mm grid) cannot have its monopoles around it: refused before
+    any ray is traced (the crossover is known from the scene alone), naming the source, its
+    distance, the reach and what to do. 0.2 m from the wall it bakes."""
+    import sonolux.sound.bake as bake_module
+
+    def no_rays(*args, **kwargs):
+        raise AssertionError("rays were traced before the refusal")
+
+    scene = directional_room([[2.9, 2.1, 1.2]], source=(0.1, 1.1, 1.4))
+    monkeypatch.setattr(bake_module, "trace_tiles", no_rays)
+    with pytest.raises(SettingError, match=r"talker \(cardioid\) at \(0.1, 1.1, 1.4\) m is 100 mm "
+                       r"from a wall.*order 0-1 on the 69 mm grid\) reaches 137 mm.*omni"):
         bake(scene, **DIRECTIONAL)
+    monkeypatch.undo()
+    bake(directional_room([[2.9, 2.1, 1.2]], source=(0.2, 1.1, 1.4)), **DIRECTIONAL)

@@ -40,6 +40,7 @@ from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
 from sonolux.sound import levels as sound_levels
 from sonolux.sound import walls as sound_walls
+from sonolux.sound import wave_sources
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
@@ -182,6 +183,15 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if end > rays:
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
+    if options.waves and any(s.directivity != "omni" for s in scene.sources):
+        # Before any ray: a directional source must have room for its cluster on the grid of
+        # the crossover (a function of the scene, not of the machine).
+        cross = wave_sound.choose_crossover(
+            scene, max_time_s, crossover_hz=options.crossover_hz, time_budget_s=math.inf,
+            memory_limit_bytes=options.max_field_bytes or wave_sound.GRID_MEMORY_BYTES,
+            absorption=arrays["absorption"], measure=False)
+        wave_sources.check_clearance(scene, cross.max_frequency_hz, [
+            _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
     early_s, stored_late_s, split = stored_axis(scene, options, arrays)
     groups = late_groups(scene, options, arrays, stored_late_s)
     picked = traced_sources(scene, options)

@@ -3,33 +3,57 @@
 The wave solver's source is a point monopole. A directional source is a cluster of them, each
 fed its own signal, whose far field is the pattern's low-order spherical-harmonic part (Bilbao
 and Hamilton, "Directional sources in wave-based acoustic simulation", IEEE/ACM TASLP 27(2),
-2019: sources as weighted sums of spatial derivatives of the delta, approximated on the grid by
-monopoles at neighbouring points). Here:
+2019: a source as a weighted sum of spatial derivatives of the delta, the derivative of order L
+radiating the pattern u^α of degree L; on the grid, the derivatives become finite differences,
+monopoles at neighbouring nodes). Here:
 
 - **Fit, per band.** The pattern's amplitude A_b(u) (the square root of the engine's energy
   gain towards u, normalised over the sphere; signed for the first-order family, whose pressure
   a + (1 − a)·cos θ changes sign behind the hypercardioid, supercardioid and figure-of-eight)
-  is projected on the spherical harmonics of order 0 and 1 over :data:`FIT_DIRECTIONS` nearly
-  uniform directions: A_b ≈ c₀ + c·u, with c₀ = ⟨A⟩ and c = 3⟨A·u⟩ (the harmonics' norms over
-  the sphere). The fitted pattern is scaled to radiate the source's power in every band
-  (c₀² + |c|²/3 = 1, the tracer's convention); the share of the pattern's energy above order 1,
-  1 − (c₀² + |c|²/3)/⟨A²⟩, is reported (:attr:`SourceFit.residual`). A pattern given as energy
-  only (the talker, the dodecahedron, SOFA) is taken as zero-phase amplitude √g.
-- **Cluster.** Order 0: a monopole at the source fed c₀(f)·q̇. Order 1 along each axis e_k: two
-  monopoles at ±Δx/2·e_k fed ±(c/Δx)·c_k(f)·q, whose far field is ρ/(4πr)·c_k(f)·(u·e_k)·q̇(τ)
-  up to the centred difference's error, 1 − sinc(kΔx/2) ≤ (kΔx)²/24: 1.6% in amplitude
-  (0.14 dB) at the grid's f_max, 10 points per wavelength. So **the grid resolves order 1 in
-  every wave band** (the rule: order L is kept where (kΔx)²/24 ≤ 2%, which holds for L ≤ 1 up
-  to f_max; order 2 is not built). The coefficients c(f) are each band's within the band and
-  blend across a quarter band on either side of each band edge (a raised sine in log
-  frequency, the width of the energy bands' own crossovers in ``bands.rs``), flat beyond the
-  outer bands, applied to the pulse by FFT: smooth in frequency, so the filters are short; the
-  pulse is delayed by :data:`PRE_PERIODS` periods of the lowest band so that their non-causal
-  half fits before it.
+  is projected on the spherical harmonics of orders 0, 1 and 2 over :data:`FIT_DIRECTIONS`
+  nearly uniform directions (plain means integrate): c₀ = ⟨A⟩; c = 3⟨A·u⟩ (order 1, c·u);
+  and order 2 as uᵀDu with D = (15/2)(M − tr M·I/3), M = ⟨A·uuᵀ⟩, the addition theorem's
+  5·⟨A(v)·P₂(u·v)⟩ written in Cartesian form (D symmetric and traceless). Each band keeps the
+  orders the grid resolves there (:func:`resolved_orders`); the fit is scaled to radiate the
+  source's power, c₀² + |c|²/3 + (2/15)·tr D² = 1 (the means of the harmonics' squares; the
+  tracer's convention), and the share of the pattern's energy above the band's order is
+  reported (:attr:`SourceFit.residual`). A pattern given as energy only (the talker, the
+  dodecahedron, SOFA) is taken as zero-phase amplitude √g: the scene's SOFA reader keeps the
+  energy of each direction and band, and the builtin tables are energies (docs/waves.md).
+- **Cluster.** Every term sits at a whole number of cells from the source, x_s + m·Δx, so that
+  each term's trilinear spread over the 8 nodes around it has the same fractional offset: the
+  cluster is then exactly a node stencil convolved with the omni source's own spread, and its
+  far field is the stencil's (this is why the terms are not at ±Δx/2: a half-cell term spread
+  over two nodes loses cos(kΔx/2) that the centre term does not, and breaks the differences).
+  The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
+  difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
+  8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), mixed ∂ᵢ∂ⱼ as the product
+  of two first differences. A term of order L in direction u radiates R(kΔx·u) times the
+  exact u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30) and
+  (30 − 32 cos θ + 2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90).
+- **Signals.** A monopole fed q̇ radiates ρq̇(τ)/(4πr). A term f(t)·∂^α δ of order L radiates
+  (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q and order 2
+  c²·(its coefficient)·∫q: the coefficient times the pulse integrated L − 1 times. ∫q has a
+  DC part (a step), which a soft source must not be fed (Sheaffer, van Walstijn and Fazenda,
+  JASA 135(1), 2014): order 2 is faded out below the lowest band's filter (a raised sine in
+  log frequency over the octave below where that band's filter starts, :func:`order2_fade`),
+  where no band looks. The coefficients are each band's within the band and blend across a
+  quarter band on either side of each band edge (the width of the energy bands' own
+  crossovers in ``bands.rs``), flat beyond the outer bands, applied to the pulse by FFT; the
+  pulse is delayed (:func:`pulse_delay_s`) so that the filters' non-causal half fits before it.
+- **Which orders, per band** (:func:`resolved_orders`): order L is radiated in a band when its
+  stencils' worst amplitude error over all directions, at the band's upper edge, is within
+  :data:`RESOLVED_AMPLITUDE` (2%, 0.17 dB); the highest such L ≤ :data:`MAX_ORDER`. With the
+  hybrid's grid (10 points per wavelength at f_max = √2 × the crossover) every wave band
+  resolves order 2 (worst 0.13% at the crossover). Order 3 is not built: its fourth-order
+  difference spans ±3 cells, and the patterns' energy above order 2 is what is printed.
 - **Direct sound.** The terms' direct sound is taken out of the responses in the core (each a
   monopole with its own signal) and the exact pattern's direct sound is added back by the bake
   (the tracer's gain towards each receiver), so the direct sound is the target's exactly and only
   the room's part carries the fit.
+- **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells on an
+  axis, 2√2 on a plane's diagonal for order 2's mixed terms). A directional source nearer a
+  wall than that is refused before anything is traced (:func:`check_clearance`).
 """
 
 from __future__ import annotations
@@ -41,32 +65,71 @@ from typing import Any
 import numpy as np
 from scipy import fft as sfft
 
+from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER
 
 #: Directions of the fit (a Fibonacci lattice: nearly equal areas, so plain means integrate).
 FIT_DIRECTIONS = 4096
-#: The pulse of a directional source is delayed by this many periods of the lowest band centre
-#: (plus its own 6σ), room for the non-causal half of the coefficient filters.
+#: The pulse of a directional source is delayed by this many periods of the lowest frequency its
+#: filters pass (the lowest band centre; with order 2, where order 2's fade starts), plus its
+#: own 6σ: room for the non-causal half of the coefficient filters.
 PRE_PERIODS = 4.0
 #: The air density the wave settings use (the core's WaveSettings default): the terms' signals
 #: are volume accelerations scaled as the core's reference pulse.
 AIR_DENSITY_KG_M3 = 1.2
+#: The highest spherical-harmonic order radiated.
+MAX_ORDER = 2
+#: An order is radiated in a band where its stencils' amplitude error is at most this (0.17 dB)
+#: at the band's upper edge, in every direction.
+RESOLVED_AMPLITUDE = 0.02
+#: Fourth-order centred differences on the nodes −2..2 (Fornberg 1988), × Δx and × Δx².
+FIRST_DIFFERENCE = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
+SECOND_DIFFERENCE = np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / 12.0
+OFFSETS = np.arange(-2, 3)
+#: The components of a fit, in the columns of :attr:`SourceFit.components`: order 0, order 1
+#: along x, y, z, then order 2's monomials u_i·u_j (i ≤ j) with their coefficient (D_ii, 2·D_ij).
+PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
 @dataclass(frozen=True)
 class SourceFit:
-    """A pattern's order-0 and order-1 spherical-harmonic fit per band."""
+    """A pattern's spherical-harmonic fit per band, orders 0 to :attr:`orders`."""
 
-    #: float64[band, 4]: c₀, c_x, c_y, c_z (world frame), scaled so that c₀² + |c|²/3 = 1.
-    coefficients: np.ndarray
-    #: float64[band]: the share of the pattern's energy above order 1 (0 for the first-order
-    #: family).
+    #: float64[band, 10]: c₀; c_x, c_y, c_z; then the coefficients of u_i·u_j for the pairs
+    #: :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz, 2D_yz), world frame, scaled so that the
+    #: fitted pattern radiates the source's power; zero above the band's order.
+    components: np.ndarray
+    #: int[band]: the highest order radiated in each band.
+    orders: np.ndarray
+    #: float64[band]: the share of the pattern's energy above the band's order (0 for the
+    #: first-order family).
     residual: np.ndarray
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """float64[band, 4]: c₀, c_x, c_y, c_z."""
+        return self.components[:, :4]
+
+    def amplitude(self, directions: np.ndarray) -> np.ndarray:
+        """float64[direction, band]: the fitted pattern's amplitude towards unit directions."""
+        return monomials(np.asarray(directions, float)) @ self.components.T
 
     def energy_gain(self, directions: np.ndarray) -> np.ndarray:
         """float64[direction, band]: the fitted pattern's energy gain towards unit directions."""
-        c = self.coefficients
-        return (c[:, 0][None] + np.asarray(directions, float) @ c[:, 1:].T) ** 2
+        return self.amplitude(directions) ** 2
+
+    def reach_cells(self) -> float:
+        """How far from the source the cluster's terms reach, in cells: 0 (omni), 2 (orders 1
+        and 2 along the axes) or 2√2 (order 2's mixed terms)."""
+        used = np.any(self.components != 0.0, axis=0)
+        if np.any(used[7:]):
+            return 2.0 * math.sqrt(2.0)
+        return 2.0 if np.any(used[1:7]) else 0.0
+
+
+def monomials(u: np.ndarray) -> np.ndarray:
+    """float64[direction, 10]: 1, u_x, u_y, u_z and u_i·u_j for :data:`PAIRS`."""
+    return np.column_stack([np.ones(len(u)), u] + [u[:, i] * u[:, j] for i, j in PAIRS])
 
 
 def fibonacci_directions(n: int = FIT_DIRECTIONS) -> np.ndarray:
@@ -90,23 +153,91 @@ def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: in
     return a
 
 
-def fit(source: Any, directivity: Any, n_bands: int) -> SourceFit:
-    """The source's order-0/1 fit per band (see the module's doc)."""
+def stencil_error(order: int, kh: float) -> float:
+    """The worst amplitude error, over all directions, of the cluster's terms of ``order`` at
+    kΔx = ``kh``: |1 − R| of a first difference along an axis for order 1; for order 2 the
+    worse of a second difference along an axis and a mixed term (two first differences, worst
+    where one factor has the whole kΔx). 0 for order 0 (the monopole itself)."""
+    if order <= 0:
+        return 0.0
+    th = max(float(kh), 1e-12)
+    first = (8.0 * math.sin(th) - math.sin(2.0 * th)) / (6.0 * th)
+    if order == 1:
+        return abs(1.0 - first)
+    second = (30.0 - 32.0 * math.cos(th) + 2.0 * math.cos(2.0 * th)) / (12.0 * th * th)
+    return max(abs(1.0 - second), abs(1.0 - first))
+
+
+def band_upper_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
+    """float64[band]: each band's upper edge (the geometric mean with the next centre; the
+    last band as wide as the one below it, as ``admittance::band_edges``)."""
+    b = np.asarray(bands_hz, float)
+    if b.size < 2:
+        return b * math.sqrt(2.0)
+    return np.append(np.sqrt(b[:-1] * b[1:]), b[-1] * math.sqrt(b[-1] / b[-2]))
+
+
+def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: float,
+                    max_order: int = MAX_ORDER) -> np.ndarray:
+    """int[band]: the highest order ≤ ``max_order`` whose stencils are within
+    :data:`RESOLVED_AMPLITUDE` in every direction at the band's upper edge (0 where none is)."""
+    out = []
+    for f in band_upper_edges_hz(bands_hz):
+        kh = 2.0 * math.pi * f * spacing_m / speed_of_sound_m_s
+        out.append(max(L for L in range(max_order + 1) if stencil_error(L, kh) <= RESOLVED_AMPLITUDE))
+    return np.array(out, dtype=int)
+
+
+def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None) -> SourceFit:
+    """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
+    :data:`MAX_ORDER` in every band). The first-order family is order 1 exactly and is fitted
+    to order 1 only (its order-2 part is the lattice's quadrature error)."""
+    orders = np.full(n_bands, MAX_ORDER, int) if orders is None else np.asarray(orders, int)
+    if source.directivity in FIRST_ORDER:
+        orders = np.minimum(orders, 1)
     u = fibonacci_directions()
     a = amplitude(source, directivity, u, n_bands)  # [direction, band]
     c0 = a.mean(axis=0)
     c = 3.0 * (u.T @ a) / len(u)  # [axis, band]
-    power = c0 ** 2 + (c ** 2).sum(axis=0) / 3.0
+    m = np.einsum("di,dj,db->bij", u, u, a) / len(u)
+    d = 7.5 * (m - np.einsum("bii->b", m)[:, None, None] * np.eye(3) / 3.0)  # [band, 3, 3]
+    c = np.where(orders[None] >= 1, c, 0.0)
+    d = np.where((orders >= 2)[:, None, None], d, 0.0)
+    power = c0 ** 2 + (c ** 2).sum(axis=0) / 3.0 + 2.0 / 15.0 * np.einsum("bij,bij->b", d, d)
     total = (a ** 2).mean(axis=0)
     norm = np.sqrt(np.maximum(power, 1e-300))
-    coefficients = np.column_stack([c0 / norm, (c / norm).T])
-    return SourceFit(coefficients, np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0))
+    second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
+    components = np.column_stack([c0, c.T, second]) / norm[:, None]
+    residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
+    return SourceFit(components, orders, residual)
 
 
-def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float) -> float:
-    """The delay of a directional source's pulse: its own 6σ plus :data:`PRE_PERIODS` periods
-    of the lowest band centre."""
-    return 6.0 / (math.pi * max_frequency_hz) + PRE_PERIODS / float(np.min(bands_hz))
+def lowest_filter_hz(bands_hz: np.ndarray) -> float:
+    """Where the lowest band's filter starts: its lower edge less a quarter of its width (the
+    energy bands' crossover, ``bands.rs``). Below it no band looks."""
+    b = np.asarray(bands_hz, float)
+    ratio = b[1] / b[0] if b.size > 1 else 2.0
+    return float(b[0] / math.sqrt(ratio) * ratio ** (-0.25))
+
+
+def order2_fade(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
+    """float64[frequency]: order 2's fade, 0 below half of :func:`lowest_filter_hz`, 1 above
+    it, a raised sine in log frequency across that octave."""
+    top = lowest_filter_hz(bands_hz)
+    with np.errstate(divide="ignore"):
+        x = 2.0 * np.log2(np.maximum(f_hz, 1e-300) / top) + 1.0  # −1 at top/2, 1 at top
+    return 0.5 * (1.0 + np.sin(0.5 * np.pi * np.clip(x, -1.0, 1.0)))
+
+
+def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
+                  source_fit: SourceFit | None = None) -> float:
+    """The delay of a directional source's pulse: its own 6σ plus :data:`PRE_PERIODS` periods of
+    the lowest band centre, or, when ``source_fit`` radiates order 2, of the frequency where
+    order 2's fade starts (its filter is as long as that fade is narrow)."""
+    lowest = float(np.min(bands_hz))
+    if source_fit is not None and np.any(source_fit.orders >= 2):
+        lowest = 0.5 * lowest_filter_hz(bands_hz)
+    return 6.0 / (math.pi * max_frequency_hz) + PRE_PERIODS / lowest
 
 
 def edge_blends(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
@@ -122,15 +253,42 @@ def edge_blends(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
     return 0.5 * (1.0 + np.sin(0.5 * np.pi * np.clip(x, -1.0, 1.0)))
 
 
+def stencil(component: int) -> list[tuple[tuple[int, int, int], float]]:
+    """The node offsets (in cells) and weights (× Δx^L) of a component's term (see
+    :data:`PAIRS`): the monopole; a first difference along an axis; a second difference along
+    an axis; or a product of two first differences."""
+    def along(axis: int, m: int) -> tuple[int, int, int]:
+        out = [0, 0, 0]
+        out[axis] = m
+        return (out[0], out[1], out[2])
+
+    if component == 0:
+        return [((0, 0, 0), 1.0)]
+    if component <= 3:
+        return [(along(component - 1, int(m)), float(w))
+                for m, w in zip(OFFSETS, FIRST_DIFFERENCE) if w != 0.0]
+    i, j = PAIRS[component - 4]
+    if i == j:
+        return [(along(i, int(m)), float(w)) for m, w in zip(OFFSETS, SECOND_DIFFERENCE)]
+    out = []
+    for m, wm in zip(OFFSETS, FIRST_DIFFERENCE):
+        for n, wn in zip(OFFSETS, FIRST_DIFFERENCE):
+            if wm != 0.0 and wn != 0.0:
+                a, b = along(i, int(m)), along(j, int(n))
+                out.append(((a[0] + b[0], a[1] + b[1], a[2] + b[2]), float(wm * wn)))
+    return out
+
+
 def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
           max_frequency_hz: float, spacing_m: float, sample_rate_hz: float, steps: int,
           speed_of_sound_m_s: float) -> tuple[np.ndarray, np.ndarray, float]:
     """The cluster of a directional source at ``position_m``: (positions float64[term, 3],
     volume accelerations float64[term, step] at n/fs, pulse delay s), for
     ``engine.simulate_waves(terms=...)``. Bands are those of ``source_fit``, centred at
-    ``bands_hz``."""
+    ``bands_hz``. One term per node offset, its signal the sum of every component's there, in
+    a fixed order (same bits on any machine)."""
     sigma = 1.0 / (math.pi * max_frequency_hz)
-    delay = pulse_delay_s(bands_hz, max_frequency_hz)
+    delay = pulse_delay_s(bands_hz, max_frequency_hz, source_fit)
     q0 = 4.0 * math.pi * sigma * math.exp(0.5) / AIR_DENSITY_KG_M3  # as the core's SourcePulse
     t = np.arange(steps) / sample_rate_hz
     x = (t - delay) / sigma
@@ -138,21 +296,81 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     q_dot = -q0 * x / sigma * np.exp(-0.5 * x * x)
     n_fft = sfft.next_fast_len(2 * steps, real=True)
     f = sfft.rfftfreq(n_fft, 1.0 / sample_rate_hz)
-    blends = edge_blends(f, np.asarray(bands_hz, float))  # [edge, frequency]
-
-    def filtered(signal: np.ndarray, coefficient: np.ndarray) -> np.ndarray:
-        gain = coefficient[0] + np.diff(coefficient) @ blends
-        return sfft.irfft(sfft.rfft(signal, n_fft) * gain, n_fft)[:steps]
-
-    c = source_fit.coefficients
-    centre = np.asarray(position_m, float)
-    positions, signals = [centre], [filtered(q_dot, c[:, 0])]
-    scale = speed_of_sound_m_s / spacing_m
-    for k in range(3):
-        if np.all(c[:, 1 + k] == 0.0):
+    b = np.asarray(bands_hz, float)
+    blends = edge_blends(f, b)  # [edge, frequency]
+    c, h = speed_of_sound_m_s, spacing_m
+    # The signals of each order before its coefficient: q̇, c·q, c²·∫q (faded below the bands).
+    spectra = [sfft.rfft(q_dot, n_fft), c * sfft.rfft(q, n_fft)]
+    fade = order2_fade(f, b)  # 0 at DC, so ∫q's 1/(iω) is never reached there
+    integrated = c * spectra[1] * fade / (2j * np.pi * np.where(fade > 0.0, f, 1.0))
+    spectra.append(np.where(fade > 0.0, integrated, 0.0))
+    by_offset: dict[tuple[int, int, int], np.ndarray] = {}
+    for k in range(source_fit.components.shape[1]):
+        coefficient = source_fit.components[:, k]
+        if np.all(coefficient == 0.0):
             continue
-        s = filtered(q, c[:, 1 + k]) * scale
-        axis = np.eye(3)[k] * (0.5 * spacing_m)
-        positions += [centre + axis, centre - axis]
-        signals += [s, -s]
-    return np.array(positions), np.ascontiguousarray(signals), delay
+        order = 0 if k == 0 else (1 if k <= 3 else 2)
+        gain = coefficient[0] + np.diff(coefficient) @ blends
+        signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
+        for offset, w in stencil(k):
+            if offset in by_offset:
+                by_offset[offset] = by_offset[offset] + w * signal
+            else:
+                by_offset[offset] = w * signal
+    centre = np.asarray(position_m, float)
+    keys = sorted(by_offset)
+    positions = np.array([centre + h * np.asarray(o, float) for o in keys])
+    return positions, np.ascontiguousarray([by_offset[o] for o in keys]), delay
+
+
+def reach_m(source_fit: SourceFit, spacing_m: float) -> float:
+    """How far from the source its cluster's terms reach."""
+    return source_fit.reach_cells() * spacing_m
+
+
+def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any]) -> None:
+    """Refuses a directional source nearer a wall than its cluster reaches on the grid of
+    ``max_frequency_hz`` (its terms would be outside the room's air), naming the source, its
+    distance, the clearance it needs and what to do. ``directivities``: each source's engine
+    directivity. Called by the bake once the crossover is known, before any ray is traced."""
+    from sonolux import engine
+
+    c = float(scene.settings.speed_of_sound_m_s)
+    spacing_m = engine.WaveSettings(max_frequency_hz=float(max_frequency_hz),
+                                    speed_of_sound_m_s=c).spacing_m
+    bands = np.asarray(scene.settings.bands_hz, float)
+    fits = [None if s.directivity == "omni" else fit_on_grid(s, d, bands, spacing_m, c)
+            for s, d in zip(scene.sources, directivities)]
+    positions = np.array([s.position_m for s in scene.sources], float)
+    distance = np.asarray(scene.geometry.distance_to_surface(np.ascontiguousarray(positions)),
+                          float)
+    for i, (src, fitted) in enumerate(zip(scene.sources, fits)):
+        if fitted is None:
+            continue
+        need = reach_m(fitted, spacing_m)
+        if distance[i] <= need:
+            orders = int(fitted.orders.max())
+            raise SettingError(
+                f"waves: source {src.name or i + 1} ({src.directivity}) at "
+                f"{tuple(round(float(v), 3) for v in src.position_m)} m is "
+                f"{1e3 * distance[i]:.0f} mm from a wall; its cluster of monopoles (spherical "
+                f"harmonics of order 0-{orders} on the {1e3 * spacing_m:.0f} mm grid) reaches "
+                f"{1e3 * need:.0f} mm, so it needs more than that much air on every side: move it "
+                "into the room or make it omni")
+
+
+def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: float,
+                speed_of_sound_m_s: float) -> SourceFit:
+    """The source's fit with, in each band, the highest order the grid of ``spacing_m``
+    resolves (:func:`resolved_orders`)."""
+    b = np.asarray(bands_hz, float)
+    return fit(source, directivity, b.size, resolved_orders(b, spacing_m, speed_of_sound_m_s))
+
+
+def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -> str:
+    """The bake's log line for a directional source: its cluster, the orders per wave band and
+    the pattern's energy above them."""
+    orders = source_fit.orders[:wave_bands]
+    return (f"waves: source {label} as {n_terms} monopoles, spherical harmonics of order "
+            f"{'/'.join(f'0-{int(L)}' for L in orders)} per wave band; the pattern's energy above "
+            f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}")

@@ -307,9 +307,10 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                                         without_direct=True)
             gains = None
         else:
-            fitted = wave_sources.fit(src, pattern, bands.size)
+            fitted = wave_sources.fit_on_grid(src, pattern, bands, settings.spacing_m, c)
             longer = wave_settings(cross.max_frequency_hz, duration_s + wave_sources.pulse_delay_s(
-                bands, cross.max_frequency_hz), c, scene.settings.threads, memory_limit_bytes)
+                bands, cross.max_frequency_hz, fitted), c, scene.settings.threads,
+                memory_limit_bytes)
             cluster = wave_sources.terms(source_m, fitted, bands, cross.max_frequency_hz,
                                          longer.spacing_m, longer.sample_rate_hz,
                                          int(longer.steps), c)
@@ -317,15 +318,12 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                 raise SettingError(
                     f"waves: source {src.name or i + 1} ({src.directivity}) at "
                     f"{tuple(round(float(v), 3) for v in source_m)} m is within "
-                    f"{500 * settings.spacing_m:.0f} mm (half the grid's {1e3 * settings.spacing_m:.0f} mm "
-                    "cell) of a wall: its cluster of monopoles needs that much air on every side; "
+                    f"{1e3 * wave_sources.reach_m(fitted, settings.spacing_m):.0f} mm of a wall: "
+                    "its cluster of monopoles needs that much air on every side; "
                     "move it into the room or make it omni")
             if log:
-                top = fitted.residual[:cross.wave_bands]
-                log(f"waves: source {src.name or i + 1} ({src.directivity}) as {len(cluster[0])} "
-                    f"monopoles, spherical harmonics of order 0-1 fitted per band; the pattern's "
-                    f"energy above order 1: {', '.join(f'{100 * r:.1f}%' for r in top)} in the "
-                    "wave bands")
+                log(wave_sources.describe(f"{src.name or i + 1} ({src.directivity})", fitted,
+                                          len(cluster[0]), cross.wave_bands))
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, longer, binning, callback,
                                         without_direct=True, terms=cluster)
@@ -337,7 +335,9 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         # The sphere's energy: the room's part averaged over its points ([receiver][point] in
         # order; points on the source's own near field left out), plus the direct sound's
         # exact mean over the sphere.
-        w = point_weights(receivers, source_m, centres, 2.0 * settings.spacing_m)
+        w = point_weights(receivers, source_m, centres, 2.0 * settings.spacing_m + (
+            0.0 if pattern is None or src.directivity == "omni"
+            else wave_sources.reach_m(fitted, settings.spacing_m)))
         e = np.einsum("rp,rp...->r...", w, out["energy"].astype(np.float64).reshape(
             len(centres), BALL_POINTS, *out["energy"].shape[1:]))
         add_direct(e, centres, scene.receivers.radius_m, source_m, arrays["air"], c, bins,

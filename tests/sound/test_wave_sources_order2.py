@@ -1,0 +1,154 @@
+"""Directional sources in the waves, order 2 (``sonolux.sound.wave_sources``): which orders the
+grid resolves per band, the cluster's far field in closed form (free-field monopoles summed), the
+filters' part before the pulse, and the far field of the injected cluster on the grid against
+the target pattern. Each check states its tolerance and why."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy import fft as sfft
+
+import sonolux
+from sonolux import engine
+from sonolux.scene.directivity import node_directions
+from sonolux.sound import wave_sources
+
+pytestmark = pytest.mark.usefixtures("core")
+
+BANDS = np.array([63.0, 125.0, 250.0, 500.0])
+C = 343.0
+#: An oblique axis, so that every one of order 2's six terms (three second differences, three
+#: mixed) carries part of the pattern.
+FORWARD = tuple(np.array([1.0, 1.0, 0.5]) / 1.5)
+UP = (0.0, 0.0, 1.0)
+
+
+def beam(power=4, forward=FORWARD):
+    """A beam of amplitude cos^power(θ/2) in the upper three bands, omni at 63 Hz; with power 4,
+    (1 + x)²/4: order 2 exactly."""
+    th = np.arccos(node_directions(symmetric=True)[:, 0, 0])
+    b = np.cos(th / 2) ** (2 * power)
+    g = np.column_stack([np.ones_like(th), b, b, b])
+    return engine.Directivity.pattern(np.ascontiguousarray(g[:, None, :]), forward, UP)
+
+
+def custom():
+    return SimpleNamespace(directivity="custom", forward=FORWARD, name="s")
+
+
+def test_the_stencils_errors_are_their_closed_forms():
+    """stencil_error is |1 − R| of the fourth-order differences' responses (module doc): checked
+    against the terms' own weights summed as plane waves over 2,000 directions (order 1: each
+    first difference along its axis; order 2: second differences and the mixed products), and
+    against the leading terms θ⁴/30 and θ⁴/90 for small θ (relative 2%: the next term)."""
+    u = wave_sources.fibonacci_directions(2000)
+    for kh in (0.1, 0.3, 0.628, 1.0):
+        worst = {1: 0.0, 2: 0.0}
+        for k in range(1, 10):
+            order = 1 if k <= 3 else 2
+            phase = np.exp(1j * kh * (u @ np.array([o for o, _ in wave_sources.stencil(k)]).T))
+            response = phase @ np.array([w for _, w in wave_sources.stencil(k)])
+            exact = (1j * kh) ** order * wave_sources.monomials(u)[:, k]
+            big = np.abs(exact) > 0.05 * kh ** order  # the relative error where the term lives
+            worst[order] = max(worst[order], np.max(np.abs(1 - response[big] / exact[big])))
+        for order in (1, 2):
+            bound = wave_sources.stencil_error(order, kh)
+            assert worst[order] <= bound + 1e-12, (kh, order, worst[order], bound)
+            assert worst[order] > 0.7 * bound, (kh, order, worst[order], bound)
+    np.testing.assert_allclose(wave_sources.stencil_error(1, 0.2), 0.2 ** 4 / 30, rtol=0.02)
+    np.testing.assert_allclose(
+        abs(1 - (30 - 32 * math.cos(0.2) + 2 * math.cos(0.4)) / (12 * 0.04)), 0.2 ** 4 / 90,
+        rtol=0.02)
+
+
+def test_every_wave_band_of_the_hybrid_resolves_order_2_and_a_coarse_grid_does_not():
+    """The rule: order L where its stencils are within 2% at the band's upper edge. The
+    hybrid's grid is 10 points per wavelength at f_max = √2·crossover, so the last wave band's
+    upper edge (the crossover) has kΔx = 2π/(10√2) = 0.444: order 2 is within 0.13%. A grid at
+    4 points per wavelength at 500 Hz: the 250 Hz band's upper edge has kΔx = 1.11, where a
+    first difference errs by 5%, so it and the 500 Hz band radiate order 0 only; 125 Hz
+    (kΔx 0.56 at its edge, 0.3%) keeps order 2. (Order 2's mixed terms are first differences,
+    so a band resolves orders 1 and 2 together or neither.)"""
+    spacing = C / (math.sqrt(2) * 707.0 * 10)
+    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [2, 2, 2, 2]
+    assert wave_sources.stencil_error(2, 2 * math.pi / (10 * math.sqrt(2))) < 0.0013
+    coarse = C / (500.0 * 4)
+    orders = wave_sources.resolved_orders(BANDS, coarse, C)
+    assert list(orders) == [2, 2, 0, 0], orders
+    # A fit on that grid keeps only those orders, and reports what it leaves out.
+    fit = wave_sources.fit_on_grid(custom(), beam(), BANDS, coarse, C)
+    assert list(fit.orders) == [2, 2, 0, 0]
+    assert np.all(fit.components[2:, 1:] == 0.0)
+    # ⟨A⟩ = 1/3 and ⟨A²⟩ = 1/5: order 0 leaves 1 − (1/9)/(1/5) = 4/9.
+    np.testing.assert_allclose(fit.residual[1:], [0.0, 4 / 9, 4 / 9], atol=1e-3)
+
+
+def pulse_spectrum(delay_s, f_max, fs, steps, n_fft):
+    """The reference pulse's q̇ (the core's SourcePulse) and its spectrum."""
+    sigma = 1.0 / (math.pi * f_max)
+    q0 = 4.0 * math.pi * sigma * math.exp(0.5) / wave_sources.AIR_DENSITY_KG_M3
+    x = (np.arange(steps) / fs - delay_s) / sigma
+    return sfft.rfft(-q0 * x / sigma * np.exp(-0.5 * x * x), n_fft)
+
+
+def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern():
+    """The terms as free-field monopoles, summed as plane waves (the far field, each term's
+    spectrum times e^{ik·u·x_m}) over the reference pulse's spectrum: the pattern's amplitude
+    c₀ + c·u + uᵀDu at every band centre, in 2,000 directions. Tolerance: the stencils' own
+    error (stencil_error at the centre) of the largest amplitude, plus 10⁻³ for the coefficient
+    blends' tails from the neighbouring band (they reach a quarter band from each edge; an
+    octave band's centre is half a band from it, so the blend is flat there, up to the FFT's
+    resolution). Orders 0 and 1 as well: the bands' patterns differ (63 Hz omni)."""
+    f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 8000
+    spacing = C / (f_max * 10)
+    fit = wave_sources.fit(custom(), beam(), len(BANDS))
+    pos, sig, delay = wave_sources.terms(np.zeros(3), fit, BANDS, f_max, spacing, fs, steps, C)
+    assert len(pos) == len({tuple(np.round(p / spacing).astype(int)) for p in pos})
+    n_fft = sfft.next_fast_len(2 * steps, real=True)
+    f = sfft.rfftfreq(n_fft, 1.0 / fs)
+    spectra = sfft.rfft(sig, n_fft, axis=1)
+    ref = pulse_spectrum(delay, f_max, fs, steps, n_fft)
+    u = wave_sources.fibonacci_directions(2000)
+    target = fit.amplitude(u)
+    for b, centre in enumerate(BANDS[:3]):
+        i = int(np.argmin(np.abs(f - centre)))
+        k = 2 * math.pi * f[i] / C
+        far = np.exp(1j * k * (u @ pos.T)) @ spectra[:, i] / ref[i]
+        tol = (wave_sources.stencil_error(2, k * spacing) + 1e-3) * np.abs(target[:, b]).max()
+        np.testing.assert_allclose(far.real, target[:, b], rtol=0, atol=tol, err_msg=f"{centre}")
+        assert np.max(np.abs(far.imag)) < tol
+
+
+def test_what_order_2s_filters_put_before_the_pulse_is_negligible():
+    """Order 2 is fed c²·∫q, faded out below the lowest band (module doc); its zero-phase filter
+    rings before the pulse for about as long as the fade is narrow, so the pulse is delayed by
+    four periods of where the fade starts (212 ms for a 63 Hz lowest band). What falls before
+    the run's start (it is cut) is below 10⁻⁶ of the signal's energy (measured 2.5·10⁻⁸ for the
+    beam's D_xx term), and the signal has no DC (what a soft source must not be fed)."""
+    f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 20000
+    fit = wave_sources.fit(custom(), beam(), len(BANDS))
+    delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
+    np.testing.assert_allclose(delay - 6 / (math.pi * f_max),
+                               4.0 / (0.5 * wave_sources.lowest_filter_hz(BANDS)))
+    sigma = 1.0 / (math.pi * f_max)
+    x = (np.arange(steps) / fs - delay) / sigma
+    q = np.exp(-0.5 * x * x)
+    n_fft = sfft.next_fast_len(2 * steps, real=True)
+    f = sfft.rfftfreq(n_fft, 1.0 / fs)
+    fade = wave_sources.order2_fade(f, BANDS)
+    assert fade[0] == 0.0 and np.all(fade[f >= wave_sources.lowest_filter_hz(BANDS)] == 1.0)
+    spectrum = sfft.rfft(q, n_fft) * fade / (2j * np.pi * np.where(fade > 0, f, 1.0))
+    coefficient = fit.components[:, 4]  # D_xx
+    gain = coefficient[0] + np.diff(coefficient) @ wave_sources.edge_blends(f, BANDS)
+    whole = sfft.irfft(spectrum * gain, n_fft)
+    before = whole[steps:]  # the non-causal part wraps to the end of the FFT's buffer
+    assert (before ** 2).sum() < 1e-6 * (whole ** 2).sum()
+    assert abs(whole.sum()) < 1e-9 * np.abs(whole).sum()
+    # The cut leaves a DC of 7·10⁻⁶ of the signal's; every order-2 stencil's weights sum to
+    # zero, so it injects no net volume (a static quadrupole, falling as 1/r³).
+    for k in range(4, 10):
+        assert abs(sum(w for _, w in wave_sources.stencil(k))) < 1e-12
