@@ -166,9 +166,10 @@ fn oblique_plane_waves_reflect_as_off_a_locally_reacting_wall() {
 /// within 0.15 dB (`fit.rs`), 3.4% of the reflected energy 1 − α_n; for a small admittance
 /// α_st ≈ 8g and α_n ≈ 4g, so α_st moves by twice what α_n does: |α_st − α| ≤ 2·0.034·(1 − α_n),
 /// plus 0.01 for the part of a fit's reactance that the phase term leaves (measured below).
-/// And since reactive fits are corrected towards their random-incidence coefficient
-/// (`fit::random_absorption_in_band`, 2026-11-27): every band within 0.026 absolute (measured:
-/// worst 0.0247, rising at 125 Hz; 0.031 without the correction, panel at 500 Hz), the
+/// And since a reactive fit's α_st is a residual of its Levenberg–Marquardt step (`fit.rs`,
+/// 2026-11-27, session 8): every reactive band within `fit::RANDOM_TOLERANCE` (0.003) of its
+/// coefficient (measured: worst 0.0024, panel at 500 Hz; the rising material's 125 Hz 0.0500
+/// for 0.05, which refits of the targets left at 0.025; 0.031 off with no correction), the
 /// conductances within 2% (0.0509 for 0.05, 0.3043 for 0.3: not corrected, Paris' formula is
 /// theirs; the rest is the half cell of air the fit gives the grid's normal reflection).
 #[test]
@@ -179,6 +180,7 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
         [("flat 0.05", [0.05; 4]), ("flat 0.3", [0.3; 4]), ("rising", [0.05, 0.15, 0.45, 0.8]), ("panel", [0.3, 0.6, 0.25, 0.1])];
     let mut worst = 0.0f64;
     let mut worst_abs = 0.0f64;
+    let mut worst_reactive = 0.0f64;
     for (name, alpha) in materials {
         let mut absorption = vec![0.0; 4];
         absorption.extend_from_slice(&alpha);
@@ -211,10 +213,18 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
             worst_abs = worst_abs.max((mean - alpha[b]).abs());
             if fit.admittance.branches.is_empty() {
                 assert!((mean - alpha[b]).abs() <= 0.02 * alpha[b], "{name} band {b}: {mean}");
+            } else {
+                // The residual's own integral (90 angles, 16 frequencies) against this one's
+                // (400, 32): 1e-4 of quadrature.
+                let reactive = (mean - alpha[b]).abs();
+                assert!(reactive <= sonolux_core::wave::fit::RANDOM_TOLERANCE + 1e-4, "{name} band {b}: {mean}");
+                worst_reactive = worst_reactive.max(reactive);
             }
         }
     }
     println!("worst: {worst:.2} of the allowance, {worst_abs:.4} absolute");
     assert!(worst < 1.0, "{worst}");
-    assert!(worst_abs < 0.026, "{worst_abs}");
+    println!("worst reactive band: {worst_reactive:.4}");
+    assert!(worst_reactive > 0.0, "no reactive fit was checked");
+    assert!(worst_abs < 0.005, "{worst_abs}");
 }

@@ -69,10 +69,16 @@ pub struct MaterialFit {
     pub clamped: bool,
 }
 
-/// A random-incidence fit is made again until its walls' α_st is within this of every band's
-/// coefficient (absolute), at most this many times (see the module's doc).
+/// A reactive random-incidence fit's α_st is asked within this of every band's coefficient
+/// (absolute); pruning keeps it there (or where the full dictionary's fit left it).
 pub const RANDOM_TOLERANCE: f64 = 0.003;
-pub const RANDOM_ITERATIONS: usize = 8;
+/// The weight of a band's α_st residual, dB per unit of absorption: an α_st error of
+/// [`RANDOM_TOLERANCE`] costs as much as the band's [`POINTS_PER_BAND`] samples of the curve
+/// each [`PRUNE_BAND_DB`] off (√16 · 0.15 / 0.003 = 200).
+const RANDOM_DB_PER_ABSORPTION: f64 = 200.0;
+/// Sample frequencies per band and angles of London's integral ([`random_absorption_in_band`]).
+const RANDOM_FREQUENCIES: usize = 16;
+const RANDOM_ANGLES: usize = 90;
 
 /// Samples of the target curve per band.
 const POINTS_PER_BAND: usize = 16;
@@ -116,43 +122,25 @@ pub fn fit_material(
     };
     let target_all: Vec<f64> = absorption.iter().map(|&a| normal_of(a, &mut clamped)).collect();
     let n_fit = super::settings::bands_fitted(centres_hz, max_frequency_hz).max(1);
-    let mut target = target_all[..n_fit].to_vec();
+    let target = target_all[..n_fit].to_vec();
     let edges = band_edges(centres_hz);
-    let mut problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
+    let problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
     let rigid = target.iter().all(|&a| a <= 0.0);
     let mut admittance = if rigid { Admittance::default() } else { problem.solve() };
     if kind == AbsorptionKind::RandomIncidence && !rigid && !admittance.branches.is_empty() {
-        // A reactive fit: correct its random-incidence absorption (see the module's doc).
+        // A reactive fit: fitted again with each band's α_st inside the Levenberg–Marquardt
+        // residuals (see the module's doc); kept if its worst band is no farther.
         let top = paris_absorption(admittance_from_random(1.0).0);
         let wanted: Vec<f64> = absorption[..n_fit].iter().map(|&a| a.min(top)).collect();
-        let mut asked = wanted.clone();
-        let worst = |y: &Admittance| -> (f64, Vec<f64>) {
-            let got: Vec<f64> = edges[..n_fit].iter().map(|&e| random_absorption_in_band(y, e)).collect();
-            (wanted.iter().zip(&got).map(|(w, g)| (w - g).abs()).fold(0.0, f64::max), got)
+        let worst = |y: &Admittance| -> f64 {
+            edges[..n_fit].iter().zip(&wanted).map(|(&e, w)| (random_absorption_in_band(y, e) - w).abs()).fold(0.0, f64::max)
         };
-        let (mut best_error, mut got) = worst(&admittance);
-        for _ in 1..RANDOM_ITERATIONS {
-            if best_error <= RANDOM_TOLERANCE {
-                break;
-            }
-            // Half the step in log absorption: a refit can change its branches, so the map from
-            // targets to α_st is not smooth; the best fit so far is kept.
-            for b in 0..n_fit {
-                if got[b] > 0.0 && wanted[b] > 0.0 {
-                    asked[b] = (asked[b] * (wanted[b] / got[b]).sqrt()).min(top);
-                }
-            }
-            target = asked.iter().map(|&a| normal_of(a, &mut false)).collect();
-            let candidate = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme).solve();
-            let (error, now) = worst(&candidate);
-            got = now;
-            if error < best_error {
-                best_error = error;
-                admittance = candidate;
-            }
+        let mut random = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
+        random.random = Some(RandomTarget::new(&edges[..n_fit], wanted.clone()));
+        let candidate = random.solve();
+        if worst(&candidate) <= worst(&admittance) {
+            admittance = candidate;
         }
-        target = target_all[..n_fit].to_vec();
-        problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
     }
     let levels = problem.band_levels(&admittance);
     let fitted_normal: Vec<f64> = levels.iter().map(|l| 1.0 - 10f64.powf(l / 10.0)).collect();
@@ -165,22 +153,71 @@ pub fn fit_material(
 /// s = j2πf (London 1950; Kuttruff eq. 2.42), by the midpoint rule over 90 angles and 16
 /// frequencies spaced evenly in log frequency.
 pub fn random_absorption_in_band(y: &Admittance, (lo, hi): (f64, f64)) -> f64 {
-    const N_F: usize = 16;
-    const N_THETA: usize = 90;
-    let mut mean = 0.0;
-    for i in 0..N_F {
-        let f = lo * (hi / lo).powf((i as f64 + 0.5) / N_F as f64);
-        let yv = y.at(C64::new(0.0, std::f64::consts::TAU * f));
-        let mut a = 0.0;
-        for k in 0..N_THETA {
-            let theta = (k as f64 + 0.5) / N_THETA as f64 * std::f64::consts::FRAC_PI_2;
-            let c = theta.cos();
-            let r = (c - yv) / (c + yv);
-            a += (1.0 - r.norm_sqr()) * (2.0 * theta).sin();
-        }
-        mean += a * std::f64::consts::FRAC_PI_2 / N_THETA as f64;
+    let freqs = band_frequencies(lo, hi, RANDOM_FREQUENCIES);
+    freqs.iter().map(|&f| random_absorption(y.at(C64::new(0.0, std::f64::consts::TAU * f))).0).sum::<f64>() / freqs.len() as f64
+}
+
+/// `n` frequencies spaced evenly in log frequency over the band (lo, hi) (midpoints).
+fn band_frequencies(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|i| lo * (hi / lo).powf((i as f64 + 0.5) / n as f64)).collect()
+}
+
+/// London's random-incidence absorption of a locally reacting wall of admittance `y` at one
+/// frequency, ∫₀^{π/2} (1 − |R(θ)|²) sin 2θ dθ by the midpoint rule over [`RANDOM_ANGLES`]
+/// angles, and G with dα = Re(G·dY): G = −2 Σ w (R̄ dR/dY), dR/dY = −2cos θ/(cos θ + Y)².
+fn random_absorption(y: C64) -> (f64, C64) {
+    let mut a = 0.0;
+    let mut g = C64::new(0.0, 0.0);
+    for k in 0..RANDOM_ANGLES {
+        let theta = (k as f64 + 0.5) / RANDOM_ANGLES as f64 * std::f64::consts::FRAC_PI_2;
+        let c = theta.cos();
+        let w = (2.0 * theta).sin() * std::f64::consts::FRAC_PI_2 / RANDOM_ANGLES as f64;
+        let d = c + y;
+        let r = (c - y) / d;
+        a += w * (1.0 - r.norm_sqr());
+        g -= 2.0 * w * r.conj() * (-2.0 * c / (d * d));
     }
-    mean / N_F as f64
+    (a, g)
+}
+
+/// What a reactive random-incidence fit asks of each band's α_st, and where it is sampled.
+struct RandomTarget {
+    wanted: Vec<f64>,
+    freqs: Vec<Vec<f64>>,
+}
+
+impl RandomTarget {
+    fn new(edges: &[(f64, f64)], wanted: Vec<f64>) -> RandomTarget {
+        RandomTarget { wanted, freqs: edges.iter().map(|&(lo, hi)| band_frequencies(lo, hi, RANDOM_FREQUENCIES)).collect() }
+    }
+
+    /// Each band's α_st of the columns `cols` weighted `theta`, and its derivatives by each
+    /// weight when asked.
+    fn absorption(&self, cols: &[Column], theta: &[f64], jacobian: bool) -> Vec<(f64, Vec<f64>)> {
+        self.freqs
+            .iter()
+            .map(|freqs| {
+                let mut mean = 0.0;
+                let mut grad = vec![0.0; if jacobian { cols.len() } else { 0 }];
+                for &f in freqs {
+                    let shapes: Vec<C64> = cols.iter().map(|c| c.shape(f)).collect();
+                    let y: C64 = shapes.iter().zip(theta).map(|(h, t)| h * t).sum();
+                    let (a, g) = random_absorption(y);
+                    mean += a;
+                    for (d, h) in grad.iter_mut().zip(&shapes) {
+                        *d += (g * h).re;
+                    }
+                }
+                let n = freqs.len() as f64;
+                (mean / n, grad.into_iter().map(|d| d / n).collect())
+            })
+            .collect()
+    }
+
+    /// The worst band's |α_st − asked|.
+    fn worst(&self, cols: &[Column], theta: &[f64]) -> f64 {
+        self.absorption(cols, theta, false).iter().zip(&self.wanted).map(|((a, _), w)| (a - w).abs()).fold(0.0, f64::max)
+    }
 }
 
 /// A column of the dictionary: the conductance (`q` = 0) or a resonant branch of unit peak
@@ -221,6 +258,8 @@ struct Problem {
     band_target_db: Vec<f64>,
     band_samples: Vec<std::ops::Range<usize>>,
     columns: Vec<Column>,
+    /// A reactive random-incidence fit's α_st per band, one more residual each.
+    random: Option<RandomTarget>,
 }
 
 impl Problem {
@@ -280,7 +319,7 @@ impl Problem {
         }
         let planes: Vec<Plane> = freqs.iter().map(|&f| Plane::new(f, scheme)).collect();
         let target_r = planes.iter().zip(&target_g).map(|(p, &g)| p.reflection(C64::new(g, 0.0))).collect();
-        Problem { freqs, planes, target_db, target_g, target_r, band_target_db, band_samples, columns }
+        Problem { freqs, planes, target_db, target_g, target_r, band_target_db, band_samples, columns, random: None }
     }
 
     /// NNLS on the admittance, then Levenberg–Marquardt on the levels with the columns it kept.
@@ -308,6 +347,7 @@ impl Problem {
         let (cols, theta): (Vec<Column>, Vec<f64>) = kept.iter().cloned().unzip();
         let (rms0, band0) = self.errors(&cols, &theta);
         let (rms_tol, band_tol) = (PRUNE_RMS_DB.max(rms0 + 0.1), PRUNE_BAND_DB.max(band0 + 0.05));
+        let random_tol = self.random.as_ref().map_or(f64::INFINITY, |r| RANDOM_TOLERANCE.max(r.worst(&cols, &theta)));
         'prune: loop {
             // Try the three weakest branches, and drop the first whose loss the rest can make up.
             let mut order: Vec<usize> = (0..kept.len()).filter(|&j| kept[j].0.q != 0.0).collect();
@@ -318,7 +358,8 @@ impl Problem {
                 let (cols, start): (Vec<Column>, Vec<f64>) = trial.into_iter().unzip();
                 let theta = self.refine(&cols, start);
                 let (rms, band) = self.errors(&cols, &theta);
-                if rms <= rms_tol && band <= band_tol {
+                let random_ok = self.random.as_ref().is_none_or(|r| r.worst(&cols, &theta) <= random_tol);
+                if rms <= rms_tol && band <= band_tol && random_ok {
                     kept = cols.into_iter().zip(theta).filter(|(_, t)| *t > 0.0).collect();
                     continue 'prune;
                 }
@@ -375,6 +416,14 @@ impl Problem {
                 let s = 10.0 / std::f64::consts::LN_10 / e;
                 jac.push(shapes.iter().map(|h| 2.0 * (r.conj() * dr_dy * h).re * s).collect());
                 jac.push(shapes.iter().map(|h| PHASE_DB_PER_RAD * (dr_dy * h / r).im).collect());
+            }
+        }
+        if let Some(random) = &self.random {
+            for ((a, grad), w) in random.absorption(cols, theta, jacobian).into_iter().zip(&random.wanted) {
+                res.push(RANDOM_DB_PER_ABSORPTION * (a - w));
+                if jacobian {
+                    jac.push(grad.iter().map(|d| RANDOM_DB_PER_ABSORPTION * d).collect());
+                }
             }
         }
         (res, jac)
