@@ -39,12 +39,18 @@ CONVENTIONS = ("FreeFieldDirectivityTF", "GeneralTF")
 class SofaDirectivity:
     """A measured directivity as read: directions float64[direction, 3] (unit, source frame x
     forward, y left, z up), frequencies_hz float64[frequency], power float64[direction,
-    frequency] (|H|², averaged over measurements)."""
+    frequency] (|H|², averaged over measurements), and relative_phase complex128[direction,
+    frequency]: unit phasors of each direction's transfer function against the direction of
+    most energy, X/|X| with X = Σ H_m(u)·conj(H_m(ref)) over the measurements (their
+    cross-spectrum, so several measurements average phase as they average energy); None
+    where not read. The tracer uses the power; the waves' directional sources also the phase
+    (:mod:`sonolux.sound.wave_sources`)."""
 
     path: Path
     directions: np.ndarray
     frequencies_hz: np.ndarray
     power: np.ndarray
+    relative_phase: np.ndarray | None = None
 
 
 def _unit_rows(v: np.ndarray) -> np.ndarray:
@@ -111,7 +117,10 @@ def read_sofa_directivity(path: Path) -> SofaDirectivity:
         sphere_interpolate(local, np.ones((len(local), 1)), local[:1])
     except SonoluxError as exc:
         raise bad(str(exc)) from None
-    return SofaDirectivity(path, local, freqs, power)
+    cross = np.sum(h * np.conj(h[:, int(np.argmax(power.sum(axis=1)))][:, None, :]), axis=0)
+    magnitude = np.abs(cross)
+    phase = np.where(magnitude > 0, cross / np.where(magnitude > 0, magnitude, 1.0), 1.0)
+    return SofaDirectivity(path, local, freqs, power, phase)
 
 
 def band_energy(sofa: SofaDirectivity, edges_hz: np.ndarray) -> np.ndarray:

@@ -98,7 +98,8 @@ PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 class SourceFit:
     """A pattern's spherical-harmonic fit per band, orders 0 to :attr:`orders`."""
 
-    #: float64[band, 10]: c₀; c_x, c_y, c_z; then the coefficients of u_i·u_j for the pairs
+    #: float64[band, 10] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
+    #: coefficients of u_i·u_j for the pairs
     #: :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz, 2D_yz), world frame, scaled so that the
     #: fitted pattern radiates the source's power; zero above the band's order.
     components: np.ndarray
@@ -119,7 +120,7 @@ class SourceFit:
 
     def energy_gain(self, directions: np.ndarray) -> np.ndarray:
         """float64[direction, band]: the fitted pattern's energy gain towards unit directions."""
-        return self.amplitude(directions) ** 2
+        return np.abs(self.amplitude(directions)) ** 2
 
     def reach_cells(self) -> float:
         """How far from the source the cluster's terms reach, in cells: 0 (omni), 2 (orders 1
@@ -144,16 +145,50 @@ def fibonacci_directions(n: int = FIT_DIRECTIONS) -> np.ndarray:
     return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
 
 
-def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: int) -> np.ndarray:
-    """float64[direction, band]: the source's pressure pattern, √(energy gain), signed where the
-    first-order family's a + (1 − a)·cos θ is negative."""
+def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: int,
+              bands_hz: np.ndarray | None = None) -> np.ndarray:
+    """float64[direction, band] (complex128 with a measured phase): the source's pressure
+    pattern, √(energy gain); signed where the first-order family's a + (1 − a)·cos θ is
+    negative; times the measured relative phase at each band centre for a SOFA directivity that
+    carries one (:func:`measured_phase`, given ``bands_hz``)."""
     a = np.sqrt(np.maximum(np.asarray(directivity.gains(directions, n_bands), float), 0.0))
     if source.directivity in FIRST_ORDER:
         f = np.asarray(source.forward, float)
         f = f / np.linalg.norm(f)
         first = FIRST_ORDER[source.directivity]
         a = a * np.where(first + (1.0 - first) * (directions @ f) < 0.0, -1.0, 1.0)[:, None]
+    if bands_hz is not None:
+        phase = measured_phase(source, directions, bands_hz)
+        if phase is not None:
+            return a * phase
     return a
+
+
+def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) -> np.ndarray | None:
+    """complex128[direction, band]: a SOFA source's relative phase (its file's complex transfer
+    functions, ``SofaDirectivity.relative_phase``) at each band centre, towards world
+    ``directions``; None for any other source. Per measured direction, the phasor is
+    interpolated linearly in frequency to the centre; over the sphere, on the measured
+    directions' triangulation as the energy is (real and imaginary parts, then made unit).
+    Band energy stays the tracer's; only the phase is added."""
+    from sonolux.scene.sofa_directivity import sphere_interpolate
+
+    sofa = getattr(source, "sofa", None) if source.directivity == "sofa" else None
+    phase = getattr(sofa, "relative_phase", None)
+    if sofa is None or phase is None:
+        return None
+    f = np.asarray(sofa.frequencies_hz, float)
+    centres = np.clip(np.asarray(bands_hz, float), f[0], f[-1])
+    at = np.stack([np.interp(centres, f, p.real) + 1j * np.interp(centres, f, p.imag)
+                   for p in phase])  # [measured direction, band]
+    forward = np.asarray(source.forward, float)
+    up = np.asarray(source.up, float)
+    forward, up = forward / np.linalg.norm(forward), up / np.linalg.norm(up)
+    local = np.asarray(directions, float) @ np.column_stack([forward, np.cross(up, forward), up])
+    parts = sphere_interpolate(sofa.directions, np.hstack([at.real, at.imag]), local)
+    z = parts[:, :len(centres)] + 1j * parts[:, len(centres):]
+    magnitude = np.abs(z)
+    return np.where(magnitude > 0, z / np.where(magnitude > 0, magnitude, 1.0), 1.0)
 
 
 def stencil_error(order: int, kh: float) -> float:
@@ -191,23 +226,26 @@ def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: 
     return np.array(out, dtype=int)
 
 
-def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None) -> SourceFit:
+def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None,
+        bands_hz: np.ndarray | None = None) -> SourceFit:
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
-    :data:`MAX_ORDER` in every band). The first-order family is order 1 exactly and is fitted
-    to order 1 only (its order-2 part is the lattice's quadrature error)."""
+    :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
+    fitted too (complex coefficients). The first-order family is order 1 exactly and is
+    fitted to order 1 only (its order-2 part is the lattice's quadrature error)."""
     orders = np.full(n_bands, MAX_ORDER, int) if orders is None else np.asarray(orders, int)
     if source.directivity in FIRST_ORDER:
         orders = np.minimum(orders, 1)
     u = fibonacci_directions()
-    a = amplitude(source, directivity, u, n_bands)  # [direction, band]
+    a = amplitude(source, directivity, u, n_bands, bands_hz)  # [direction, band]
     c0 = a.mean(axis=0)
     c = 3.0 * (u.T @ a) / len(u)  # [axis, band]
     m = np.einsum("di,dj,db->bij", u, u, a) / len(u)
     d = 7.5 * (m - np.einsum("bii->b", m)[:, None, None] * np.eye(3) / 3.0)  # [band, 3, 3]
     c = np.where(orders[None] >= 1, c, 0.0)
     d = np.where((orders >= 2)[:, None, None], d, 0.0)
-    power = c0 ** 2 + (c ** 2).sum(axis=0) / 3.0 + 2.0 / 15.0 * np.einsum("bij,bij->b", d, d)
-    total = (a ** 2).mean(axis=0)
+    power = (np.abs(c0) ** 2 + (np.abs(c) ** 2).sum(axis=0) / 3.0
+             + 2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real)
+    total = (np.abs(a) ** 2).mean(axis=0)
     norm = np.sqrt(np.maximum(power, 1e-300))
     second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
     components = np.column_stack([c0, c.T, second]) / norm[:, None]
@@ -370,7 +408,7 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
     """The source's fit with, in each band, the highest order the grid of ``spacing_m``
     resolves (:func:`resolved_orders`)."""
     b = np.asarray(bands_hz, float)
-    return fit(source, directivity, b.size, resolved_orders(b, spacing_m, speed_of_sound_m_s))
+    return fit(source, directivity, b.size, resolved_orders(b, spacing_m, speed_of_sound_m_s), b)
 
 
 def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -> str:
