@@ -307,3 +307,23 @@ def test_a_measured_phase_is_radiated():
     u = wave_sources.fibonacci_directions(500)
     target = np.asarray(d.gains(u, len(BANDS)))
     assert np.max(np.abs(fitted.energy_gain(u) - target)) < 0.1 * target.max()
+
+
+def test_a_talker_against_a_wall_is_refused_before_the_estimator_pilots(monkeypatch):
+    """``sonolux.bake`` with estimator "auto" runs pilots (rays) before the bake: the refusal
+    comes before them. A talker (order 2: its mixed terms reach 2√2 cells, 194 mm on the 354 Hz
+    crossover's 68.5 mm grid) 150 mm from a wall, which an order-1 cluster (137 mm) would
+    clear."""
+    from sonolux.errors import SettingError
+    from sonolux.sound import baking, progressive
+
+    def no_pilots(*args, **kwargs):
+        raise AssertionError("the pilots ran before the refusal")
+
+    monkeypatch.setattr(progressive, "choose_estimator", no_pilots)
+    scene = talker_room(1)
+    scene.sources[0] = type(scene.sources[0])(**{**scene.sources[0].__dict__,
+                                                 "position_m": (0.15, 1.1, 1.4)})
+    with pytest.raises(SettingError, match=r"talker \(talker\) at \(0.15, 1.1, 1.4\) m is 150 mm "
+                       r"from a wall.*order 0-2 on the 69 mm grid\) reaches 194 mm"):
+        baking.bake(scene, rays=3_000, waves=True, crossover_hz=354, estimator="auto")

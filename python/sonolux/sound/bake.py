@@ -183,15 +183,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if end > rays:
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
-    if options.waves and any(s.directivity != "omni" for s in scene.sources):
-        # Before any ray: a directional source must have room for its cluster on the grid of
-        # the crossover (a function of the scene, not of the machine).
-        cross = wave_sound.choose_crossover(
-            scene, max_time_s, crossover_hz=options.crossover_hz, time_budget_s=math.inf,
-            memory_limit_bytes=options.max_field_bytes or wave_sound.GRID_MEMORY_BYTES,
-            absorption=arrays["absorption"], measure=False)
-        wave_sources.check_clearance(scene, cross.max_frequency_hz, [
-            _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
+    check_wave_sources(scene, options, arrays, max_time_s)
     early_s, stored_late_s, split = stored_axis(scene, options, arrays)
     groups = late_groups(scene, options, arrays, stored_late_s)
     picked = traced_sources(scene, options)
@@ -317,6 +309,25 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if options.ray_range is None:
         return add_waves(scene, options, field, progress=progress, log=log)
     return with_wave_range(scene, options, field, first, progress=progress, log=log)
+
+
+def check_wave_sources(scene: Scene, options: SoundOptions,
+                       arrays: dict[str, np.ndarray] | None = None,
+                       max_time_s: float | None = None) -> None:
+    """Before any ray (``sonolux.bake`` calls it before its pilots too): in a bake with waves, a
+    directional source must have room for its cluster of monopoles on the grid of the crossover,
+    which is a function of the scene, not of the machine
+    (:func:`sonolux.sound.wave_sources.check_clearance`)."""
+    if not options.waves or all(s.directivity == "omni" for s in scene.sources):
+        return
+    arrays = bake_arrays(scene, options) if arrays is None else arrays
+    max_time_s = max_time_s or options.max_time_s or auto_max_time(scene, arrays)
+    cross = wave_sound.choose_crossover(
+        scene, max_time_s, crossover_hz=options.crossover_hz, time_budget_s=math.inf,
+        memory_limit_bytes=options.max_field_bytes or wave_sound.GRID_MEMORY_BYTES,
+        absorption=arrays["absorption"], measure=False)
+    wave_sources.check_clearance(scene, cross.max_frequency_hz, [
+        _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
 
 
 def with_wave_range(scene: Scene, options: SoundOptions, field: SoundField, first: int, *,
