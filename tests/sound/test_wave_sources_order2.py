@@ -327,3 +327,32 @@ def test_a_talker_against_a_wall_is_refused_before_the_estimator_pilots(monkeypa
     with pytest.raises(SettingError, match=r"talker \(talker\) at \(0.15, 1.1, 1.4\) m is 150 mm "
                        r"from a wall.*order 0-2 on the 69 mm grid\) reaches 194 mm"):
         baking.bake(scene, rays=3_000, waves=True, crossover_hz=354, estimator="auto")
+
+
+@pytest.mark.parametrize("extra", [[], ["--no-checkpoint"], ["--range", "0:1000"]])
+def test_the_command_line_refuses_a_talker_at_a_wall_before_any_ray(tmp_path, capsys, monkeypatch,
+                                                                    extra):
+    """`sonolux bake --waves` (checkpointed ranges by default, plain, or one range): usage
+    error, exit 2, the message naming the source, its distance and the reach, and no ray traced
+    (the core's tracer is never called)."""
+    from sonolux.cli import main
+
+    def no_rays(*args, **kwargs):
+        raise AssertionError("rays were traced before the refusal")
+
+    monkeypatch.setattr(engine, "trace_sound", no_rays)
+    monkeypatch.setattr(engine, "trace_sound_with", no_rays, raising=False)
+    scene_file = tmp_path / "near.toml"
+    scene_file.write_text(
+        'name = "near"\n[settings]\nbands_hz = [125, 250, 500, 1000]\n'
+        '[materials.m]\nabsorption = 0.15\n[[geometry]]\ntype = "shoebox"\nsize_m = [5, 4, 3]\n'
+        '[geometry.materials]\ndefault = "m"\n[[sources]]\nname = "talker"\n'
+        'position_m = [0.1, 1.1, 1.4]\ndirectivity = "talker"\nforward = [1.0, 0.0, 0.0]\n'
+        '[receivers]\ntype = "points"\npositions_m = [[3.0, 2.0, 1.2]]\n')
+    code = main(["bake", str(scene_file), "--rays", "2000", "--waves", "--crossover-hz", "354",
+                 "--no-light", "--quiet", *extra, "-o", str(tmp_path / "out.h5")])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "source talker (talker) at (0.1, 1.1, 1.4) m is 100 mm from a wall" in err, err
+    assert "reaches 137 mm" in err and "make it omni" in err, err
+    assert not (tmp_path / "out.h5").exists()

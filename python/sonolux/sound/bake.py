@@ -314,10 +314,12 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
 def check_wave_sources(scene: Scene, options: SoundOptions,
                        arrays: dict[str, np.ndarray] | None = None,
                        max_time_s: float | None = None) -> None:
-    """Before any ray (``sonolux.bake`` calls it before its pilots too): in a bake with waves, a
+    """Before any ray (``sonolux.bake``, the range baker and the progressive bake call it before
+    their pilots and ranges too): in a bake with waves, a
     directional source must have room for its cluster of monopoles on the grid of the crossover,
     which is a function of the scene, not of the machine
     (:func:`sonolux.sound.wave_sources.check_clearance`)."""
+    options = wave_sound.with_scene(scene, options)
     if not options.waves or all(s.directivity == "omni" for s in scene.sources):
         return
     arrays = bake_arrays(scene, options) if arrays is None else arrays

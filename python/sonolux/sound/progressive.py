@@ -69,7 +69,7 @@ from sonolux.sound.accuracy import (  # noqa: F401  (the error estimate, used th
     near_source,
     parameters,
 )
-from sonolux.sound.bake import add_waves, ray_count
+from sonolux.sound.bake import add_waves, check_wave_sources, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
@@ -170,6 +170,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     :func:`choose` run first, and the chosen estimator's pilot is the first round."""
     accuracy = (accuracy or Accuracy()).validate()
     options = (options or SoundOptions()).validate()
+    check_wave_sources(scene, options)  # before the pilots' rays
     if options.ray_range is not None:
         raise SonoluxError("a progressive bake (rays = auto) cannot trace a ray range: give the "
                            "bake's ray count (--rays N) to split it")

@@ -24,7 +24,7 @@ from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.sound import walls
-from sonolux.sound.bake import add_waves, ray_count, with_wave_range
+from sonolux.sound.bake import add_waves, check_wave_sources, ray_count, with_wave_range
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
@@ -91,6 +91,7 @@ class SoundRanges:
     def __init__(self, scene: Scene, options: SoundOptions | None = None,
                  log: Callable[[str], None] | None = None) -> None:
         options = (options or SoundOptions()).validate()
+        check_wave_sources(scene, options)  # before any range is traced
         rays = ray_count(scene, options, log=log)
         self.total = rays
         self.target = tuple(options.ray_range or (0, rays))
