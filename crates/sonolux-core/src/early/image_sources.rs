@@ -345,17 +345,17 @@ pub(crate) struct Twins {
 
 impl Twins {
     pub(crate) fn of(tree: &ImageTree) -> Twins {
-        use std::collections::HashMap;
         let scale = tree.nodes.iter().fold(1.0f64, |m, n| m.max(n.position.abs().max_element()));
         let tol = 1e-9 * scale;
-        let mut last: HashMap<(u32, [i64; 3]), u32> = HashMap::with_capacity(tree.nodes.len());
+        // Sorted by (order, rounded position, index): twins are neighbours, in index order.
+        let mut keys: Vec<(u32, [i64; 3], u32)> = tree.nodes.iter().enumerate().map(|(i, n)| (n.order, (n.position / tol).round().as_i64vec3().to_array(), i as u32)).collect();
+        keys.sort_unstable();
         let mut next = vec![u32::MAX; tree.nodes.len()];
         let mut first = vec![true; tree.nodes.len()];
-        for (i, n) in tree.nodes.iter().enumerate() {
-            let key = (n.order, (n.position / tol).round().as_i64vec3().to_array());
-            if let Some(prev) = last.insert(key, i as u32) {
-                next[prev as usize] = i as u32;
-                first[i] = false;
+        for w in keys.windows(2) {
+            if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
+                next[w[0].2 as usize] = w[1].2;
+                first[w[1].2 as usize] = false;
             }
         }
         Twins { next, first }
