@@ -382,9 +382,10 @@ struct Same<'a> {
 /// |b_x − b_c| ≤ ρ). So the next region is the ball about the centre's crossing with that radius.
 /// The image is out of reach when a region lies wholly on the image's side of its plane, or
 /// holds no point of the plane's box widened by the triangles' stand-off seen along the path
-/// (slack / cos θ). A conservative test: it skips only images that [`specular_path`] would
-/// refuse from every point of the ball, so the arrivals are the same as without it (Borish 1984's
-/// validity test applied to a region; the beam idea of Funkhouser et al., SIGGRAPH 1998).
+/// (slack / cos θ, θ the largest incidence in the region). A conservative test: it skips only
+/// images that [`specular_path`] would refuse from every point of the ball, so the arrivals are
+/// the same as without it (Borish 1984's validity test applied to a region; the beam idea of
+/// Funkhouser et al., SIGGRAPH 1998).
 fn chain_out_of_reach(ctx: &Context, tree: &ImageTree, apertures: &Apertures, node: u32, receiver: DVec3, radius: f64) -> bool {
     let (mut c, mut rho) = (receiver, radius);
     let mut k = node;
@@ -400,7 +401,9 @@ fn chain_out_of_reach(ctx: &Context, tree: &ImageTree, apertures: &Apertures, no
         }
         let to = img.position - c;
         let crossing = c + to * (d_c / (d_c - d_img));
-        let cos = ((d_c - d_img).abs() / to.length()).max(1e-12);
+        // The smallest cosine of incidence over the region (|d_x − d_I| ≥ |d_c − d_I| − ρ,
+        // |x − I| ≤ |c − I| + ρ): a crossing lies within stand-off / cos of its hit.
+        let cos = (((d_c - d_img).abs() - rho) / (to.length() + rho)).max(1e-12);
         rho = rho * (1.0 + to.length() / (d_img.abs() + d_c.abs())) * (1.0 + 1e-9) + 1e-9;
         let (lo, hi) = apertures.boxes[img.plane as usize];
         let outside = (lo - crossing).max(crossing - hi).max(DVec3::ZERO).length();
