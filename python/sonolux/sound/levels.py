@@ -124,7 +124,12 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
     if levels is None:
         return engine.trace_sound(scene.geometry, acoustics, sources, receivers,
                                   engine.SoundSettings(**settings), progress, early, **whole)
-    outs = []
+    # The joined field is allocated once, when the first level gives its shape, and each
+    # level's bands are copied in and dropped at once: the bake holds the field and one level's
+    # part, not every part and the join (twice the field).
+    out: dict[str, Any] = {}
+    parts_stats: list[dict[str, Any]] = []
+    cancelled = saturated = False
     for j, lg in enumerate(levels):
         b = lg.level.bands
         src, early_b, air = parts(b)
@@ -132,29 +137,34 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
                                        np.ascontiguousarray(lg.level.scattering[:, b]),
                                        wall_model=acoustics.wall_model)
         step = None if progress is None else _level_progress(progress, j, len(levels))
-        outs.append(engine.trace_sound(lg.geometry, acoustics_b, src, receivers,
-                                       engine.SoundSettings(**dict(settings, air_attenuation_per_m=air)),
-                                       step, early_b, **whole))
-        if outs[-1]["cancelled"]:
+        part = engine.trace_sound(lg.geometry, acoustics_b, src, receivers,
+                                  engine.SoundSettings(**dict(settings, air_attenuation_per_m=air)),
+                                  step, early_b, **whole)
+        if not out:
+            out = dict(part)
+            shape = list(part["energy"].shape)
+            shape[2] = max(lv.level.bands.stop for lv in levels)
+            # A cancelled bake stops at once; the levels not traced are zeros (the field is
+            # discarded).
+            out["energy"] = np.zeros(shape, part["energy"].dtype)
+            if "counts" in part:
+                out["counts"] = np.zeros(shape, part["counts"].dtype)
+        out["energy"][:, :, b] = part.pop("energy")
+        if "counts" in part:
+            if part["quantum"] != out["quantum"]:
+                raise SonoluxError("level of detail: the band groups' fixed-point quanta differ "
+                                   "(a directional source whose peak gain differs between the "
+                                   "groups); ray ranges cannot be kept exact: bake it whole")
+            out["counts"][:, :, b] = part.pop("counts")
+        parts_stats.append(part["stats"])
+        cancelled |= bool(part["cancelled"])
+        saturated |= bool(part["saturated"])
+        del part
+        if cancelled:
             break
-    out = dict(outs[0])
-    # A cancelled bake stops at once; the levels not traced are zeros (the field is discarded).
-    shape = list(outs[0]["energy"].shape)
-    missing = [lg.level.bands for lg in levels[len(outs):]]
-
-    def joined(key: str, dtype: Any) -> np.ndarray:
-        rest = [np.zeros(shape[:2] + [b.stop - b.start] + shape[3:], dtype) for b in missing]
-        return np.concatenate([o[key] for o in outs] + rest, axis=2)
-    out["energy"] = joined("energy", np.float32)
-    out["cancelled"] = any(o["cancelled"] for o in outs)
-    if "counts" in outs[0]:
-        if any(o["quantum"] != outs[0]["quantum"] for o in outs):
-            raise SonoluxError("level of detail: the band groups' fixed-point quanta differ (a "
-                               "directional source whose peak gain differs between the groups); "
-                               "ray ranges cannot be kept exact: bake it whole")
-        out["counts"] = joined("counts", np.uint64)
-    out["saturated"] = any(o["saturated"] for o in outs)
-    out["stats"] = _joined_stats([o["stats"] for o in outs])
+    out["cancelled"] = cancelled
+    out["saturated"] = saturated
+    out["stats"] = _joined_stats(parts_stats)
     return out
 
 

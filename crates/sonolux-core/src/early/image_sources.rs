@@ -217,8 +217,25 @@ fn leg_to_surface(ctx: &Context, from: DVec3, dir: DVec3) -> f64 {
     ctx.bvh.closest_hit(&ray, (ctx.epsilon_m / len) as f32, f32::INFINITY).map_or(f64::INFINITY, |h| h.t as f64 * len)
 }
 
+/// Each plane's bounding box and how far a reflection point found by the BVH may lie outside
+/// it along a path ([`Apertures`]), for the quick test that a ball cannot see an image.
+pub(crate) struct Apertures {
+    boxes: Vec<(DVec3, DVec3)>,
+    /// Per plane: the most its triangles stand off the plane (the grouping's offset tolerance,
+    /// the normal tolerance times the box's diagonal) plus the hit's slack of 4 ε.
+    slack_m: Vec<f64>,
+}
+
+impl Apertures {
+    pub(crate) fn new(ctx: &Context) -> Apertures {
+        let boxes: Vec<(DVec3, DVec3)> = ctx.planes.planes.iter().map(|p| p.vertices.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))).collect();
+        let slack_m = boxes.iter().map(|(lo, hi)| ctx.settings.plane_tolerance_m.max(1e-9) + super::planes::NORMAL_TOLERANCE * (*hi - *lo).length() + 4.0 * ctx.epsilon_m).collect();
+        Apertures { boxes, slack_m }
+    }
+}
+
 /// The specular arrivals (direct sound included) of source `s` at receiver `r`.
-pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, receiver: DVec3) -> PairArrivals {
+pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, twins: &Twins, apertures: &Apertures, s: usize, r: usize, receiver: DVec3) -> PairArrivals {
     let nb = ctx.acoustics.n_bands;
     let set = ctx.settings;
     let max_path_m = set.max_time_s * set.speed_of_sound_m_s;
@@ -226,18 +243,19 @@ pub(crate) fn arrivals(ctx: &Context, tree: &ImageTree, s: usize, r: usize, rece
     let mut energy = vec![0.0; nb];
     let source = tree.nodes[0].position;
     let radius = set.receiver_radius_m;
-    let (next, first) = twins(tree);
-    // Each plane's bounding box, for the quick test that a ball cannot see an image.
-    let boxes: Vec<(DVec3, DVec3)> = ctx.planes.planes.iter().map(|p| p.vertices.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))).collect();
     for (i, node) in tree.nodes.iter().enumerate() {
         let length = (node.position - receiver).length();
-        if length > max_path_m || !(length > 0.0) || !first[i] {
+        if length > max_path_m || !(length > 0.0) || !twins.first[i] {
             continue;
         }
         out.checked += 1;
-        let same = Twins { next: &next, first: i as u32 };
+        let same = Same { twins, first: i as u32 };
+        // The quick test first: no point of the ball (so not its centre) can have a path.
+        if same.out_of_reach(ctx, tree, apertures, receiver, radius) {
+            continue;
+        }
         let centre = same.path(ctx, tree, receiver);
-        let (path, share) = if radius > 0.0 { seen_over_ball(ctx, tree, same, &boxes, receiver, radius, centre) } else { (centre, 1.0) };
+        let (path, share) = if radius > 0.0 { seen_over_ball(ctx, tree, same, receiver, radius, centre) } else { (centre, 1.0) };
         let Some(path) = path else { continue };
         path_energy(ctx, s, &path, source, receiver, &mut energy);
         if share < 1.0 {
@@ -288,11 +306,10 @@ fn ball_probe(k: usize) -> DVec3 {
 /// use for the reflections' materials (the centre's, or a valid probe's) and that share.
 /// Without this, a receiver whose ball straddles a panel's edge got the whole image where the
 /// particles see part of it (+5 … +8 % early energy near a table edge, docs/early-sound.md).
-fn seen_over_ball(ctx: &Context, tree: &ImageTree, same: Twins, boxes: &[(DVec3, DVec3)], receiver: DVec3, radius: f64, centre: Option<SpecularPath>) -> (Option<SpecularPath>, f64) {
+/// The caller has already found that some point of the ball may see the image
+/// ([`Same::out_of_reach`]).
+fn seen_over_ball(ctx: &Context, tree: &ImageTree, same: Same, receiver: DVec3, radius: f64, centre: Option<SpecularPath>) -> (Option<SpecularPath>, f64) {
     let valid = centre.is_some();
-    if !valid && same.out_of_reach(ctx, tree, boxes, receiver, radius) {
-        return (None, 0.0);
-    }
     if (0..6).all(|k| same.path(ctx, tree, receiver + ball_probe(k) * radius).is_some() == valid) {
         return (centre, if valid { 1.0 } else { 0.0 });
     }
@@ -315,64 +332,100 @@ fn seen_over_ball(ctx: &Context, tree: &ImageTree, same: Twins, boxes: &[(DVec3,
     }
 }
 
-/// For each node, the next node of the same order at the same image position (`u32::MAX`:
-/// none), and whether it is the first of them. Two walls meeting at a right angle mirror a
-/// source to one image in either order; which order's path is valid changes across the plane
-/// through their common edge, so a receiver's ball can hold both: the image is one arrival,
-/// heard from wherever either order's path is valid.
-fn twins(tree: &ImageTree) -> (Vec<u32>, Vec<bool>) {
-    use std::collections::HashMap;
-    let scale = tree.nodes.iter().fold(1.0f64, |m, n| m.max(n.position.abs().max_element()));
-    let tol = 1e-9 * scale;
-    let mut last: HashMap<(u32, [i64; 3]), u32> = HashMap::new();
-    let mut next = vec![u32::MAX; tree.nodes.len()];
-    let mut first = vec![true; tree.nodes.len()];
-    for (i, n) in tree.nodes.iter().enumerate() {
-        let key = (n.order, (n.position / tol).round().as_i64vec3().to_array());
-        if let Some(prev) = last.insert(key, i as u32) {
-            next[prev as usize] = i as u32;
-            first[i] = false;
-        }
-    }
-    (next, first)
+/// For each node of a tree, the next node of the same order at the same image position
+/// (`u32::MAX`: none), and whether it is the first of them. Two walls meeting at a right angle
+/// mirror a source to one image in either order; which order's path is valid changes across the
+/// plane through their common edge, so a receiver's ball can hold both: the image is one
+/// arrival, heard from wherever either order's path is valid. Found once a tree, for all its
+/// receivers.
+pub(crate) struct Twins {
+    next: Vec<u32>,
+    first: Vec<bool>,
 }
 
-/// The nodes that are one image (see [`twins`]), from `first` along `next`.
+impl Twins {
+    pub(crate) fn of(tree: &ImageTree) -> Twins {
+        let scale = tree.nodes.iter().fold(1.0f64, |m, n| m.max(n.position.abs().max_element()));
+        let tol = 1e-9 * scale;
+        // Sorted by (order, rounded position, index): twins are neighbours, in index order.
+        let mut keys: Vec<(u32, [i64; 3], u32)> = tree.nodes.iter().enumerate().map(|(i, n)| (n.order, (n.position / tol).round().as_i64vec3().to_array(), i as u32)).collect();
+        keys.sort_unstable();
+        let mut next = vec![u32::MAX; tree.nodes.len()];
+        let mut first = vec![true; tree.nodes.len()];
+        for w in keys.windows(2) {
+            if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
+                next[w[0].2 as usize] = w[1].2;
+                first[w[1].2 as usize] = false;
+            }
+        }
+        Twins { next, first }
+    }
+}
+
+/// The nodes that are one image (see [`Twins`]), from `first` along `next`.
 #[derive(Clone, Copy)]
-struct Twins<'a> {
-    next: &'a [u32],
+struct Same<'a> {
+    twins: &'a Twins,
     first: u32,
 }
 
-impl Twins<'_> {
+/// Whether no point x of the ball about `receiver` (radius `radius`) can have a valid path
+/// through image node `node`, by the apertures alone (no BVH query). The path is built as
+/// [`specular_path`] builds it, backwards: from x towards the last image, it must cross that
+/// image's plane from the side opposite the image, at a point of one of the plane's triangles
+/// (so inside the plane's box), then from there towards the image before, and so on. The test
+/// follows a region that holds every crossing a point of the ball can make: a ball of centre c
+/// and radius ρ (first the receiver's). Towards image I across a plane at signed distances d_c
+/// (centre) and d_I (image), a point x = c + δ, |δ| ≤ ρ, on the valid side crosses at
+/// I + (x − I) a/(a + b_x), a = |d_I|, b_x = |d_x| (opposite sides); it moves from the
+/// centre's crossing by at most ρ (1 + |c − I| / (a + b_c)) (a/(a + b_x) ≤ 1 and
+/// |b_x − b_c| ≤ ρ). So the next region is the ball about the centre's crossing with that radius.
+/// The image is out of reach when a region lies wholly on the image's side of its plane, or
+/// holds no point of the plane's box widened by the triangles' stand-off seen along the path
+/// (slack / cos θ, θ the largest incidence in the region). A conservative test: it skips only
+/// images that [`specular_path`] would refuse from every point of the ball, so the arrivals are
+/// the same as without it (Borish 1984's validity test applied to a region; the beam idea of
+/// Funkhouser et al., SIGGRAPH 1998).
+fn chain_out_of_reach(ctx: &Context, tree: &ImageTree, apertures: &Apertures, node: u32, receiver: DVec3, radius: f64) -> bool {
+    let (mut c, mut rho) = (receiver, radius);
+    let mut k = node;
+    while k != 0 {
+        let img = &tree.nodes[k as usize];
+        let plane = &ctx.planes.planes[img.plane as usize];
+        let (d_c, d_img) = (plane.distance(c), plane.distance(img.position));
+        if d_c * d_img > 0.0 && d_c.abs() > rho * (1.0 + 1e-9) + 1e-9 {
+            return true;
+        }
+        if !(d_c * d_img < 0.0) {
+            return false;
+        }
+        let to = img.position - c;
+        let crossing = c + to * (d_c / (d_c - d_img));
+        // The smallest cosine of incidence over the region (|d_x − d_I| ≥ |d_c − d_I| − ρ,
+        // |x − I| ≤ |c − I| + ρ): a crossing lies within stand-off / cos of its hit.
+        let cos = (((d_c - d_img).abs() - rho) / (to.length() + rho)).max(1e-12);
+        rho = rho * (1.0 + to.length() / (d_img.abs() + d_c.abs())) * (1.0 + 1e-9) + 1e-9;
+        let (lo, hi) = apertures.boxes[img.plane as usize];
+        let outside = (lo - crossing).max(crossing - hi).max(DVec3::ZERO).length();
+        if outside > rho + apertures.slack_m[img.plane as usize] / cos {
+            return true;
+        }
+        c = crossing;
+        k = img.parent;
+    }
+    false
+}
+
+impl Same<'_> {
     /// Whether no point of the ball about `receiver` can have a path, for every one of these
-    /// nodes, by the last reflection alone: the ball lies on the image's own side of its plane,
-    /// or the line from every point of the ball to the image crosses the plane outside the
-    /// plane's bounding box `boxes[plane]`. For a point x = c + δ (|δ| ≤ r) the crossing moves
-    /// from the centre's by at most r (1 + D / (|d_img| + |d_c|)), D the centre's distance to
-    /// the image and d the distances to the plane (the crossing is img + (x − img) s with
-    /// s = d_img / (d_img − d_x) ∈ (0, 1)).
-    fn out_of_reach(&self, ctx: &Context, tree: &ImageTree, boxes: &[(DVec3, DVec3)], receiver: DVec3, radius: f64) -> bool {
+    /// nodes ([`chain_out_of_reach`]).
+    fn out_of_reach(&self, ctx: &Context, tree: &ImageTree, apertures: &Apertures, receiver: DVec3, radius: f64) -> bool {
         let mut j = self.first;
         while j != u32::MAX {
-            let node = &tree.nodes[j as usize];
-            if node.plane == NO_PLANE {
+            if !chain_out_of_reach(ctx, tree, apertures, j, receiver, radius) {
                 return false;
             }
-            let plane = &ctx.planes.planes[node.plane as usize];
-            let (d_r, d_img) = (plane.distance(receiver), plane.distance(node.position));
-            let behind = d_r * d_img > 0.0 && d_r.abs() > radius;
-            let far = d_r * d_img < 0.0 && {
-                let to = node.position - receiver;
-                let crossing = receiver + to * (d_r / (d_r - d_img));
-                let (lo, hi) = boxes[node.plane as usize];
-                let outside = (lo - crossing).max(crossing - hi).max(DVec3::ZERO).length();
-                outside > radius * (1.0 + to.length() / (d_img.abs() + d_r.abs())) * (1.0 + 1e-9) + 1e-9
-            };
-            if !(behind || far) {
-                return false;
-            }
-            j = self.next[j as usize];
+            j = self.twins.next[j as usize];
         }
         true
     }
@@ -384,7 +437,7 @@ impl Twins<'_> {
             if let Some(p) = specular_path(ctx, tree, j, receiver) {
                 return Some(p);
             }
-            j = self.next[j as usize];
+            j = self.twins.next[j as usize];
         }
         None
     }

@@ -291,6 +291,8 @@ pub fn early_arrivals(
     };
     let max_path_m = settings.max_time_s * settings.speed_of_sound_m_s;
     let trees: Vec<ImageTree> = sources.iter().map(|s| ImageTree::build(&planes, s.position, receivers, settings.max_order, max_path_m)).collect();
+    let twins: Vec<image_sources::Twins> = trees.iter().map(image_sources::Twins::of).collect();
+    let apertures = image_sources::Apertures::new(&ctx);
 
     let threads = if settings.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { settings.threads };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -305,7 +307,7 @@ pub fn early_arrivals(
             .par_iter()
             .with_min_len(1)
             .map(|&(s, r)| {
-                let mut out = image_sources::arrivals(&ctx, &trees[s], s, r, receivers[r]);
+                let mut out = image_sources::arrivals(&ctx, &trees[s], &twins[s], &apertures, s, r, receivers[r]);
                 if settings.diffraction {
                     diffraction::add_arrivals(&ctx, &trees[s], &wedges, s, r, receivers[r], &mut out);
                 }

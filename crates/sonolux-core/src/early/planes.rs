@@ -15,7 +15,7 @@ use glam::DVec3;
 use crate::mesh::Mesh;
 
 /// Normals closer than this (component-wise, after canonical orientation) share a plane.
-const NORMAL_TOLERANCE: f64 = 1e-4;
+pub(crate) const NORMAL_TOLERANCE: f64 = 1e-4;
 
 /// One reflecting plane: n·x = offset, n canonical (its first non-zero component positive).
 #[derive(Clone, Debug)]
