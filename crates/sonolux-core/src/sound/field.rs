@@ -361,10 +361,13 @@ impl Accumulator {
     pub fn merge(&mut self, other: &Accumulator) {
         assert_eq!(self.len, other.len, "merging fields of different sizes");
         let mut overflow = other.saturated();
+        // The two may be cut into shards differently (huge pages for one range, not for
+        // another): walk both in the field's flat order.
         other.read(|theirs| {
-            for (mine, theirs) in self.shards.iter_mut().zip(&theirs.shards) {
+            let mut from = theirs.shards.iter().flat_map(|s| s.iter());
+            for mine in self.shards.iter_mut() {
                 let mine = mine.get_mut().unwrap_or_else(|e| e.into_inner()).counts_mut();
-                for (c, &o) in mine.iter_mut().zip(theirs.iter()) {
+                for (c, &o) in mine.iter_mut().zip(&mut from) {
                     let (sum, wrapped) = c.overflowing_add(o);
                     *c = sum;
                     overflow |= wrapped;
@@ -407,6 +410,35 @@ mod tests {
         assert_eq!(l.direction_bin(-DVec3::X), level + 4); // back
         assert_eq!(l.direction_bin(DVec3::new(1e-3, 0.0, 1.0).normalize()), 16); // above
         assert_eq!(l.direction_bin(DVec3::new(1e-3, 0.0, -1.0).normalize()), 0); // below
+    }
+
+    #[test]
+    fn shards_of_any_size_and_page_hold_the_same_counts() {
+        // A field over the huge-page threshold (shards of 2 MiB, the last one partial) and
+        // small ones: the same deposits give the same counts, read one at a time, all at
+        // once, and merged.
+        for len in [1, 1000, 5000, HUGE_FIELD + 12_345] {
+            let fields: Vec<Accumulator> = [false, true].iter().map(|&huge| Accumulator::with_pages(len, 0.5, huge)).collect();
+            let mut rng = Stream::new(4, 0, len as u64);
+            let adds: Vec<(usize, f64, f64)> = (0..20_000).map(|_| (((rng.uniform() * len as f64) as usize).min(len - 1), rng.uniform() * 3.0, rng.uniform())).collect();
+            for acc in &fields {
+                let mut buf = Deposits::new();
+                for &(i, e, u) in &adds {
+                    acc.deposit(&mut buf, i, &[e], u);
+                }
+                acc.flush(&mut buf);
+            }
+            let counts = fields[0].to_vec();
+            assert_eq!(counts.len(), len);
+            assert_eq!(counts, fields[1].to_vec());
+            assert_eq!(counts.iter().sum::<u64>(), adds.iter().map(|&(_, e, u)| (e / 0.5) as u64 + u64::from(u < e / 0.5 - (e / 0.5).floor())).sum::<u64>());
+            let last = len - 1;
+            assert_eq!(fields[1].get(last), counts[last]);
+            let mut merged = Accumulator::with_pages(len, 0.5, true);
+            merged.merge(&fields[0]);
+            merged.merge(&fields[1]);
+            assert_eq!(merged.to_vec(), counts.iter().map(|c| 2 * c).collect::<Vec<_>>());
+        }
     }
 
     #[test]
