@@ -295,15 +295,17 @@ impl SoundResult {
             return Err(CoreError::invalid("out", format!("{} values for a field of {}", out.len(), l.len())));
         }
         let (nt, nd, nb) = (l.n_time(), l.n_directions(), l.n_bands);
-        fill_blocks(out, nd * nb * nt, threads, |r, block| {
-            for t in 0..nt {
-                for d in 0..nd {
-                    let base = l.index(r, t, d);
-                    for b in 0..nb {
-                        block[(d * nb + b) * nt + t] = convert(self.field.get(base + b));
+        self.field.read(|counts| {
+            fill_blocks(out, nd * nb * nt, threads, |r, block| {
+                for t in 0..nt {
+                    for d in 0..nd {
+                        let base = l.index(r, t, d);
+                        for b in 0..nb {
+                            block[(d * nb + b) * nt + t] = convert(counts.get(base + b));
+                        }
                     }
                 }
-            }
+            })
         });
         Ok(())
     }
@@ -494,7 +496,9 @@ pub fn trace_sound_with(
     };
     let quantum = trace::quantum(sources, receivers.radius_m, receivers.peak_gain());
     let n = settings.end_ray - settings.first_ray;
-    let field = Accumulator::new(layout.len(), quantum);
+    let traced_sources = if settings.only_source.is_some() { 1 } else { sources.len() };
+    let huge = field::huge_pages_pay(n * traced_sources as u64, receivers.len(), layout.len());
+    let field = Accumulator::with_pages(layout.len(), quantum, huge);
     let (workers, cancelled) = run_chunks(
         n,
         chunk_size(settings.estimator, receivers.len()),

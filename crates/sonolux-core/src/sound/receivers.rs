@@ -115,6 +115,25 @@ pub struct Receivers {
     /// Receivers whose sphere overlaps each cell: `cells[i]..cells[i+1]` indexes `items`.
     cells: Vec<u32>,
     items: Vec<u32>,
+    /// The receivers' floor-plan lattice, when they lie on one ([`floor_plan_lattice`]).
+    lattice: Option<Lattice>,
+}
+
+/// Receivers on a floor-plan lattice: centres (x0 + i sx, y0 + j sy, z), i < nx, j < ny, with
+/// sx and sy at least a sphere's diameter; `point[j * nx + i]` is the receiver there, or
+/// `u32::MAX` where the lattice has no receiver (a grid clipped by a wall).
+#[derive(Clone, Debug)]
+struct Lattice {
+    x0: f64,
+    y0: f64,
+    sx: f64,
+    sy: f64,
+    nx: usize,
+    ny: usize,
+    z: f64,
+    /// How far a centre may lie off the lattice and still be taken as on it.
+    tol: f64,
+    point: Vec<u32>,
 }
 
 /// A sphere crossed by a segment.
@@ -135,7 +154,7 @@ impl Receivers {
         // until then they get an empty search grid instead of a panic here.
         if !(radius_m > 0.0 && radius_m.is_finite()) || centres.iter().any(|c| !c.is_finite()) {
             let (lo, hi, cell, dims) = (DVec3::ZERO, DVec3::ONE, DVec3::ONE, [1, 1, 1]);
-            return Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells: vec![0, 0], items: Vec::new() };
+            return Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells: vec![0, 0], items: Vec::new(), lattice: None };
         }
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -147,7 +166,8 @@ impl Receivers {
             lo = DVec3::ZERO;
             hi = DVec3::ONE;
         }
-        let (lo, cell, dims) = match floor_plan_lattice(&centres, radius_m) {
+        let lattice = floor_plan_lattice(&centres, radius_m);
+        let (lo, cell, dims) = match lattice {
             // The paper's grid: one cell per receiver, each sphere inside its own cell.
             Some(lattice) => lattice,
             None => {
@@ -185,7 +205,17 @@ impl Receivers {
             cells.push(items.len() as u32);
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
-        Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells, items }
+        let lattice = lattice.map(|(lo, cell, dims)| {
+            let (x0, y0) = (lo.x + 0.5 * cell.x, lo.y + 0.5 * cell.y);
+            let mut point = vec![u32::MAX; dims[0] * dims[1]];
+            for (k, c) in centres.iter().enumerate() {
+                let i = (((c.x - x0) / cell.x).round() as usize).min(dims[0] - 1);
+                let j = (((c.y - y0) / cell.y).round() as usize).min(dims[1] - 1);
+                point[j * dims[0] + i] = k as u32;
+            }
+            Lattice { x0, y0, sx: cell.x, sy: cell.y, nx: dims[0], ny: dims[1], z: lo.z + radius_m, tol: lattice_tolerance(&centres), point }
+        });
+        Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells, items, lattice }
     }
 
     /// Gives every receiver its pattern (one a receiver, in order); an all-omni list is
@@ -274,7 +304,68 @@ impl Receivers {
             }
             return;
         }
+        if let Some(lattice) = &self.lattice {
+            self.walk_lattice(lattice, origin, dir, length, f);
+            return;
+        }
         self.walk(origin, dir, length, stamp, segment_id, f);
+    }
+
+    /// [`Receivers::crossings`] on a floor-plan lattice: the stretch of the segment inside the
+    /// spheres' slab (z within r of the lattice's height) seen from above is a short 2D segment;
+    /// the spheres it can cross have their centres within r of it. Along the 2D segment's major
+    /// axis each lattice column in its reach (± r) holds those within r·h/|major| of the line's
+    /// crossing of that column (h the 2D direction's length): one row, two where spheres nearly
+    /// touch. Each such sphere is tested by its exact chord, as the cell walk tests it, so the
+    /// same spheres give the same chords; without the walk's stepping, stamps and cell lists.
+    #[inline(never)]
+    fn walk_lattice(&self, lat: &Lattice, origin: DVec3, dir: DVec3, length: f64, mut f: impl FnMut(Crossing)) {
+        let r = self.radius_m;
+        // Wider than the spheres by twice the lattice's tolerance and a hair, so that neither a
+        // centre off the lattice by its tolerance nor a rounding of the clip loses a chord.
+        let pad = r * (1.0 + 1e-9) + 2.0 * lat.tol;
+        let (mut t0, mut t1) = (0.0f64, length);
+        if dir.z != 0.0 {
+            let inv = 1.0 / dir.z;
+            let (a, b) = ((lat.z - pad - origin.z) * inv, (lat.z + pad - origin.z) * inv);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        } else if (origin.z - lat.z).abs() > pad {
+            return;
+        }
+        if !(t0 <= t1) {
+            return;
+        }
+        let (pa, pb) = (origin + dir * t0, origin + dir * t1);
+        let h = (dir.x * dir.x + dir.y * dir.y).sqrt();
+        // Along x (columns) when the 2D direction leans to x, else along y: swap the axes.
+        let x_major = dir.x.abs() >= dir.y.abs();
+        let (u0, su, nu, v0, sv, nv) = if x_major { (lat.x0, lat.sx, lat.nx, lat.y0, lat.sy, lat.ny) } else { (lat.y0, lat.sy, lat.ny, lat.x0, lat.sx, lat.nx) };
+        let (ua, ub, va) = if x_major { (pa.x, pb.x, pa.y) } else { (pa.y, pb.y, pa.x) };
+        let (du, dv) = if x_major { (dir.x, dir.y) } else { (dir.y, dir.x) };
+        let (lo_u, hi_u) = (ua.min(ub) - pad, ua.max(ub) + pad);
+        let (first, last) = index_span((lo_u - u0) / su, (hi_u - u0) / su, nu);
+        if first > last {
+            return;
+        }
+        // The line's v where it crosses column u: va + slope (u − ua); the spheres' centres
+        // within pad · h / |du| of it (|du| ≥ h/√2; a vertical segment: its one point).
+        let (slope, reach) = if du != 0.0 { (dv / du, pad * h / du.abs()) } else { (0.0, pad) };
+        for i in first..=last {
+            let u = u0 + i as f64 * su;
+            let v = va + slope * (u - ua);
+            let (j0, j1) = index_span((v - reach - v0) / sv, (v + reach - v0) / sv, nv);
+            for j in j0..=j1 {
+                let cell = if x_major { j * lat.nx + i } else { i * lat.nx + j };
+                let k = lat.point[cell];
+                if k == u32::MAX {
+                    continue;
+                }
+                if let Some(crossing) = self.chord(k, self.centres[k as usize], origin, dir, length) {
+                    f(crossing);
+                }
+            }
+        }
     }
 
     /// [`Receivers::crossings`] through the cells of the grid.
@@ -339,6 +430,22 @@ impl Receivers {
     }
 }
 
+/// The whole numbers k in [a, b] that index a lattice of n points (0 ≤ k < n), as (first, last);
+/// first > last when there are none (a NaN end gives none). ⌈a⌉ and ⌊b⌋ by truncation and a
+/// comparison: `ceil` and `floor` are library calls without SSE4.1.
+#[inline(always)]
+fn index_span(a: f64, b: f64, n: usize) -> (usize, usize) {
+    let top = n as f64 - 1.0;
+    if !(a <= top && b >= 0.0 && a <= b) {
+        return (1, 0);
+    }
+    let (a, b) = (a.max(0.0), b.min(top));
+    // a ≥ 0: truncation is the floor; b ≥ 0 likewise.
+    let first = a as usize + usize::from(a > (a as usize) as f64);
+    let last = b as usize;
+    (first, last)
+}
+
 /// Up to this many receivers, a segment tests every sphere instead of walking the grid's cells.
 const DIRECT_TEST_MAX: usize = 8;
 
@@ -360,14 +467,19 @@ impl Receivers {
     }
 }
 
+/// How far (m) a point may lie off a floor-plan lattice and still count as on it: 1e-9 of the
+/// largest coordinate (at least 1e-9 m).
+fn lattice_tolerance(centres: &[DVec3]) -> f64 {
+    1e-9 * centres.iter().map(|c| c.abs().max_element()).fold(1.0, f64::max)
+}
+
 /// The search grid of receivers that lie on a regular floor-plan lattice (one height, x and y
 /// on steps of sx and sy at least a sphere's diameter, as the scene's receiver grid): cells of
 /// sx × sy × 2r centred on the lattice points, so that each sphere lies in its own cell and a
 /// segment tests one sphere per cell it crosses. None for any other set of points.
 fn floor_plan_lattice(centres: &[DVec3], radius: f64) -> Option<(DVec3, DVec3, [usize; 3])> {
     let first = *centres.first()?;
-    let scale = centres.iter().map(|c| c.abs().max_element()).fold(1.0, f64::max);
-    let tol = 1e-9 * scale;
+    let tol = lattice_tolerance(centres);
     if centres.iter().any(|c| (c.z - first.z).abs() > tol) {
         return None;
     }
@@ -520,7 +632,17 @@ mod tests {
         let mut s = crate::rng::Stream::new(5, 0, 0);
         for seg in 1..20_000u64 {
             let o = DVec3::new(s.uniform() * 12.0 - 1.0, s.uniform() * 6.0 - 1.0, s.uniform() * 3.0);
-            let d = crate::sampling::uniform_sphere(s.uniform(), s.uniform());
+            let mut d = crate::sampling::uniform_sphere(s.uniform(), s.uniform());
+            // Some straight up or down, along x or y, level at the spheres' height (the
+            // lattice's degenerate directions).
+            match seg % 7 {
+                1 => d = DVec3::new(0.0, 0.0, d.z.signum()),
+                2 => d = DVec3::new(d.x.signum(), 0.0, 0.0),
+                3 => d = DVec3::new(0.0, d.y.signum(), 0.0),
+                4 => d = DVec3::new(d.x, d.y, 0.0).normalize(),
+                _ => {}
+            }
+            let o = if seg % 7 == 4 { DVec3::new(o.x, o.y, 1.5 + (s.uniform() - 0.5) * radius) } else { o };
             let len = s.uniform() * 8.0;
             let mut found = Vec::new();
             rc.crossings(o, d, len, &mut stamp, seg, |c| found.push((c.receiver, c.chord)));
