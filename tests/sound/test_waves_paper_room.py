@@ -319,3 +319,35 @@ def admittance_from_random(alpha):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if paris(mid) < alpha else (lo, mid)
     return 0.5 * (lo + hi)
+
+
+def test_exact_modes_are_first_order_perturbation_for_small_admittance_only():
+    """The reference the tests above use, checked on its own: with small admittances the exact
+    modes' energy decay rates 2c·Im k equal first-order perturbation's c·Σ_w β_w·ε_w/L_w (Morse
+    and Bolt; ε = 2 with a node count > 0 along the wall's axis, 1 without) within 0.1 %
+    (the next order is k(β₀ + β_L)L ≈ 0.02 smaller here); with paper-small's floor (g 0.0506,
+    walls 0.00665) the modes with no node along the floor's axis decay slower than first
+    order says, by 2-8 % at 500 Hz and 7-27 % at 1 kHz (their rates' ratio to it 0.92-0.98 and
+    0.73-0.93), the others within 2.1 % and 4.5 % (asserted within 2.5 % and 5 %): the
+    perturbation is not valid for the former, k(β₀ + β_L)L being 1.0 and 2.1. A root not followed
+    from the rigid mode would land on a neighbour's rate, far outside these."""
+    c, size = 343.0, np.array([6.0, 2.5, 2.0])
+
+    def rates(admittance, top_hz):
+        n, k, _ = locally_reacting_modes(size, admittance, top_hz)
+        eps = np.where(n > 0, 2.0, 1.0)
+        first = c * sum(eps[:, a] * sum(admittance[a]) / size[a] for a in range(3))
+        return n, c * k.real / (2 * math.pi), 2 * c * k.imag / first
+
+    small = {a: (1e-4, 2e-4) for a in range(3)}
+    _, _, ratio = rates(small, 300.0)
+    assert np.all(np.abs(ratio - 1) < 1e-3), (ratio.min(), ratio.max())
+    walls, floor = (admittance_from_random(a) for a in (WALLS, FLOOR))
+    n, f, ratio = rates({0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}, 1414.0)
+    grazing = n[:, 2] == 0
+    for fc, (lo, hi), others in ((500.0, (0.91, 0.99), 0.025), (1000.0, (0.72, 0.93), 0.05)):
+        band = (f >= fc / math.sqrt(2)) & (f < fc * math.sqrt(2))
+        print(fc, "grazing", ratio[band & grazing].min(), ratio[band & grazing].max(),
+              "others", ratio[band & ~grazing].min(), ratio[band & ~grazing].max())
+        assert lo < ratio[band & grazing].min() and ratio[band & grazing].max() < hi
+        assert np.all(np.abs(ratio[band & ~grazing] - 1) < others)
