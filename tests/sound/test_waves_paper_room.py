@@ -36,7 +36,8 @@ def axis_wavenumbers(order, length_m, k, admittance):
         a = kap**2 + k * k * b0 * b1
         f = a * s - 1j * k * kap * (b0 + b1) * co
         df = 2 * kap * s + a * length_m * co - 1j * k * (b0 + b1) * (co - kap * length_m * s)
-        step = f / df
+        # A rigid pair of walls keeps κ = 0 for n = 0 (f = df = 0 there).
+        step = np.divide(f, df, out=np.zeros_like(f), where=df != 0)
         kap = kap - step
         if np.all(np.abs(step) < 1e-12 * np.maximum(1.0, np.abs(kap))):
             break
