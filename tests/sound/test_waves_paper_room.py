@@ -75,12 +75,15 @@ def mode_shapes(kap, k, admittance, size_m, points_m):
     psi = np.ones((len(k), len(points_m)), complex)
     norm = np.ones(len(k), complex)
     for a in range(3):
-        q, ka, length = 1j * k * admittance[a][0] / kap[:, a], kap[:, a], size_m[a]
+        ka, length = kap[:, a], size_m[a]
+        rigid = ka == 0  # n = 0 between two rigid walls: ψ = 1 along the axis
+        safe = np.where(rigid, 1.0, ka)
+        q = np.where(rigid, 0.0, 1j * k * admittance[a][0] / safe)
         x = np.asarray(points_m, float)[None, :, a]
         psi *= np.cos(ka[:, None] * x) + q[:, None] * np.sin(ka[:, None] * x)
-        s2 = np.sin(2 * ka * length) / (4 * ka)
+        s2 = np.where(rigid, length / 2, np.sin(2 * ka * length) / (4 * safe))
         norm *= (length / 2 + s2 + q**2 * (length / 2 - s2)
-                 + q * (1 - np.cos(2 * ka * length)) / (2 * ka)) / length
+                 + q * (1 - np.cos(2 * ka * length)) / (2 * safe)) / length
     return psi, norm
 
 
