@@ -1,8 +1,8 @@
 """The hybrid on a paper room (paper-small: hard walls over an absorbing floor, a field that is
-not diffuse) against two independent models of the same locally reacting room, its modes (Morse
-and Bolt 1944) and ISO 3382-2's noise of a decay measured at a few points: is the hybrid's decay
-continuous across the crossover, and do the waves follow the room they model? The wall model
-both sides share is docs/walls.md; the waves are docs/waves.md.
+not diffuse) against two independent models of the same locally reacting room, its exact modes
+(the shoebox separates; Morse and Bolt 1944) and ISO 3382-2's noise of a decay measured at a few
+points: is the hybrid's decay continuous across the crossover, and do the waves follow the room
+they model? The wall model both sides share is docs/walls.md; the waves are docs/waves.md.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ def axis_wavenumbers(order, length_m, k, admittance):
     have real specific admittances ``admittance`` = (β₀, β_L), for modes of ``order`` (int
     array) at complex total wavenumbers ``k`` (time dependence e^{jωt}): the pressure
     cos κx + (jkβ₀/κ)·sin κx meets the locally reacting walls exactly when
-    (κ² + k²β₀β_L)·sin κL = jkκ(β₀ + β_L)·cos κL (Morse and Bolt 1944, §IV; Morse and Ingard,
-    *Theoretical Acoustics* §9.5, with equal walls the equation of
+    (κ² + k²β₀β_L)·sin κL = jkκ(β₀ + β_L)·cos κL (Morse and Bolt 1944; Morse and Ingard,
+    *Theoretical Acoustics* 1968, §9.5; with equal walls the equation of
     crates/sonolux-core/tests/wave_walls.rs ``lossy_mode``). Newton's method from the rigid
     room's nπ/L, and from first-order perturbation's √(jk(β₀ + β_L)/L) for n = 0."""
     b0, b1 = admittance
@@ -71,7 +71,7 @@ def locally_reacting_modes(size_m, admittance, top_hz, c=343.0):
 def mode_shapes(kap, k, admittance, size_m, points_m):
     """ψ[M, P] = Π_a (cos κ_a x_a + (jkβ₀/κ_a)·sin κ_a x_a) at ``points_m`` [P, 3], and the
     modes' norms Λ[M] = ∫ψ² dV / V (no conjugate: the modes of a lossy room are orthogonal in
-    that product; Morse and Ingard §9.4), in closed form per axis."""
+    that product; Morse and Ingard ch. 9), in closed form per axis."""
     psi = np.ones((len(k), len(points_m)), complex)
     norm = np.ones(len(k), complex)
     for a in range(3):
@@ -105,11 +105,11 @@ def locally_reacting_modal_decay(size_m, source_m, points_m, admittance, bands_h
     at L)}, from its exact modes (:func:`locally_reacting_modes`), as a band of the waves
     measures it: the room's impulse response (per unit volume acceleration, the waves'
     normalisation: h = δ(t − r/c)/r in free field) is Σ_n ψ_n(s)ψ_n(r)/(VΛ_n)·sin(ω_n t)/ω_n
-    (Morse and Ingard §9.4), so mode n counts in a band with |ψ_n(s)|²·mean|ψ_n(r)|²/
-    (|Λ_n|²·|ω_n|²) times the band filter's power gain at its frequency, and decays as
-    exp(−2c·Im k_n·t); the modes' cross terms average out over the band and the points. The
-    mean is over ``points_m`` (the receivers' cubature points, as the waves and the rays average
-    over a sphere). The air adds m·c per band. ``fit_limits``: as decay_times'."""
+    (the modal expansion of the Green's function, Morse and Ingard ch. 9), so mode n counts in a
+    band with |ψ_n(s)|²·mean|ψ_n(r)|²/(|Λ_n|²·|ω_n|²) times the band filter's power gain at its
+    frequency, and decays as exp(−2c·Im k_n·t); the modes' cross terms average out over the
+    band and the points. The mean is over ``points_m`` (the receivers' cubature points, as the
+    waves and the rays average over a sphere). The air adds m·c per band. ``fit_limits``: as decay_times'."""
     c = 343.0
     size = np.asarray(size_m, float)
     _, k, kap = locally_reacting_modes(size, admittance, max(bands_hz) * 2 ** 0.75, c)
