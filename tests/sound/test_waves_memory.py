@@ -3,8 +3,6 @@ would not fit is refused before any ray is traced (:mod:`sonolux.sound.wave_memo
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -12,7 +10,6 @@ import sonolux
 from sonolux import engine
 from sonolux.errors import InvalidInputError, MemoryLimitError
 from sonolux.sound import bake as bake_module
-from sonolux.sound import wave_memory
 from sonolux.sound.bake import bake
 from sonolux.sound.options import SoundOptions
 
@@ -64,14 +61,7 @@ def test_waves_that_would_not_fit_are_refused_before_any_ray(monkeypatch):
     scene = room(PTS)
     options = SoundOptions(rays=2000, waves=True, crossover_hz=354, max_time_s=0.15,
                            storage="full")
-    arrays = bake_module.band_arrays(scene)
-    fs = float(scene.settings.sample_rate_hz)
-    early_bins = round(options.early_s * fs)
-    bins = early_bins + math.ceil((0.15 - early_bins / fs) / options.late_bin_s) + 1
-    memory = wave_memory.estimate(
-        scene, arrays["absorption"], duration_s=0.15 + options.late_bin_s, time_bins=bins,
-        directions=options.azimuth_bands * options.elevation_bands, crossover_hz=354,
-        wave_time_budget_s=None, max_field_bytes=None)
+    memory = bake_module.waves_memory(scene, options, bake_module.band_arrays(scene), 0.15)
     assert memory.wave_bands == 2 and memory.points == 2 * 7
 
     def no_rays(*a, **k):
@@ -99,14 +89,7 @@ def test_paper_large_default_waves_fit_with_a_wide_margin():
     scene = sonolux.load_scene("paper-large")
     options = SoundOptions(waves=True)
     arrays = bake_module.band_arrays(scene)
-    max_time_s = bake_module.auto_max_time(scene, arrays)
-    early_s, _, _ = bake_module.stored_axis(scene, options, arrays)
-    fs = float(scene.settings.sample_rate_hz)
-    early_bins = round(early_s * fs)
-    bins = early_bins + math.ceil((max_time_s - early_bins / fs) / options.late_bin_s) + 1
-    memory = wave_memory.estimate(
-        scene, arrays["absorption"], duration_s=max_time_s + options.late_bin_s,
-        time_bins=bins, directions=options.azimuth_bands * options.elevation_bands,
-        crossover_hz=None, wave_time_budget_s=None, max_field_bytes=None)
+    memory = bake_module.waves_memory(scene, options, arrays,
+                                      bake_module.auto_max_time(scene, arrays))
     assert memory.wave_bands < memory.bands
     assert memory.total_bytes < 4e9, memory.describe()

@@ -207,7 +207,7 @@ pub(crate) fn simulate_waves<'py>(
         unbounded.validate(&bands, receivers.len()).map_err(to_py)?;
         let layout = b.layout(receivers.len(), kept);
         let bytes = layout.len() as f64 * ENERGY_BYTES_PER_CELL as f64;
-        if !(bytes <= b.max_field_bytes as f64) {
+        if bytes > b.max_field_bytes as f64 {
             return Err(invalid(format!(
                 "binning: the waves' energy would take {:.3} GB ({} receiver points × {} directions × {kept} bands × {} time bins × {ENERGY_BYTES_PER_CELL} bytes), more than max_field_bytes = {:.3} GB: use fewer receivers or directions, fewer energy_bands (a lower crossover), or a shorter max_time_s",
                 bytes / 1e9,

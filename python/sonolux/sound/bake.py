@@ -203,7 +203,10 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
     if options.waves and first == 0:
-        check_wave_memory(scene, options, arrays, max_time_s, early_s, log)
+        memory = waves_memory(scene, options, arrays, max_time_s)
+        if log:
+            log(f"waves: about {wave_memory.gb(memory.total_bytes)} at most ({memory.describe()})")
+        wave_memory.check(memory, options.max_field_bytes)
     wall_model, wall_why = sound_walls.resolve(scene, options)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model)
     wall_kept = [list(k) for k in acoustics.kept_constant()]
@@ -312,24 +315,21 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     return with_wave_range(scene, options, field, first, progress=progress, log=log)
 
 
-def check_wave_memory(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray],
-                      max_time_s: float, early_s: float,
-                      log: Callable[[str], None] | None = None) -> None:
-    """The waves' memory (:mod:`sonolux.sound.wave_memory`) checked before any ray: the field's
-    bins as :func:`wave_part` will have them (one late bin more, for a compact field's last
-    coarse bin past ``max_time_s``)."""
+def waves_memory(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray],
+                 max_time_s: float) -> wave_memory.WaveMemory:
+    """The waves' memory estimate (:mod:`sonolux.sound.wave_memory`), made before any ray: the
+    field's bins as :func:`wave_part` will have them (``split`` + 1 late bins more, for a compact
+    field's last coarse bin past ``max_time_s``, shown as ``split`` bins)."""
+    early_s, _, split = stored_axis(scene, options, arrays)
     fs = float(scene.settings.sample_rate_hz)
     early_bins = round(early_s * fs)
     time_bins = early_bins + math.ceil(max(max_time_s - early_bins / fs, 0.0)
-                                       / options.late_bin_s) + 1
-    memory = wave_memory.estimate(
+                                       / options.late_bin_s) + split + 1
+    return wave_memory.estimate(
         scene, arrays["absorption"], duration_s=max_time_s + options.late_bin_s,
         time_bins=time_bins, directions=options.azimuth_bands * options.elevation_bands,
         crossover_hz=options.crossover_hz, wave_time_budget_s=options.wave_time_budget_s,
         max_field_bytes=options.max_field_bytes)
-    if log:
-        log(f"waves: about {wave_memory.gb(memory.total_bytes)} at most ({memory.describe()})")
-    wave_memory.check(memory, options.max_field_bytes)
 
 
 def with_wave_range(scene: Scene, options: SoundOptions, field: SoundField, first: int, *,
