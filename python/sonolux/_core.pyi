@@ -215,6 +215,7 @@ def simulate_waves(
     term_positions_m: NDArray[np.float64] | None = None,
     term_signals_m3_s2: NDArray[np.float64] | None = None,
     pulse_delay_s: float = 0.0,
+    energy_bands: int | None = None,
 ) -> dict[str, Any]: ...
 
 @final

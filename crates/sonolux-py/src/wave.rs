@@ -144,8 +144,13 @@ fn dvec3s(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
 /// float64[term, step], a cluster of monopoles each fed its own volume acceleration (sample n
 /// at n·Δt), with the pulse that normalises the responses centred at `pulse_delay_s`; then
 /// `sources_m` is not emitted (docs/waves.md).
+///
+/// `energy_bands` k: the energy holds the first k bands only (a hybrid's wave bands; default:
+/// all), each band's numbers the same as with all. The energy's size (8 bytes a cell while it is
+/// binned, 4 more for the array returned) is checked against the binning's `max_field_bytes`
+/// before the run.
 #[pyfunction]
-#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false, term_positions_m = None, term_signals_m3_s2 = None, pulse_delay_s = 0.0))]
+#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false, term_positions_m = None, term_signals_m3_s2 = None, pulse_delay_s = 0.0, energy_bands = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn simulate_waves<'py>(
     py: Python<'py>,
@@ -161,6 +166,7 @@ pub(crate) fn simulate_waves<'py>(
     term_positions_m: Option<PyReadonlyArray2<'py, f64>>,
     term_signals_m3_s2: Option<PyReadonlyArray2<'py, f64>>,
     pulse_delay_s: f64,
+    energy_bands: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let terms: Vec<core::SourceTerm> = match (&term_positions_m, &term_signals_m3_s2) {
         (None, None) => Vec::new(),
@@ -188,9 +194,29 @@ pub(crate) fn simulate_waves<'py>(
         return Err(invalid("sources_m: at least one source is needed"));
     }
     let binning = binning.map(|b| b.inner().clone());
+    let kept = energy_bands.unwrap_or(band_centres_hz.len());
+    if !(1..=band_centres_hz.len()).contains(&kept) {
+        return Err(invalid(format!("energy_bands = {kept}: must be from 1 to the {} band centres", band_centres_hz.len())));
+    }
     if let Some(b) = &binning {
         let bands = sonolux_core::sound::Acoustics { n_bands: band_centres_hz.len(), absorption: a.iter().copied().collect(), scattering: vec![0.0; a.len()] };
-        b.validate(&bands, receivers.len()).map_err(to_py)?;
+        // The settings checked as the tracer's, but the size is the energy's own (kept bands, the
+        // bytes it takes here), not a tracer field's of every band.
+        let mut unbounded = b.clone();
+        unbounded.max_field_bytes = u64::MAX;
+        unbounded.validate(&bands, receivers.len()).map_err(to_py)?;
+        let layout = b.layout(receivers.len(), kept);
+        let bytes = layout.len() as f64 * ENERGY_BYTES_PER_CELL as f64;
+        if bytes > b.max_field_bytes as f64 {
+            return Err(invalid(format!(
+                "binning: the waves' energy would take {:.3} GB ({} receiver points × {} directions × {kept} bands × {} time bins × {ENERGY_BYTES_PER_CELL} bytes), more than max_field_bytes = {:.3} GB: use fewer receivers or directions, fewer energy_bands (a lower crossover), or a shorter max_time_s",
+                bytes / 1e9,
+                receivers.len(),
+                layout.n_directions(),
+                layout.n_time(),
+                b.max_field_bytes as f64 / 1e9
+            )));
+        }
         if b.air_attenuation_per_m.len() != band_centres_hz.len() {
             return Err(invalid(format!(
                 "binning: air_attenuation_per_m has {} bands but there are {} band centres",
@@ -211,7 +237,7 @@ pub(crate) fn simulate_waves<'py>(
             })?;
             let energy = match &binning {
                 Some(b) => {
-                    let layout = b.layout(receivers.len(), band_centres_hz.len());
+                    let layout = b.layout(receivers.len(), kept);
                     let direct = without_direct.then_some(core::bands::DirectPaths { sources_m: &sources, receivers_m: &receivers, terms: &terms });
                     let e = core::bands::reflected_energies(&res, &band_centres_hz, &b.air_attenuation_per_m, b.speed_of_sound_m_s, &layout, direct)?;
                     Some((public_order(&e, &layout), layout))
@@ -254,6 +280,10 @@ pub(crate) fn simulate_waves<'py>(
     out.set_item("stats", s)?;
     Ok(out)
 }
+
+/// What one cell of the waves' energy takes while it is made: the f64 sum being binned and the
+/// f32 array returned.
+const ENERGY_BYTES_PER_CELL: u64 = 8 + 4;
 
 /// [time][receiver][direction][band] f64 to the public [receiver][direction][band][time] f32.
 fn public_order(e: &[f64], l: &sonolux_core::sound::Layout) -> Vec<f32> {

@@ -40,6 +40,7 @@ from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
 from sonolux.sound import levels as sound_levels
 from sonolux.sound import walls as sound_walls
+from sonolux.sound import wave_memory
 from sonolux.sound import wave_sources
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.field import SoundField, with_source_energy
@@ -203,6 +204,11 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
+    if options.waves and first == 0:
+        memory = waves_memory(scene, options, arrays, max_time_s)
+        if log:
+            log(f"waves: about {wave_memory.gb(memory.total_bytes)} at most ({memory.describe()})")
+        wave_memory.check(memory, options.max_field_bytes)
     wall_model, wall_why = sound_walls.resolve(scene, options)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model)
     wall_kept = [list(k) for k in acoustics.kept_constant()]
@@ -330,6 +336,23 @@ def check_wave_sources(scene: Scene, options: SoundOptions,
         absorption=arrays["absorption"], measure=False)
     wave_sources.check_clearance(scene, cross.max_frequency_hz, [
         _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
+
+
+def waves_memory(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray],
+                 max_time_s: float) -> wave_memory.WaveMemory:
+    """The waves' memory estimate (:mod:`sonolux.sound.wave_memory`), made before any ray: the
+    field's bins as :func:`wave_part` will have them (``split`` + 1 late bins more, for a compact
+    field's last coarse bin past ``max_time_s``, shown as ``split`` bins)."""
+    early_s, _, split = stored_axis(scene, options, arrays)
+    fs = float(scene.settings.sample_rate_hz)
+    early_bins = round(early_s * fs)
+    time_bins = early_bins + math.ceil(max(max_time_s - early_bins / fs, 0.0)
+                                       / options.late_bin_s) + split + 1
+    return wave_memory.estimate(
+        scene, arrays["absorption"], duration_s=max_time_s + options.late_bin_s,
+        time_bins=time_bins, directions=options.azimuth_bands * options.elevation_bands,
+        crossover_hz=options.crossover_hz, wave_time_budget_s=options.wave_time_budget_s,
+        max_field_bytes=options.max_field_bytes)
 
 
 def with_wave_range(scene: Scene, options: SoundOptions, field: SoundField, first: int, *,

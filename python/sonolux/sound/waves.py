@@ -273,10 +273,11 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                progress: bool | Callable[[int, int, float], bool] = False,
                log: Callable[[str], None] | None = None,
                directivities: list[Any] | None = None) -> dict[str, Any]:
-    """One wave run per source; returns energy float32[receiver, direction, band, time] (every
-    band, the caller keeps the wave bands), pressure float32[receiver, time] at sample_rate_hz
-    (the low part, see the module's doc), and stats. ``bins``: the field's (bin_start_s,
-    bin_width_s) and (azimuth, elevation) bands, where the direct sound is put.
+    """One wave run per source; returns energy float32[receiver, direction, wave band, time]
+    (the bands below the crossover only: the rays give the rest), pressure
+    float32[receiver, time] at sample_rate_hz (the low part, see the module's doc), and stats.
+    ``bins``: the field's (bin_start_s, bin_width_s) and (azimuth, elevation) bands, where the
+    direct sound is put.
     ``directivities``: each source's engine directivity (None or omitted: omni); a directional
     source is a cluster of monopoles fitted to it per band (:mod:`sonolux.sound.wave_sources`)."""
     from sonolux.sound import wave_sources
@@ -289,6 +290,7 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
     centres = np.ascontiguousarray(scene.receivers.positions_m, float)
     receivers = ball_points(scene.geometry, centres, scene.receivers.radius_m)
     est = engine.wave_memory_estimate(settings, scene.geometry, len(receivers), bands)
+    k = cross.wave_bands
     if log:
         log(f"waves: {cross.why}; grid {settings.spacing_m * 1e3:.1f} mm up to "
             f"{cross.max_frequency_hz:.0f} Hz, {est['cells']:,} cells × {est['steps']:,} steps × "
@@ -304,7 +306,7 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         if pattern is None or src.directivity == "omni":
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, settings, binning, callback,
-                                        without_direct=True)
+                                        without_direct=True, energy_bands=k)
             gains = None
         else:
             fitted = wave_sources.fit_on_grid(src, pattern, bands, settings.spacing_m, c)
@@ -326,7 +328,7 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                                           len(cluster[0]), cross.wave_bands))
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, longer, binning, callback,
-                                        without_direct=True, terms=cluster)
+                                        without_direct=True, terms=cluster, energy_bands=k)
             towards = centres - source_m
             norm = np.linalg.norm(towards, axis=1, keepdims=True)
             gains = np.asarray(pattern.gains(towards / np.maximum(norm, 1e-12), bands.size), float)
@@ -338,10 +340,9 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         w = point_weights(receivers, source_m, centres, 2.0 * settings.spacing_m + (
             0.0 if pattern is None or src.directivity == "omni"
             else wave_sources.reach_m(fitted, settings.spacing_m)))
-        e = np.einsum("rp,rp...->r...", w, out["energy"].astype(np.float64).reshape(
-            len(centres), BALL_POINTS, *out["energy"].shape[1:]))
-        add_direct(e, centres, scene.receivers.radius_m, source_m, arrays["air"], c, bins,
-                   directions, gains)
+        e = ball_means(w, out.pop("energy"))
+        add_direct(e, centres, scene.receivers.radius_m, source_m, arrays["air"][:k], c, bins,
+                   directions, None if gains is None else gains[:, :k])
         e *= src.power_w
         # The pressure: the centre's (the listener's ear is at one point).
         out["pressure_pa"] = out["pressure_pa"][::BALL_POINTS]
@@ -356,6 +357,26 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
     assert energy is not None and pressure is not None
     return {"energy": energy.astype(np.float32), "pressure": pressure.astype(np.float32),
             "sample_rate_hz": float(out["sample_rate_hz"]), "stats": stats}
+
+
+#: Receivers whose points are averaged at once by :func:`ball_means`: the float64 copy of
+#: their points' energy is this many spheres' worth, not the whole grid's.
+BALL_CHUNK = 32
+
+
+def ball_means(weights: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """float64[receiver, direction, band, time]: each sphere's energy, the mean of its
+    ``BALL_POINTS`` points' (``points`` float32[receiver·point, direction, band, time], [receiver]
+    [point] in order) with ``weights`` float64[receiver, point]; in chunks of :data:`BALL_CHUNK`
+    receivers, so that the float64 copy of the points' energy is small (each sum is over one
+    receiver's points, so its bits do not depend on the chunks)."""
+    n = weights.shape[0]
+    per = points.reshape(n, BALL_POINTS, *points.shape[1:])
+    out = np.empty((n, *points.shape[1:]), np.float64)
+    for a in range(0, n, BALL_CHUNK):
+        b = min(a + BALL_CHUNK, n)
+        out[a:b] = np.einsum("rp,rp...->r...", weights[a:b], per[a:b].astype(np.float64))
+    return out
 
 
 def low_pressure(out: dict[str, Any], bands_hz: np.ndarray, wave_bands: int, air_per_m: np.ndarray,

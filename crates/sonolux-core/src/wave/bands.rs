@@ -157,8 +157,10 @@ fn transition(x: f64) -> (f64, f64) {
 /// Energy per band, time bin and arrival direction at every receiver of `result`, in `layout`
 /// (`[time][receiver][direction][band]`, J/m² per joule of source energy in each band), with the
 /// air's energy attenuation `air_attenuation_per_m` per band. `layout` must have the result's
-/// receivers and `band_centres_hz`'s bands; bands beyond the grid's maximum frequency come back
-/// with what little the grid carries there, and should not be asked.
+/// receivers and at most `band_centres_hz`'s bands: a layout of k bands holds the first k only
+/// (the wave bands of a hybrid, which need not pay for the bands above the crossover; each band
+/// is filtered and binned alone, so its numbers do not depend on k). Bands beyond the grid's
+/// maximum frequency come back with what little the grid carries there, and should not be asked.
 pub fn direction_energies(
     result: &WaveResult,
     band_centres_hz: &[f64],
@@ -207,9 +209,11 @@ pub fn reflected_energies(
         }
     }
     let nb = band_centres_hz.len();
-    if layout.n_bands != nb || layout.n_receivers != result.n_receivers {
-        return Err(CoreError::invalid("layout", format!("needs {} receivers × {nb} bands", result.n_receivers)));
+    if !(1..=nb).contains(&layout.n_bands) || layout.n_receivers != result.n_receivers {
+        return Err(CoreError::invalid("layout", format!("needs {} receivers × 1 to {nb} bands", result.n_receivers)));
     }
+    // The bands binned: the layout's first `kept` of the filters' `nb`.
+    let kept = layout.n_bands;
     if air_attenuation_per_m.len() != nb || air_attenuation_per_m.iter().any(|m| !(*m >= 0.0)) {
         return Err(CoreError::invalid("air_attenuation", format!("needs {nb} values ≥ 0")));
     }
@@ -219,8 +223,10 @@ pub fn reflected_energies(
     let filters = BandFilters::new(band_centres_hz, fs, ns)?;
     let inverse = filters.inverse_of(&result.source_pressure_1m_pa);
     let unit: Vec<f64> = (0..nb).map(|b| filters.impulse_energy(b)).collect();
-    let per_receiver = layout.n_time() * layout.n_directions() * nb;
+    let per_receiver = layout.n_time() * layout.n_directions() * kept;
     let mut out = vec![0.0; layout.len()];
+    // Each term's volume velocity q, the running integral of its signal: once, not per receiver.
+    let integrals: Vec<Vec<f64>> = direct.map_or(Vec::new(), |d| d.terms.iter().map(|t| running_integral(&t.volume_acceleration_m3_s2, dt)).collect());
     let chunk = 4 * rayon::current_num_threads();
     for first in (0..result.n_receivers).step_by(chunk.max(1)) {
         let last = (first + chunk).min(result.n_receivers);
@@ -233,12 +239,12 @@ pub fn reflected_energies(
                     if d.terms.is_empty() {
                         subtract_direct(&mut channels, result, d.sources_m, d.receivers_m[r], speed_of_sound_m_s);
                     } else {
-                        subtract_terms(&mut channels, result, d.terms, d.receivers_m[r], speed_of_sound_m_s);
+                        subtract_terms(&mut channels, result, d.terms, &integrals, d.receivers_m[r], speed_of_sound_m_s);
                     }
                 }
                 let spectra: Vec<_> = channels.iter().map(|c| filters.deconvolved(c, &inverse)).collect();
                 let len = filters.fft_len;
-                for b in 0..nb {
+                for b in 0..kept {
                     // The whole circular buffer: samples past len − ns/2 are the zero-phase
                     // filter's ringing before time 0, given to the first bin.
                     let [h, vx, vy, vz] = [0, 1, 2, 3].map(|c| filters.band_of(&spectra[c], b, len));
@@ -251,7 +257,7 @@ pub fn reflected_energies(
                         let e = h[n] * h[n] * norm * (-air_attenuation_per_m[b] * speed_of_sound_m_s * t).exp();
                         let from = -intensity[n];
                         let dir = layout.direction_bin(if from.length_squared() > 0.0 { from.normalize() } else { DVec3::X });
-                        field[(bin * layout.n_directions() + dir) * nb + b] += e;
+                        field[(bin * layout.n_directions() + dir) * kept + b] += e;
                     }
                 }
                 field
@@ -260,8 +266,8 @@ pub fn reflected_energies(
         for (r, field) in (first..last).zip(fields) {
             for t in 0..layout.n_time() {
                 for d in 0..layout.n_directions() {
-                    let src = &field[(t * layout.n_directions() + d) * nb..][..nb];
-                    out[layout.index(r, t, d)..][..nb].copy_from_slice(src);
+                    let src = &field[(t * layout.n_directions() + d) * kept..][..kept];
+                    out[layout.index(r, t, d)..][..kept].copy_from_slice(src);
                 }
             }
         }
@@ -299,22 +305,18 @@ fn subtract_direct(channels: &mut [Vec<f64>], result: &WaveResult, sources: &[DV
 /// q the running integral of a (trapezoids), each interpolated at τ = t − r/c by the four-point
 /// cubic (Catmull–Rom: error of order (ωΔt)⁴, 10⁻³ at the grid's f_max, where linear
 /// interpolation would leave 1.6% of the direct sound).
-fn subtract_terms(channels: &mut [Vec<f64>], result: &WaveResult, terms: &[super::SourceTerm], at: DVec3, c: f64) {
+/// `integrals`: each term's q from [`running_integral`].
+fn subtract_terms(channels: &mut [Vec<f64>], result: &WaveResult, terms: &[super::SourceTerm], integrals: &[Vec<f64>], at: DVec3, c: f64) {
     let dt = 1.0 / result.sample_rate_hz;
     let rho = result.pulse.air_density_kg_m3;
     let four_pi = 4.0 * std::f64::consts::PI;
-    for term in terms {
+    for (term, q) in terms.iter().zip(integrals) {
         let d = at - term.position_m;
         let r = d.length();
         if r < 1e-6 {
             continue;
         }
         let a = &term.volume_acceleration_m3_s2;
-        // Sample n of a signal is its value at n·Δt, as the pulse's in [`subtract_direct`].
-        let mut q = vec![0.0; a.len()];
-        for n in 1..a.len() {
-            q[n] = q[n - 1] + 0.5 * (a[n - 1] + a[n]) * dt;
-        }
         let at_time = |s: &[f64], t: f64| -> f64 {
             let x = t / dt;
             if x < 0.0 || s.is_empty() {
@@ -330,7 +332,7 @@ fn subtract_terms(channels: &mut [Vec<f64>], result: &WaveResult, terms: &[super
         let n = d / r;
         for i in 0..channels[0].len() {
             let tau = i as f64 * dt - r / c;
-            let (ai, qi) = (at_time(a, tau), at_time(&q, tau));
+            let (ai, qi) = (at_time(a, tau), at_time(q, tau));
             let p = rho * ai / (four_pi * r);
             let v = ai / (four_pi * r * c) + qi / (four_pi * r * r);
             channels[0][i] -= p;
@@ -339,6 +341,15 @@ fn subtract_terms(channels: &mut [Vec<f64>], result: &WaveResult, terms: &[super
             channels[3][i] -= v * n.z;
         }
     }
+}
+
+/// The running integral of a signal sampled at n·`dt` (trapezoids), from 0 at its first sample.
+fn running_integral(a: &[f64], dt: f64) -> Vec<f64> {
+    let mut q = vec![0.0; a.len()];
+    for n in 1..a.len() {
+        q[n] = q[n - 1] + 0.5 * (a[n - 1] + a[n]) * dt;
+    }
+    q
 }
 
 /// p·v averaged over a centred window of `window` samples (prefix sums, in order).

@@ -1,0 +1,114 @@
+"""What the waves of a hybrid bake (``--waves``) will take in memory, checked at the edge: before
+any ray is traced, so that a bake whose waves cannot fit is refused at once, not after minutes of
+rays (issue 18).
+
+The waves' memory has phases that do not overlap, and one that does (the join):
+
+- **grid**: the wave run itself (cells, boundary, the receiver points' responses), the core's own
+  estimate (``WaveSettings.memory_estimate``, ``crates/sonolux-core/src/wave/settings.rs``);
+- **binning**: the responses kept, plus the energy per receiver point, direction, *wave* band
+  and time bin, 8 bytes while it is summed and 4 for the array handed back
+  (``bands::reflected_energies`` bins only the bands below the crossover);
+- **spheres**: that float32 array, and each sphere's mean of its points in float64 with the sum
+  over the sources beside it (:func:`sonolux.sound.waves.ball_means`, in chunks of receivers);
+- **join**: the tracer's field copied with its wave bands replaced
+  (:func:`sonolux.sound.waves.keep_wave_bands`): receivers × directions × every band × time
+  bins × 4 bytes, on top of the field the tracer holds.
+
+The peak is the largest of the first three plus the join. It is compared with the bake's
+``max_field_bytes``, else :func:`sonolux.memory.budget_bytes` (80% of what this machine has
+free): the limit the binning itself is held to.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sonolux import engine
+from sonolux.errors import MemoryLimitError
+from sonolux.memory import budget_bytes, gb
+
+#: Bytes of one cell of the waves' energy while the core bins it (f64 sum + f32 array returned).
+BINNING_BYTES_PER_CELL = 8 + 4
+
+
+@dataclass(frozen=True)
+class WaveMemory:
+    """The waves' memory estimate, in bytes, and what drives it."""
+
+    grid_bytes: int
+    binning_bytes: int
+    spheres_bytes: int
+    join_bytes: int
+    points: int
+    directions: int
+    wave_bands: int
+    bands: int
+    time_bins: int
+    crossover_hz: float
+
+    @property
+    def total_bytes(self) -> int:
+        return max(self.grid_bytes, self.binning_bytes, self.spheres_bytes) + self.join_bytes
+
+    def describe(self) -> str:
+        return (f"grid {gb(self.grid_bytes)}, binning {gb(self.binning_bytes)} ({self.points} "
+                f"receiver points × {self.directions} directions × {self.wave_bands} wave "
+                f"band(s) of {self.bands} × {self.time_bins} time bins), spheres "
+                f"{gb(self.spheres_bytes)}, join {gb(self.join_bytes)}")
+
+
+def estimate(scene: Any, absorption: np.ndarray, *, duration_s: float, time_bins: int,
+             directions: int, crossover_hz: float | None, wave_time_budget_s: float | None,
+             max_field_bytes: int | None) -> WaveMemory:
+    """The estimate for a hybrid bake of ``scene`` whose field has ``time_bins`` bins over
+    ``duration_s`` and ``directions`` direction bins; the crossover is chosen as the bake will
+    (:func:`sonolux.sound.waves.choose_crossover`, without the timing run)."""
+    from sonolux.sound import wave_sources
+    from sonolux.sound import waves as wave_sound
+
+    cross = wave_sound.choose_crossover(
+        scene, duration_s, crossover_hz=crossover_hz,
+        time_budget_s=wave_time_budget_s or wave_sound.DEFAULT_TIME_BUDGET_S,
+        absorption=absorption, memory_limit_bytes=max_field_bytes or wave_sound.GRID_MEMORY_BYTES,
+        measure=False)
+    bands = np.asarray(scene.settings.bands_hz, float)
+    c = scene.settings.speed_of_sound_m_s
+    delay_s = 6.0 / (math.pi * cross.max_frequency_hz)
+    if any(s.directivity != "omni" for s in scene.sources):
+        delay_s = max(delay_s, wave_sources.pulse_delay_s(bands, cross.max_frequency_hz))
+    settings = wave_sound.wave_settings(cross.max_frequency_hz, duration_s + delay_s, c,
+                                        scene.settings.threads,
+                                        wave_sound.memory_limit(max_field_bytes))
+    centres = scene.receivers.count
+    points = centres * wave_sound.BALL_POINTS
+    grid = engine.wave_memory_estimate(settings, scene.geometry, points, bands)
+    k = cross.wave_bands
+    cells = directions * k * time_bins
+    return WaveMemory(
+        grid_bytes=int(grid["total_bytes"]),
+        binning_bytes=int(grid["receiver_bytes"]) + points * cells * BINNING_BYTES_PER_CELL,
+        spheres_bytes=points * cells * 4 + centres * cells * 8 * 2,
+        join_bytes=centres * directions * bands.size * time_bins * 4,
+        points=points, directions=directions, wave_bands=k, bands=int(bands.size),
+        time_bins=time_bins, crossover_hz=cross.crossover_hz)
+
+
+def check(memory: WaveMemory, max_field_bytes: int | None) -> None:
+    """Refuses (:class:`MemoryLimitError`) waves that would not fit, naming the parts, the
+    estimate, the limit and what to change."""
+    limit = int(max_field_bytes) if max_field_bytes else budget_bytes()
+    if memory.total_bytes <= limit:
+        return
+    given = ("max_field_bytes" if max_field_bytes else
+             "80% of the memory this machine has free")
+    raise MemoryLimitError(
+        f"the waves of this hybrid bake (--waves) would need about {gb(memory.total_bytes)} "
+        f"({memory.describe()}), more than the limit of {gb(limit)} ({given}); refused before "
+        f"any ray is traced: use fewer receivers (a wider grid spacing), a lower crossover "
+        f"(--crossover-hz, now {memory.crossover_hz:.0f} Hz), fewer directions, a shorter "
+        "max_time_s, or (from Python) a larger SoundOptions.max_field_bytes on a machine that has it")
