@@ -18,7 +18,6 @@
 use glam::{DVec3, Vec3};
 
 use crate::bvh::Bvh;
-use crate::geometry::Ray;
 use crate::mesh::Mesh;
 
 /// Rooms with more planes than this are left to the BVH: a linear scan would cost more.
@@ -353,7 +352,7 @@ impl<'a> Surfaces<'a> {
 
     #[inline(never)]
     fn nearest_in_bvh(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
-        let hit = self.bvh.closest_hit(&Ray::new(origin.as_vec3(), dir.as_vec3()), 0.0, f32::INFINITY)?;
+        let hit = self.bvh.closest_hit_from(origin.as_vec3(), dir.as_vec3())?;
         let tri = hit.triangle as usize;
         Some((hit.t as f64, tri, self.normals[tri].as_dvec3()))
     }
@@ -364,6 +363,7 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
+    use crate::geometry::Ray;
     use crate::rng::Stream;
     use crate::sampling::uniform_sphere;
 

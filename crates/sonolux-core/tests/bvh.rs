@@ -197,6 +197,20 @@ fn simd_and_portable_traversal_give_the_same_bits() {
     assert_eq!(differ, 0, "{} ({}) and portable traversal differ on {differ} rays", bvh.simd_name(), bvh.simd_name());
 }
 
+/// The sound tracer's query (`closest_hit_from`: the ray set up inside the kernel) gives the hits
+/// of `closest_hit` on a ray built outside it, to the bit, on both lanes.
+#[test]
+fn closest_hit_from_gives_the_same_bits_as_closest_hit() {
+    let mesh = random_soup(3000, 37);
+    for bvh in [Bvh::build(&mesh).unwrap(), Bvh::build(&mesh).unwrap().portable()] {
+        let mut rays = random_rays(100_000, 37);
+        rays.extend(rays_at_edges_and_vertices(&mesh, 50_000, 37));
+        let key = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.triangle));
+        let differ = rays.par_iter().filter(|r| key(bvh.closest_hit_from(r.origin, r.dir)) != key(bvh.closest_hit(r, 0.0, f32::INFINITY))).count();
+        assert_eq!(differ, 0, "{}: {differ} rays differ", bvh.simd_name());
+    }
+}
+
 /// The same mesh gives the same tree, bit for bit, on one thread and on several.
 #[test]
 fn build_is_deterministic_whatever_the_thread_count() {

@@ -19,9 +19,11 @@
 //! - SIMD ([`lanes`]): AVX2 through `pulp` when the CPU has it (checked once, at build), else
 //!   plain arrays that round every value the same way.
 
+use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::error::CoreError;
+
 use crate::geometry::{Aabb, Hit, Ray};
 use crate::mesh::Mesh;
 
@@ -148,6 +150,19 @@ impl Bvh {
                 v3.vectorize(|| traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, ray, t_min, t_max))
             }
             Simd::Portable => traverse::closest(lanes::Portable, &self.nodes, &self.packets, ray, t_min, t_max),
+        }
+    }
+
+    /// [`Bvh::closest_hit`] of the ray from `origin` along `dir`, t in (0, ∞), with the ray's
+    /// set-up ([`Ray::new`]) done inside the kernel: compiled with the kernel's CPU features and
+    /// handed to it in registers rather than through memory (the sound tracer's query, on the
+    /// chain of a ray's segments). The same arithmetic, so the same hits.
+    #[inline]
+    pub fn closest_hit_from(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2(v3) => v3.vectorize(|| traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY)),
+            Simd::Portable => traverse::closest(lanes::Portable, &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY),
         }
     }
 

@@ -505,11 +505,10 @@ pub fn trace_sound_with(
         settings.threads,
         || trace::Worker::new(nb, receivers.len()),
         |worker, range| {
-            for s in (0..sources.len()).filter(|&s| settings.only_source.is_none_or(|k| k == s)) {
-                for i in range.clone() {
-                    trace::trace_ray(&scene, s, settings.first_ray + i, &field, worker);
-                }
-            }
+            // The chunk's rays, source by source, a few in flight at once (trace::trace_rays).
+            let traced = (0..sources.len()).filter(|&s| settings.only_source.is_none_or(|k| k == s));
+            let jobs = traced.flat_map(|s| range.clone().map(move |i| (s, settings.first_ray + i)));
+            trace::trace_rays(&scene, jobs, &field, worker);
             field.flush(&mut worker.deposits);
         },
         progress,

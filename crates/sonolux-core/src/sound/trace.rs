@@ -27,20 +27,79 @@ pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) 
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
 
-/// What one worker thread owns while it traces: its statistics, its batch of deposits and the
-/// scratch of a ray, sized once for the bake's bands and receivers (no allocation per ray).
-pub(crate) struct Worker {
-    pub stats: SoundStats,
-    pub deposits: Deposits,
+/// How many rays a worker keeps in flight, tracing a segment of each in turn so that one ray's
+/// nearest-surface query could overlap with another's independent work: Embree's ray streams
+/// (`rtcIntersect1M`) and the wavefront tracers (Pharr, Jakob and Humphreys, *Physically Based
+/// Rendering* 4th ed., 2023, ch. 15; Laine, Karras and Aila, "Megakernels considered harmful",
+/// HPG 2013) at the smallest scale, a few rays in registers rather than queues in memory.
+/// Measured here 2 and 4 were no faster than 1 (docs/bvh.md, "Rays in flight": a mesh query is
+/// bound by its own mispredicted branches, which discard the other ray's work too), so 1.
+pub(crate) const RAYS_IN_FLIGHT: usize = 1;
+
+/// The nearest surface along a ray: distance, mesh triangle, unit normal (either side); None
+/// when the ray leaves the scene.
+type SurfaceHit = Option<(f64, usize, DVec3)>;
+
+/// A ray being traced: everything that carries from one of its segments to the next. A
+/// worker holds [`RAYS_IN_FLIGHT`] of them, their band arrays sized once (no allocation per ray).
+pub(crate) struct RayState {
+    source: usize,
+    index: u64,
+    rng: Stream,
+    pos: DVec3,
+    dir: DVec3,
+    /// The ray's share of its source's energy (J): `energy` and `tally` are relative to it.
+    share: f64,
+    /// Distance travelled since the source.
+    path: f64,
+    /// Distance travelled since the last diffuse reflection (or the source): the radius of the
+    /// wavefront the ray belongs to, whose centre is the (image) source it comes from.
+    wave_radius: f64,
+    reflections: u64,
+    /// Segments of this ray so far: with the reflections, the key of each deposit's rounding.
+    segments: u64,
+    /// Free paths (surface to surface) of this ray: their number, sum and sum of squares.
+    free_n: u64,
+    free_sum: f64,
+    free_sq: f64,
+    /// Whether the spheres collect this segment: always in paper mode; in rain mode only after
+    /// a specular reflection (direct sound and diffuse reflections are handled exactly).
+    spheres: bool,
+    /// Whether every reflection so far was specular: such segments may be the image sources'.
+    specular_only: bool,
+    /// With level of detail, the surface a specular bounce will meet, found at the reflection
+    /// (its distance is the leg d₂ of Rindel's K) and kept for the next segment.
+    next_known: bool,
+    next: SurfaceHit,
+    /// Per band: the energy relative to `share`; the ray stops when all are below the floor.
+    energy: Vec<f64>,
+    /// Per kind of tally and band, `[kind * bands + band]`: the ray's energy balance (in units
+    /// of its share), summed here and added to the fixed-point statistics once at its end: per
+    /// segment that conversion would cost more than the tracing.
+    tally: Vec<f64>,
+}
+
+impl RayState {
+    fn new(n_bands: usize) -> RayState {
+        RayState {
+            source: 0, index: 0, rng: Stream::new(0, 0, 0), pos: DVec3::ZERO, dir: DVec3::X,
+            share: 0.0, path: 0.0, wave_radius: 0.0, reflections: 0, segments: 0,
+            free_n: 0, free_sum: 0.0, free_sq: 0.0,
+            spheres: false, specular_only: true, next_known: false, next: None,
+            energy: vec![0.0; n_bands],
+            tally: vec![0.0; stats::KINDS * n_bands],
+        }
+    }
+}
+
+/// A worker's scratch, shared by its rays (one segment is traced at a time): one value a band
+/// or a receiver, sized once.
+struct Scratch {
     /// One entry a receiver, for [`super::Receivers::crossings`].
     stamp: Vec<u64>,
-    /// Per band: the ray's energy relative to its share, and a deposit being built.
-    energy: Vec<f64>,
+    /// Per band: a deposit being built, and a receiver pattern's gains.
     deposit: Vec<f64>,
-    /// Per band: a receiver pattern's gains.
     gain: Vec<f64>,
-    /// Per kind of tally and band, `[kind * bands + band]`: the ray's energy balance.
-    tally: Vec<f64>,
     /// Per band, with level of detail: Rindel's K at a reflection, and the scattering s' it gives.
     shares: Vec<f64>,
     scattering: Vec<f64>,
@@ -48,19 +107,50 @@ pub(crate) struct Worker {
     absorption: Vec<f64>,
 }
 
+/// What one worker thread owns while it traces: its statistics, its batch of deposits, its
+/// rays in flight and their scratch, sized once for the bake's bands and receivers.
+pub(crate) struct Worker {
+    pub stats: SoundStats,
+    pub deposits: Deposits,
+    scratch: Scratch,
+    rays: [RayState; RAYS_IN_FLIGHT],
+}
+
 impl Worker {
     pub fn new(n_bands: usize, n_receivers: usize) -> Worker {
         Worker {
             stats: SoundStats::new(n_bands),
             deposits: Deposits::new(),
-            stamp: vec![0; n_receivers],
-            energy: vec![0.0; n_bands],
-            deposit: vec![0.0; n_bands],
-            gain: vec![0.0; n_bands],
-            tally: vec![0.0; stats::KINDS * n_bands],
-            shares: vec![0.0; n_bands],
-            scattering: vec![0.0; n_bands],
-            absorption: vec![0.0; n_bands],
+            scratch: Scratch {
+                stamp: vec![0; n_receivers],
+                deposit: vec![0.0; n_bands],
+                gain: vec![0.0; n_bands],
+                shares: vec![0.0; n_bands],
+                scattering: vec![0.0; n_bands],
+                absorption: vec![0.0; n_bands],
+            },
+            rays: std::array::from_fn(|_| RayState::new(n_bands)),
+        }
+    }
+}
+
+/// The bake's values every segment reads, computed once a batch of rays.
+struct Limits {
+    n_bands: usize,
+    /// A ray stops when every band's relative energy is below this.
+    floor: f64,
+    max_path_m: f64,
+    sphere_volume_m3: f64,
+}
+
+impl Limits {
+    fn new(scene: &Scene) -> Limits {
+        let set = scene.settings;
+        Limits {
+            n_bands: scene.acoustics.n_bands,
+            floor: 10f64.powf(-set.energy_drop_db / 10.0),
+            max_path_m: set.max_time_s * set.speed_of_sound_m_s,
+            sphere_volume_m3: 4.0 / 3.0 * PI * scene.receivers.radius_m.powi(3),
         }
     }
 }
@@ -83,194 +173,283 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream, weights: &mut [f64]) 
     (dir, source.power_w / rays as f64)
 }
 
-/// Traces ray `index` of source `s` to its end, depositing into `acc` (through the worker's
-/// batch, flushed by the caller) and tallying into the worker's statistics.
-pub(crate) fn trace_ray(scene: &Scene, s: usize, index: u64, acc: &Accumulator, w: &mut Worker) {
+/// Traces the rays `jobs` names, (source, ray index) each, to their ends, depositing into
+/// `acc` (through the worker's batch, flushed by the caller) and tallying into the worker's
+/// statistics. [`RAYS_IN_FLIGHT`] rays are traced at once, a segment of each in turn; a ray
+/// that ends hands its slot to the next job. Which rays share the worker, and in what order
+/// their segments come, changes no bit: every random number is the ray's own (its stream, or
+/// keyed by the ray and the event), every per-ray sum is summed by the ray alone, and the
+/// field and the statistics add integers (fixed point), whose sums do not depend on order.
+pub(crate) fn trace_rays(scene: &Scene, mut jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+    let limits = Limits::new(scene);
+    let Worker { stats: st, deposits: buf, scratch, rays } = w;
+    let mut live = [false; RAYS_IN_FLIGHT];
+    for (slot, ray) in rays.iter_mut().enumerate() {
+        if let Some((s, index)) = jobs.next() {
+            start_ray(scene, &limits, s, index, ray, acc, st, buf);
+            live[slot] = true;
+        }
+    }
+    while live.iter().any(|&l| l) {
+        for (slot, ray) in rays.iter_mut().enumerate() {
+            if !live[slot] {
+                continue;
+            }
+            let hit = find_surface(scene, ray);
+            if !advance(scene, &limits, ray, hit, acc, scratch, st, buf) {
+                finish_ray(ray, &limits, st);
+                live[slot] = match jobs.next() {
+                    Some((s, index)) => {
+                        start_ray(scene, &limits, s, index, ray, acc, st, buf);
+                        true
+                    }
+                    None => false,
+                };
+            }
+        }
+    }
+}
+
+/// Starts ray `index` of source `s` in `ray`: its stream, first direction and energy; the
+/// rains' share of the exact direct sound when the ray starts a block.
+#[allow(clippy::too_many_arguments)]
+fn start_ray(scene: &Scene, limits: &Limits, s: usize, index: u64, ray: &mut RayState, acc: &Accumulator, st: &mut SoundStats, buf: &mut Deposits) {
     let set = scene.settings;
-    let lay = &scene.layout;
-    let nb = scene.acoustics.n_bands;
-    let air = &set.air_attenuation_per_m[..nb];
-    let Worker { stats: st, deposits: buf, stamp, energy, deposit, gain, tally, shares, scattering, absorption } = w;
-    let mut rng = Stream::new(set.seed, s as u64, index);
-    // Energy per band relative to the ray's share; the ray stops when all are below `floor`.
-    let e = &mut energy[..nb];
-    let (mut dir, share) = emit(&scene.sources[s], set.rays, &mut rng, e);
-    let mut pos = scene.sources[s].position;
-    let deposit = &mut deposit[..nb];
-    let floor = 10f64.powf(-set.energy_drop_db / 10.0);
-    let max_path = set.max_time_s * set.speed_of_sound_m_s;
-    let mut path = 0.0f64;
-    // Distance travelled since the last diffuse reflection (or the source): the radius of the
-    // wavefront the ray belongs to, whose centre is the (image) source it comes from.
-    let mut wave_radius = 0.0f64;
-    let mut reflections = 0u64;
-    // Segments of this ray so far: with the reflections, the key of each deposit's rounding.
-    let mut ray_segments = 0u64;
-    let first_receiver = set.first_receiver;
-    // Free paths (surface to surface) of this ray: their sum and sum of squares.
-    let (mut free_n, mut free_sum, mut free_sq) = (0u64, 0.0f64, 0.0f64);
-    // Whether the spheres collect this segment: always in paper mode; in rain mode only after a
-    // specular reflection (direct sound and diffuse reflections are handled exactly).
-    let mut spheres = !set.estimator.rains();
-    // Whether every reflection so far was specular: such segments may be the image sources'.
-    let mut specular_only = true;
-    let radius = scene.receivers.radius_m;
-    let sphere_volume = 4.0 / 3.0 * PI * radius.powi(3);
-    // This ray's energy tallies (in units of its share), summed here and added to the
-    // fixed-point statistics once at the end: per segment that conversion would cost more than
-    // the tracing.
-    let tally = &mut tally[..stats::KINDS * nb];
-    tally.fill(0.0);
-    tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].copy_from_slice(e);
+    let nb = limits.n_bands;
+    ray.rng = Stream::new(set.seed, s as u64, index);
+    let (dir, share) = emit(&scene.sources[s], set.rays, &mut ray.rng, &mut ray.energy[..nb]);
+    ray.source = s;
+    ray.index = index;
+    ray.dir = dir;
+    ray.share = share;
+    ray.pos = scene.sources[s].position;
+    ray.path = 0.0;
+    ray.wave_radius = 0.0;
+    ray.reflections = 0;
+    ray.segments = 0;
+    (ray.free_n, ray.free_sum, ray.free_sq) = (0, 0.0, 0.0);
+    ray.spheres = !set.estimator.rains();
+    ray.specular_only = true;
+    ray.next_known = false;
+    ray.tally.fill(0.0);
+    ray.tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].copy_from_slice(&ray.energy[..nb]);
     st.rays += 1;
     if set.estimator.rains() {
         direct_share(scene, s, index, acc, buf);
     }
-    // With level of detail, the surface a specular bounce will meet is found at the reflection
-    // (its distance is the leg d₂ of Rindel's K) and kept for the next segment.
-    let mut found_next: Option<Option<(f64, usize, DVec3)>> = None;
-    loop {
-        // Find the nearest surface along the ray.
-        let hit = found_next.take().unwrap_or_else(|| scene.surfaces.nearest(pos, dir));
-        let length = hit.map_or(f64::INFINITY, |h| h.0);
-        st.segments += 1;
-        ray_segments += 1;
+}
 
-        // Deposit into the receiver spheres this segment crosses.
-        if spheres {
-            let seg_id = st.segments;
-            scene.receivers.crossings(pos, dir, length, stamp, seg_id, |c| {
-                // The wavefront reaches the sphere's centre at its distance from the image
-                // source, not where this ray passes nearest: exact times for specular paths.
-                let to_centre = ((wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - wave_radius;
-                let time_s = (path + to_centre) / set.speed_of_sound_m_s;
-                if specular_only && scene.covered.is_some_and(|c| c.covers(reflections, time_s)) {
-                    return;
-                }
-                let Some(tb) = lay.time_bin(time_s) else { return };
-                let weight = share * c.chord / sphere_volume;
-                if scene.air {
-                    for b in 0..nb {
-                        deposit[b] = e[b] * weight * (-air[b] * to_centre).exp();
-                    }
-                } else {
-                    for b in 0..nb {
-                        deposit[b] = e[b] * weight;
-                    }
-                }
-                scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
-                let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
-                let u = keyed_uniform(set.seed, s as u64, index, first_receiver + c.receiver as u64, 2 * ray_segments);
-                acc.deposit(buf, base, &deposit[..nb], u);
-                st.deposits += 1;
-            });
+/// Find the nearest surface along the ray (or the one level of detail found already).
+#[inline(always)]
+fn find_surface(scene: &Scene, ray: &mut RayState) -> SurfaceHit {
+    if ray.next_known {
+        ray.next_known = false;
+        return ray.next;
+    }
+    scene.surfaces.nearest(ray.pos, ray.dir)
+}
+
+/// One segment of `ray`, up to the nearest surface `hit`: deposit into the receivers it
+/// crosses, absorb in the air, then at the surface absorb, connect (rain, nee) and choose the
+/// bounce. Returns whether the ray goes on.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) -> bool {
+    let set = scene.settings;
+    let nb = limits.n_bands;
+    let length = hit.map_or(f64::INFINITY, |h| h.0);
+    st.segments += 1;
+    ray.segments += 1;
+
+    // Deposit into the receiver spheres this segment crosses.
+    if ray.spheres {
+        deposit_crossings(scene, limits, ray, length, acc, scratch, st, buf);
+    }
+
+    let Some((length, tri, mut normal)) = hit else {
+        // The ray left the scene: a leak, unless the scene is open on purpose.
+        let (e, tally) = (&ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb]);
+        for b in 0..nb {
+            tally[stats::ESCAPED * nb + b] += e[b];
         }
+        st.add_escape(Escape { source: ray.source as u32, ray: ray.index, from: ray.pos.to_array(), dir: ray.dir.to_array() });
+        return false;
+    };
 
-        let Some((length, tri, mut normal)) = hit else {
-            // The ray left the scene: a leak, unless the scene is open on purpose.
-            for b in 0..nb {
-                tally[stats::ESCAPED * nb + b] += e[b];
-            }
-            st.add_escape(Escape { source: s as u32, ray: index, from: pos.to_array(), dir: dir.to_array() });
-            break;
-        };
+    // Air absorption over the segment.
+    if scene.air {
+        absorb_air(&set.air_attenuation_per_m[..nb], length, &mut ray.energy[..nb], &mut ray.tally[stats::ABSORBED_AIR * nb..(stats::ABSORBED_AIR + 1) * nb]);
+    }
+    if ray.reflections > 0 {
+        ray.free_n += 1;
+        ray.free_sum += length;
+        ray.free_sq += length * length;
+    }
+    ray.path += length;
+    ray.wave_radius += length;
+    if ray.path > limits.max_path_m || ray.reflections >= MAX_REFLECTIONS {
+        keep_remaining(ray, nb);
+        return false;
+    }
 
-        // Air absorption over the segment.
+    // Surface: absorb, then reflect from the side the ray came from.
+    ray.reflections += 1;
+    if normal.dot(ray.dir) > 0.0 {
+        normal = -normal;
+    }
+    let point = ray.pos + ray.dir * length;
+    let material = scene.mesh.material[tri] as usize;
+    let m = material * nb;
+    absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb], &mut scratch.absorption[..nb]);
+    let mut scat = &scene.acoustics.scattering[m..m + nb];
+    let mut p_diffuse = scene.p_diffuse[material];
+    if let Some(lod) = scene.lod {
+        // Level of detail (early/lod.rs): the surface's scattering s and the panel's
+        // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
+        // and after (along the specular direction) the reflection, as the image sources do.
+        let mirror = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
+        let next = scene.surfaces.nearest(point + normal * scene.epsilon, mirror);
+        lod.specular_shares(tri, ray.dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut scratch.shares[..nb]);
+        for b in 0..nb {
+            scratch.scattering[b] = crate::early::lod::effective_scattering(scat[b], scratch.shares[b]);
+        }
+        scat = &scratch.scattering[..nb];
+        p_diffuse = scat.iter().sum::<f64>() / nb as f64;
+        (ray.next_known, ray.next) = (true, next);
+    }
+
+    // Rain: send the diffusely reflected energy to every receiver that sees this point.
+    let (s, index, e) = (ray.source, ray.index, &ray.energy[..nb]);
+    let key = [s as u64, index, 2 * ray.reflections + 1];
+    let scratch_pair = (&mut scratch.deposit[..nb], &mut scratch.gain[..nb]);
+    match set.estimator {
+        Estimator::Rain => rain(scene, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair),
+        Estimator::Nee { connections } => super::nee::connect(scene, connections, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair),
+        Estimator::Paper => {}
+    }
+
+    // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
+    let diffuse = choose_bounce(scene, &mut ray.rng, p_diffuse, scat, &mut ray.energy[..nb], &mut ray.tally[stats::REWEIGHTED * nb..(stats::REWEIGHTED + 1) * nb]);
+    if diffuse {
+        ray.dir = cosine_hemisphere(&Frame::from_normal(normal), ray.rng.uniform(), ray.rng.uniform());
+        ray.wave_radius = 0.0;
+        ray.spheres = !set.estimator.rains();
+        ray.specular_only = false;
+        ray.next_known = false;
+    } else {
+        ray.dir = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
+        ray.spheres = true;
+    }
+    ray.pos = point + normal * scene.epsilon;
+
+    if ray.energy[..nb].iter().all(|&x| x < limits.floor) {
+        keep_remaining(ray, nb);
+        return false;
+    }
+    true
+}
+
+/// Deposits into every receiver sphere the ray's current segment (of `length`, from `ray.pos`
+/// along `ray.dir`) crosses: energy × chord / sphere volume, at the time the wavefront reaches
+/// the sphere's centre, attenuated by the air on the way to it, weighed by the receiver's pattern.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn deposit_crossings(scene: &Scene, limits: &Limits, ray: &RayState, length: f64, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) {
+    let set = scene.settings;
+    let lay = &scene.layout;
+    let nb = limits.n_bands;
+    let air = &set.air_attenuation_per_m[..nb];
+    let (e, dir, share) = (&ray.energy[..nb], ray.dir, ray.share);
+    let Scratch { stamp, deposit, gain, .. } = scratch;
+    let deposit = &mut deposit[..nb];
+    let seg_id = st.segments;
+    let mut deposits = 0u64;
+    scene.receivers.crossings(ray.pos, dir, length, stamp, seg_id, |c| {
+        // The wavefront reaches the sphere's centre at its distance from the image source,
+        // not where this ray passes nearest: exact times for specular paths.
+        let to_centre = ((ray.wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - ray.wave_radius;
+        let time_s = (ray.path + to_centre) / set.speed_of_sound_m_s;
+        if ray.specular_only && scene.covered.is_some_and(|c| c.covers(ray.reflections, time_s)) {
+            return;
+        }
+        let Some(tb) = lay.time_bin(time_s) else { return };
+        let weight = share * c.chord / limits.sphere_volume_m3;
         if scene.air {
             for b in 0..nb {
-                let kept = e[b] * (-air[b] * length).exp();
-                tally[stats::ABSORBED_AIR * nb + b] += e[b] - kept;
-                e[b] = kept;
+                deposit[b] = e[b] * weight * (-air[b] * to_centre).exp();
             }
-        }
-        if reflections > 0 {
-            free_n += 1;
-            free_sum += length;
-            free_sq += length * length;
-        }
-        path += length;
-        wave_radius += length;
-        if path > max_path || reflections >= MAX_REFLECTIONS {
-            for b in 0..nb {
-                tally[stats::REMAINING * nb + b] += e[b];
-            }
-            break;
-        }
-
-        // Surface: absorb, then reflect from the side the ray came from.
-        reflections += 1;
-        if normal.dot(dir) > 0.0 {
-            normal = -normal;
-        }
-        let point = pos + dir * length;
-        let material = scene.mesh.material[tri] as usize;
-        let m = material * nb;
-        // The absorption at this angle of incidence (sound/reflectance.rs): on incidence, so
-        // it acts on the whole reflection, specular and scattered parts alike.
-        let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), &mut absorption[..nb]);
-        let mut scat = &scene.acoustics.scattering[m..m + nb];
-        for b in 0..nb {
-            tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
-            e[b] *= 1.0 - alpha[b];
-        }
-        let mut p_diffuse = scene.p_diffuse[material];
-        if let Some(lod) = scene.lod {
-            // Level of detail (early/lod.rs): the surface's scattering s and the panel's
-            // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
-            // and after (along the specular direction) the reflection, as the image sources do.
-            let mirror = dir - 2.0 * dir.dot(normal) * normal;
-            let next = scene.surfaces.nearest(point + normal * scene.epsilon, mirror);
-            lod.specular_shares(tri, dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut shares[..nb]);
-            for b in 0..nb {
-                scattering[b] = crate::early::lod::effective_scattering(scat[b], shares[b]);
-            }
-            scat = &scattering[..nb];
-            p_diffuse = scat.iter().sum::<f64>() / nb as f64;
-            found_next = Some(next);
-        }
-
-        // Rain: send the diffusely reflected energy to every receiver that sees this point.
-        match set.estimator {
-            Estimator::Rain => rain(scene, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], (deposit, gain)),
-            Estimator::Nee { connections } => super::nee::connect(scene, connections, point, normal, path, e, scat, share, acc, buf, st, [s as u64, index, 2 * reflections + 1], (deposit, gain)),
-            Estimator::Paper => {}
-        }
-
-        // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
-        let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
-        if !scene.uniform_scattering || scene.lod.is_some() {
-            for b in 0..nb {
-                let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
-                let before = e[b];
-                e[b] *= w;
-                tally[stats::REWEIGHTED * nb + b] += e[b] - before;
-            }
-        }
-        if diffuse {
-            dir = cosine_hemisphere(&Frame::from_normal(normal), rng.uniform(), rng.uniform());
-            wave_radius = 0.0;
-            spheres = !set.estimator.rains();
-            specular_only = false;
-            found_next = None;
         } else {
-            dir = dir - 2.0 * dir.dot(normal) * normal;
-            spheres = true;
-        }
-        pos = point + normal * scene.epsilon;
-
-        if e[..nb].iter().all(|&x| x < floor) {
             for b in 0..nb {
-                tally[stats::REMAINING * nb + b] += e[b];
+                deposit[b] = e[b] * weight;
             }
-            break;
+        }
+        scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
+        let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
+        let u = keyed_uniform(set.seed, ray.source as u64, ray.index, set.first_receiver + c.receiver as u64, 2 * ray.segments);
+        acc.deposit(buf, base, &deposit[..nb], u);
+        deposits += 1;
+    });
+    st.deposits += deposits;
+}
+
+/// The air's absorption over `length_m`: each band's energy times exp(−m_b · length), what
+/// it loses tallied into `absorbed` (ISO 9613-1's coefficients, handed in per band).
+#[inline(always)]
+fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f64]) {
+    for b in 0..e.len() {
+        let kept = e[b] * (-air_per_m[b] * length_m).exp();
+        absorbed[b] += e[b] - kept;
+        e[b] = kept;
+    }
+}
+
+/// The surface's absorption (material `m`'s first band index) at the angle the ray meets it
+/// (sound/reflectance.rs): on incidence, so it acts on the whole reflection, specular and
+/// scattered parts alike. `tally` is the ray's, all kinds; `scratch` one value a band.
+#[inline(always)]
+fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], tally: &mut [f64], scratch: &mut [f64]) {
+    let nb = e.len();
+    let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), scratch);
+    for b in 0..nb {
+        tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
+        e[b] *= 1.0 - alpha[b];
+    }
+}
+
+/// Whether the bounce is diffuse, drawn with probability `p_diffuse` (the mean scattering over
+/// the bands) from the ray's stream; bands whose scattering `scat` differs from the mean are
+/// re-weighted (s_b / p for a diffuse bounce, (1 − s_b) / (1 − p) for a specular one) so that
+/// each keeps its expectation, the change tallied into `reweighted`.
+#[inline(always)]
+fn choose_bounce(scene: &Scene, rng: &mut Stream, p_diffuse: f64, scat: &[f64], e: &mut [f64], reweighted: &mut [f64]) -> bool {
+    let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
+    if !scene.uniform_scattering || scene.lod.is_some() {
+        for b in 0..e.len() {
+            let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
+            let before = e[b];
+            e[b] *= w;
+            reweighted[b] += e[b] - before;
         }
     }
-    st.surface_hits += reflections;
-    st.max_reflections = st.max_reflections.max(reflections);
-    st.add_free_paths(free_n, free_sum, free_sq);
-    for (kind, t) in tally.chunks(nb).enumerate() {
+    diffuse
+}
+
+/// The ray stops with energy left: tallied as remaining.
+fn keep_remaining(ray: &mut RayState, nb: usize) {
+    for b in 0..nb {
+        ray.tally[stats::REMAINING * nb + b] += ray.energy[b];
+    }
+}
+
+/// Adds an ended ray's counts, free paths and energy balance to the worker's statistics.
+fn finish_ray(ray: &RayState, limits: &Limits, st: &mut SoundStats) {
+    let nb = limits.n_bands;
+    st.surface_hits += ray.reflections;
+    st.max_reflections = st.max_reflections.max(ray.reflections);
+    st.add_free_paths(ray.free_n, ray.free_sum, ray.free_sq);
+    for (kind, t) in ray.tally[..stats::KINDS * nb].chunks(nb).enumerate() {
         for b in 0..nb {
-            st.add_energy(kind, b, t[b] * share);
+            st.add_energy(kind, b, t[b] * ray.share);
         }
     }
 }
