@@ -40,8 +40,7 @@ from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
 from sonolux.sound import levels as sound_levels
 from sonolux.sound import walls as sound_walls
-from sonolux.sound import wave_memory
-from sonolux.sound import wave_sources
+from sonolux.sound import wave_memory, wave_sources
 from sonolux.sound import waves as wave_sound
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
