@@ -228,3 +228,21 @@ def test_a_converged_bake_has_no_parameter_undefined_by_noise():
     assert all(p["errors"][name]["undefined"] == 0 for name in progressive.PARAMETERS)
     assert all(not errors.waiting(name).any() for name in progressive.PARAMETERS)
     assert all("left_out" in p["errors"][name] for name in progressive.PARAMETERS)
+
+
+def test_each_round_says_how_far_it_is_and_the_end_says_what_was_reached():
+    """The round's line projects the rays and seconds still needed (and says when the cap comes
+    first); the last line says how the bake ended and the errors it reached, per parameter; the
+    progress line names the round."""
+    lines: list[str] = []
+    cap = 2 * progressive.GROUPS * progressive.FIRST_GROUP_RAYS
+    progressive.bake(room(), accuracy=progressive.Accuracy(0.05, max_rays=cap), log=lines.append)
+    first = next(line for line in lines if line.startswith("round 1:"))
+    assert "rays to converge" in first and "rays/s" in first
+    assert f"more than the cap of {cap:,} rays" in first
+    assert lines[-1].startswith("progressive bake: stopped at the ray cap (max_rays), NOT "
+                                "converged after 32,768 rays in 2 rounds")
+    assert all(f"{p.upper()} SE ≤" in lines[-1] for p in progressive.PARAMETERS)
+    work = progressive.RoundWork(SoundRanges(room(), sonolux.SoundOptions(rays=cap)), 0, cap,
+                                 progressive.GROUPS, progressive.RoundSum())
+    assert work.name.endswith("round 1")

@@ -210,7 +210,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
              choice["pilot_seconds"] if choice is not None else 0.0)
     first_round = True
     while True:
-        if not (first_round and pilot is not None):  # (the pilot is this round, traced)
+        pilot_round = first_round and pilot is not None
+        if not pilot_round:  # (else the pilot is this round, traced)
             work = RoundWork(inner, start, target, GROUPS, state)
             state, _ = bake_ranges(work, client=client, checkpoint=side,
                                    resume=resume or not first_round,
@@ -223,15 +224,20 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         errors = round_errors(scene, state)
         worst = errors.worst_over_target(accuracy.fraction_of_jnd)
         elapsed = spent + time.perf_counter() - started
+        # Rays a second of this round (the time since the last round, or the chosen pilot's own)
+        before = state.rounds[-1] if state.rounds else {"rays": start, "seconds": spent}
+        seconds = pilot.seconds if pilot_round and pilot else elapsed - before["seconds"]
+        round_rate = (target - before["rays"]) / seconds if seconds > 0 else math.inf
         state.rounds.append({"rays": target, "seconds": round(elapsed, 3),
                              "worst_over_target": worst if math.isfinite(worst) else None})
-        if log:
-            log(f"round {len(state.rounds)}: {target:,} rays, {elapsed:.1f} s; "
-                + _describe(errors, accuracy.fraction_of_jnd))
         stop = ("cancelled" if state.total.stats.get("cancelled") else
                 "converged" if worst <= 1.0 else "max_rays" if target >= ceiling else
                 "max_seconds" if accuracy.max_seconds is not None
                 and elapsed >= accuracy.max_seconds else "")
+        if log:
+            log(f"round {len(state.rounds)}: {target:,} rays, {elapsed:.1f} s; "
+                + _describe(errors, accuracy.fraction_of_jnd)
+                + ("" if stop else "; " + outlook(errors, accuracy, target, ceiling, round_rate)))
         if stop:
             break
         start, target = target, next_total(target, worst, ceiling)
@@ -242,7 +248,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         if side is not None:  # the next round starts from here if the bake is killed now
             Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state), state, [])
     if log:
-        log(f"progressive bake: {stop} after {target:,} rays")
+        log(f"progressive bake: {STOPPED[stop]} after {target:,} rays in {len(state.rounds)} "
+            f"rounds, {elapsed:.1f} s; standard errors reached: "
+            + _describe(errors, accuracy.fraction_of_jnd))
     assert state.total is not None
     field = _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds, stop)
     if choice is not None:
@@ -288,6 +296,37 @@ def _where_it_stopped(side: Path) -> Stopped:
                        else None)
     except (checkpoints.CheckpointError, KeyError, TypeError, ValueError, OSError):
         return Stopped()
+
+
+#: How a progressive bake ended, in words (``settings["progressive"]["stopped"]``).
+STOPPED = {"converged": "converged", "max_rays": "stopped at the ray cap (max_rays), NOT converged",
+           "max_seconds": "stopped at the time cap (max_seconds), NOT converged",
+           "cancelled": "cancelled, NOT converged"}
+
+
+def outlook(errors: Errors, accuracy: Accuracy, done: int, ceiling: int, rate: float) -> str:
+    """What the round's errors say of the rest (for the log): the rays the worst defined entry
+    needs (SE falls as 1/√n: n · (SE / target)²) and the time that takes at ``rate`` (rays a
+    second of the last round); a lower bound while entries are undefined by noise; whether a cap
+    comes first."""
+    fraction = accuracy.fraction_of_jnd
+    worst = max((float(np.nanmax(r)) for r in (
+        errors.counted(p, waiting=np.nan) / (fraction * JND[p][0]) for p in PARAMETERS)
+        if np.isfinite(r).any()), default=math.nan)
+    waiting = sum(int(errors.waiting(p).sum()) for p in PARAMETERS)
+    if not math.isfinite(worst):
+        return "nothing defined yet to project from"
+    needed = done * max(worst, 1.0) ** 2
+    more_s = (needed - done) / rate if rate > 0 else math.inf
+    text = (f"about {needed:,.0f} rays to converge{' at least' if waiting else ''} "
+            f"(≈ {more_s:,.0f} s more at {rate:,.0f} rays/s)")
+    if needed > ceiling:
+        cap_s = (ceiling - done) / rate if rate > 0 else math.inf
+        text += (f": more than the cap of {ceiling:,} rays, where the bake will stop NOT "
+                 f"converged (≈ {cap_s:,.0f} s more)")
+    if accuracy.max_seconds is not None and more_s > accuracy.max_seconds:
+        text += f"; --max-seconds {accuracy.max_seconds:g} comes first"
+    return text
 
 
 def _describe(errors: Errors, fraction: float) -> str:
@@ -376,7 +415,7 @@ def choose(scene: Scene, options: SoundOptions, accuracy: Accuracy, *,
     recorded beside it (``seconds``, ``projected_seconds``) but not used.
     Returns the options with the chosen estimator, the record (the field's
     ``estimator_choice``) and the chosen pilot (None if nothing was measurable)."""
-    ceiling = accuracy.ceiling
+    options, ceiling = options.validate(), accuracy.ceiling
     first = first_round_rays(scene, replace(options, estimator="paper"), ceiling, first_rays)
     measured: dict[str, Any] = {}
     pilots: dict[str, Pilot] = {}

@@ -59,7 +59,7 @@ class RoundWork:
         if (end - start) % groups:
             raise ValueError("a round must split into equal groups")
         self.inner, self.groups, self.carry = inner, groups, carry
-        self.kind, self.name = inner.kind, inner.name
+        self.kind, self.name = inner.kind, f"{inner.name}, round {len(carry.rounds) + 1}"
         self.total = inner.total
         self.target: Range = (start, end)
         self.stamp = dict(inner.stamp, progressive=fingerprint(groups, start, end, carry.rounds))
