@@ -246,3 +246,20 @@ def test_each_round_says_how_far_it_is_and_the_end_says_what_was_reached():
     work = progressive.RoundWork(SoundRanges(room(), sonolux.SoundOptions(rays=cap)), 0, cap,
                                  progressive.GROUPS, progressive.RoundSum())
     assert work.name.endswith("round 1")
+
+
+def test_info_says_which_entries_were_undefined_or_left_out():
+    """`sonolux info`'s accuracy line: the worst error per parameter, and where a parameter was
+    still undefined (a cap stopped the bake) or left out for good, how many and why."""
+    from sonolux.sound.info import progressive_line
+
+    line = progressive_line({"accuracy_jnd": 0.25, "stopped": "max_seconds", "rounds": [{}] * 3,
+                             "errors": {
+                                 "t30": {"unit": "relative", "max": 0.02, "undefined": 2,
+                                         "left_out": {"curved decay": [[0, 1], [3, 0]]}},
+                                 "edt": {"unit": "relative", "max": 0.01, "undefined": 0,
+                                         "left_out": {}},
+                                 "c80": {"unit": "dB", "max": 0.2}}})
+    assert "stopped at --max-seconds, not converged in 3 rounds" in line
+    assert "T30 ≤ 2% (undefined at 2: more rays needed) (left out at 2: curved decay)" in line
+    assert "EDT ≤ 1%, C80 ≤ 0.2 dB" in line
