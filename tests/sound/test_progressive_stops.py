@@ -263,3 +263,24 @@ def test_info_says_which_entries_were_undefined_or_left_out():
     assert "stopped at --max-seconds, not converged in 3 rounds" in line
     assert "T30 ≤ 2% (undefined at 2: more rays needed) (left out at 2: curved decay)" in line
     assert "EDT ≤ 1%, C80 ≤ 0.2 dB" in line
+
+
+def test_an_entry_at_a_limit_counts_by_its_fitted_values_error():
+    """Refused by a limit it is within the noise of (curvature 12 ± 3 %): the entry is neither
+    left out nor infinite: the rule counts the SE of its fitted value, so the bake waits until
+    that value is known to the target, on whichever side of the limit it is reported."""
+    nan = np.nan
+    value = {"t30": np.array([[nan, 1.0]]), "edt": np.ones((1, 2)), "c80": np.zeros((1, 2))}
+    se = {"t30": np.array([[nan, 0.001]]), "edt": np.full((1, 2), 0.001),
+          "c80": np.full((1, 2), 0.01)}
+    why = {"t30": np.array([["double slope: C = 12 %", ""]]), "edt": np.full((1, 2), ""),
+           "c80": np.full((1, 2), "")}
+    good = {name: np.zeros((1, 2), bool) for name in value}
+    at = {"t30": np.array([[0.02, nan]]), "edt": np.full((1, 2), nan),
+          "c80": np.full((1, 2), nan)}
+    e = progressive.Errors(value, se, None, why, good, at)
+    assert e.at_limit("t30")[0, 0] and e.counted("t30")[0, 0] == 0.02
+    assert e.worst_over_target(0.25) == pytest.approx(0.02 / 0.0125)
+    s = e.summary()["t30"]
+    assert s["at_limit"] == {"double slope": [[0, 0]]} and s["undefined"] == 0
+    assert "T30 at an ISO 3382-2 limit at 1 (double slope)" in progressive._describe(e, 0.25)

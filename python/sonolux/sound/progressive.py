@@ -347,6 +347,10 @@ def _describe(errors: Errors, fraction: float) -> str:
         elif "max" not in s:
             parts.append(f"{label} not counted anywhere")
         left += [f"{label} at {len(at)} ({kind})" for kind, at in s["left_out"].items()]
+        if s["at_limit"]:
+            parts.append(f"{label} at an ISO 3382-2 limit at "
+                         + ", ".join(f"{len(at)} ({kind})" for kind, at in s["at_limit"].items())
+                         + " (counted by the fitted value's SE)")
     if left:
         parts.append("left out, more rays cannot define them: " + ", ".join(left))
     near = max(s.get("near_source", 0) for s in errors.summary().values())
