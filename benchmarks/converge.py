@@ -69,7 +69,8 @@ def converge(scene, estimator: str, accuracy: float, cap_s: float) -> dict:
         overhead = choice["pilot_seconds"] - kept
     # Entries still undefined by noise at the cap (the rule waits for them) have no SE to
     # project from: the projection is then that of the defined entries, a lower bound.
-    undefined = sum(int(errors.waiting(name).sum()) for name in progressive.PARAMETERS)
+    undefined = sum(int((errors.waiting(name) & ~errors.at_limit(name)).sum())
+                    for name in progressive.PARAMETERS)
     defined = [errors.counted(name, waiting=np.nan) / (accuracy * progressive.JND[name][0])
                for name in progressive.PARAMETERS]
     worst_defined = max((float(np.nanmax(d)) for d in defined if np.isfinite(d).any()),
