@@ -50,6 +50,7 @@ def cmd_bake(args: argparse.Namespace) -> int:
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
     estimator = args.estimator
+    spread.progressive_accuracy(args)  # its usage errors before any pilot ray is traced
     if estimator == "auto" and args.rays != "auto" and args.sound is not False and scene.sources:
         # A fixed ray count: the estimator is measured here (a progressive bake measures it
         # itself, before its first round).

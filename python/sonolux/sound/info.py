@@ -103,7 +103,11 @@ def progressive_line(p: dict[str, Any]) -> str:
             errors.append(f"{name.upper()} undefined")
             continue
         scale, unit = (100.0, "%") if e["unit"] == "relative" else (1.0, " dB")
-        errors.append(f"{name.upper()} ≤ {e['max'] * scale:.2g}{unit}")
+        errors.append(f"{name.upper()} ≤ {e['max'] * scale:.2g}{unit}"
+                      + (f" (undefined at {e['undefined']}: more rays needed)"
+                         if e.get("undefined") else "")
+                      + "".join(f" (left out at {len(at)}: {kind})"
+                                for kind, at in e.get("left_out", {}).items()))
     ended = {"converged": f"converged to {p['accuracy_jnd']:g} JND",
              "max_rays": "stopped at --max-rays, not converged",
              "max_seconds": "stopped at --max-seconds, not converged",

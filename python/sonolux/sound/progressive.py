@@ -47,6 +47,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from dataclasses import field as default_of
 from pathlib import Path
 from typing import Any
 
@@ -176,20 +177,28 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
                            "bake's ray count (--rays N) to split it")
     side = Path(checkpoint) if checkpoint is not None else None
     resuming = side is not None and resume and not restart and side.exists()
+    ceiling = accuracy.ceiling
+    stopped = _where_it_stopped(side) if resuming and side is not None else None
     choice, pilot = None, None
     if options.estimator == "auto":
-        options, choice, pilot = choose(scene, options, accuracy, first_rays=first_rays,
-                                        log=log)
-        if resuming:  # the checkpoint holds later rounds of the same (deterministic) choice
-            pilot = None
-    ceiling = accuracy.ceiling
+        choice = stopped.choice if stopped is not None else None
+        if choice is not None:  # the checkpoint's choice: no pilot is traced again
+            options = replace(options, estimator=choice["chosen"])
+            if log:
+                log(f"estimator: {choice['chosen']} (automatic, chosen by the pilots of the "
+                    "bake this checkpoint belongs to; they are not traced again)")
+        else:
+            options, choice, pilot = choose(scene, options, accuracy, first_rays=first_rays,
+                                            log=log)
+            if stopped is not None:  # an older checkpoint: it holds later rounds of this choice
+                pilot = None
     inner = SoundRanges(scene, replace(options, rays=ceiling))
     start, target = 0, (pilot.rays if pilot is not None
                         else first_round_rays(scene, options, ceiling, first_rays))
     state = pilot.state if pilot is not None else RoundSum()
-    if resuming:
-        assert side is not None
-        start, target, state.rounds = _where_it_stopped(side, start, target)
+    state.choice = choice
+    if stopped is not None and stopped.target is not None:
+        (start, target), state.rounds = stopped.target, stopped.rounds
     if log:
         log(f"progressive bake: rounds until the standard error of T30, EDT and C80 is below "
             f"{accuracy.fraction_of_jnd:g} JND at every receiver and band (at most "
@@ -202,7 +211,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
              choice["pilot_seconds"] if choice is not None else 0.0)
     first_round = True
     while True:
-        if not (first_round and pilot is not None):  # (the pilot is this round, traced)
+        pilot_round = first_round and pilot is not None
+        if not pilot_round:  # (else the pilot is this round, traced)
             work = RoundWork(inner, start, target, GROUPS, state)
             state, _ = bake_ranges(work, client=client, checkpoint=side,
                                    resume=resume or not first_round,
@@ -215,15 +225,20 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         errors = round_errors(scene, state)
         worst = errors.worst_over_target(accuracy.fraction_of_jnd)
         elapsed = spent + time.perf_counter() - started
+        # Rays a second of this round (the time since the last round, or the chosen pilot's own)
+        before = state.rounds[-1] if state.rounds else {"rays": start, "seconds": spent}
+        seconds = pilot.seconds if pilot_round and pilot else elapsed - before["seconds"]
+        round_rate = (target - before["rays"]) / seconds if seconds > 0 else math.inf
         state.rounds.append({"rays": target, "seconds": round(elapsed, 3),
                              "worst_over_target": worst if math.isfinite(worst) else None})
-        if log:
-            log(f"round {len(state.rounds)}: {target:,} rays, {elapsed:.1f} s; "
-                + _describe(errors, accuracy.fraction_of_jnd))
         stop = ("cancelled" if state.total.stats.get("cancelled") else
                 "converged" if worst <= 1.0 else "max_rays" if target >= ceiling else
                 "max_seconds" if accuracy.max_seconds is not None
                 and elapsed >= accuracy.max_seconds else "")
+        if log:
+            log(f"round {len(state.rounds)}: {target:,} rays, {elapsed:.1f} s; "
+                + _describe(errors, accuracy.fraction_of_jnd)
+                + ("" if stop else "; " + outlook(errors, accuracy, target, ceiling, round_rate)))
         if stop:
             break
         start, target = target, next_total(target, worst, ceiling)
@@ -234,7 +249,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
         if side is not None:  # the next round starts from here if the bake is killed now
             Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state), state, [])
     if log:
-        log(f"progressive bake: {stop} after {target:,} rays")
+        log(f"progressive bake: {STOPPED[stop]} after {target:,} rays in {len(state.rounds)} "
+            f"rounds, {elapsed:.1f} s; standard errors reached: "
+            + _describe(errors, accuracy.fraction_of_jnd))
     assert state.total is not None
     field = _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds, stop)
     if choice is not None:
@@ -257,30 +274,86 @@ def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Ac
     return replace(field, settings=record)  # (field_of_sum added a hybrid's arrivals)
 
 
-def _where_it_stopped(side: Path, start: int, target: int) -> tuple[int, int, list[Any]]:
-    """The round a progressive bake's checkpoint was in, and the rounds before it (from its
-    header: the bake's checks then read it whole)."""
+@dataclass
+class Stopped:
+    """Where a progressive bake's checkpoint stopped: the round's ray range (None if it is not
+    a progressive checkpoint: the bake's checks will say), the rounds before it and the
+    automatic estimator's record (None if the bake did not choose one)."""
+
+    target: tuple[int, int] | None = None
+    rounds: list[dict[str, Any]] = default_of(default_factory=list)
+    choice: dict[str, Any] | None = None
+
+
+def _where_it_stopped(side: Path) -> Stopped:
+    """:class:`Stopped` from a checkpoint's header (the bake's checks then read it whole)."""
     from sonolux import checkpoint as checkpoints
 
-    if not side.exists():
-        return start, target, []
     try:
         meta = checkpoints.read_header(side)["meta"]["progressive"]
-        return int(meta["target"][0]), int(meta["target"][1]), list(meta["rounds"])
-    except (checkpoints.CheckpointError, KeyError, TypeError, ValueError):
-        return start, target, []  # not a progressive checkpoint: the bake's checks will say
+        choice = meta.get("choice")
+        return Stopped((int(meta["target"][0]), int(meta["target"][1])), list(meta["rounds"]),
+                       dict(choice) if isinstance(choice, dict) and "chosen" in choice
+                       else None)
+    except (checkpoints.CheckpointError, KeyError, TypeError, ValueError, OSError):
+        return Stopped()
+
+
+#: How a progressive bake ended, in words (``settings["progressive"]["stopped"]``).
+STOPPED = {"converged": "converged", "max_rays": "stopped at the ray cap (max_rays), NOT converged",
+           "max_seconds": "stopped at the time cap (max_seconds), NOT converged",
+           "cancelled": "cancelled, NOT converged"}
+
+
+def outlook(errors: Errors, accuracy: Accuracy, done: int, ceiling: int, rate: float) -> str:
+    """What the round's errors say of the rest (for the log): the rays the worst defined entry
+    needs (SE falls as 1/√n: n · (SE / target)²) and the time that takes at ``rate`` (rays a
+    second of the last round); a lower bound while entries are undefined by noise; whether a cap
+    comes first."""
+    fraction = accuracy.fraction_of_jnd
+    worst = max((float(np.nanmax(r)) for r in (
+        errors.counted(p, waiting=np.nan) / (fraction * JND[p][0]) for p in PARAMETERS)
+        if np.isfinite(r).any()), default=math.nan)
+    waiting = sum(int(errors.waiting(p).sum()) for p in PARAMETERS)
+    if not math.isfinite(worst):
+        return "nothing defined yet to project from"
+    needed = done * max(worst, 1.0) ** 2
+    more_s = (needed - done) / rate if rate > 0 else math.inf
+    text = (f"about {needed:,.0f} rays to converge{' at least' if waiting else ''} "
+            f"(≈ {more_s:,.0f} s more at {rate:,.0f} rays/s)")
+    if needed > ceiling:
+        cap_s = (ceiling - done) / rate if rate > 0 else math.inf
+        text += (f": more than the cap of {ceiling:,} rays, where the bake will stop NOT "
+                 f"converged (≈ {cap_s:,.0f} s more)")
+    if accuracy.max_seconds is not None and more_s > accuracy.max_seconds:
+        text += f"; --max-seconds {accuracy.max_seconds:g} comes first"
+    return text
 
 
 def _describe(errors: Errors, fraction: float) -> str:
-    parts = []
+    """The round's line: per parameter the worst SE against its target, the entries still
+    undefined by noise (waited for) and those left out for good, with why."""
+    parts, left = [], []
     for name, s in errors.summary().items():
-        if "max" not in s:
-            parts.append(f"{name.upper()} undefined everywhere")
-            continue
-        unit = "%" if s["unit"] == "relative" else " dB"
-        scale = 100.0 if s["unit"] == "relative" else 1.0
-        target = fraction * JND[name][0] * scale
-        parts.append(f"{name.upper()} SE ≤ {s['max'] * scale:.3g}{unit} (target {target:.3g}{unit})")
+        label = name.upper()
+        if "max" in s:
+            unit = "%" if s["unit"] == "relative" else " dB"
+            scale = 100.0 if s["unit"] == "relative" else 1.0
+            target = fraction * JND[name][0] * scale
+            parts.append(f"{label} SE ≤ {s['max'] * scale:.3g}{unit} (target {target:.3g}{unit})")
+        if s["undefined"]:
+            parts.append(f"{label} undefined at {s['undefined']} receiver-bands (waited for: "
+                         "more rays define it)" if "max" in s
+                         else f"{label} undefined everywhere (waited for)")
+        elif "max" not in s:
+            parts.append(f"{label} not counted anywhere")
+        left += [f"{label} at {len(at)} ({kind})" for kind, at in s["left_out"].items()]
+        if s["at_limit"]:
+            parts.append(f"{label} at an ISO 3382-2 limit at "
+                         + ", ".join(f"{len(at)} ({kind})" for kind, at in s["at_limit"].items())
+                         + " (counted by the fitted value's SE)")
+    if left:
+        parts.append("left out, more rays cannot define them: " + ", ".join(left))
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
@@ -306,9 +379,12 @@ def counted_work(stats: dict[str, Any]) -> int:
 def projection(errors: Errors, fraction_of_jnd: float) -> float:
     """The ``PILOT_QUANTILE`` of (SE / target)² over the entries the stopping rule counts: the
     factor by which the rays (and the work) must grow for that share of entries to reach the
-    target (SE falls as 1/√n); an undefined leave-out counts as infinite."""
+    target (SE falls as 1/√n); an undefined leave-out counts as infinite. An entry the pilot
+    leaves undefined has no SE to project from and is left out here (the stopping rule waits
+    for it: at a pilot's few rays many are, e.g. 115 of 385 T30 for rain on paper-medium)."""
     squares = np.concatenate([
-        ((errors.counted(p) / (fraction_of_jnd * JND[p][0])) ** 2).ravel() for p in PARAMETERS])
+        ((errors.counted(p, waiting=np.nan) / (fraction_of_jnd * JND[p][0])) ** 2).ravel()
+        for p in PARAMETERS])
     squares = squares[~np.isnan(squares)]
     return float(np.quantile(squares, PILOT_QUANTILE, method="higher")) if squares.size else 0.0
 
@@ -344,7 +420,7 @@ def choose(scene: Scene, options: SoundOptions, accuracy: Accuracy, *,
     recorded beside it (``seconds``, ``projected_seconds``) but not used.
     Returns the options with the chosen estimator, the record (the field's
     ``estimator_choice``) and the chosen pilot (None if nothing was measurable)."""
-    ceiling = accuracy.ceiling
+    options, ceiling = options.validate(), accuracy.ceiling
     first = first_round_rays(scene, replace(options, estimator="paper"), ceiling, first_rays)
     measured: dict[str, Any] = {}
     pilots: dict[str, Pilot] = {}

@@ -30,11 +30,14 @@ Range = tuple[int, int]
 class RoundSum:
     """The exact sum of a progressive bake's rays so far: ``total`` (every ray's counts),
     ``groups`` (uint64[group, receiver, band, time], direction-summed; None before the first
-    ray) and ``rounds`` (what each finished round reached, for the record)."""
+    ray), ``rounds`` (what each finished round reached, for the record) and ``choice`` (the
+    automatic estimator's record, :func:`sonolux.sound.progressive.choose`: kept in the
+    checkpoint so that a resumed bake continues with it and traces no pilot again)."""
 
     total: SoundSum | None = None
     groups: np.ndarray | None = None
     rounds: list[dict[str, Any]] = field(default_factory=list)
+    choice: dict[str, Any] | None = None
 
 
 @dataclass
@@ -56,7 +59,7 @@ class RoundWork:
         if (end - start) % groups:
             raise ValueError("a round must split into equal groups")
         self.inner, self.groups, self.carry = inner, groups, carry
-        self.kind, self.name = inner.kind, inner.name
+        self.kind, self.name = inner.kind, f"{inner.name}, round {len(carry.rounds) + 1}"
         self.total = inner.total
         self.target: Range = (start, end)
         self.stamp = dict(inner.stamp, progressive=fingerprint(groups, start, end, carry.rounds))
@@ -107,7 +110,8 @@ class RoundWork:
     def encode(self, total: RoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         meta, arrays = encode_sum(total.total) if total.total is not None else ({}, {})
         meta = {"sum": meta, "progressive": {"rounds": total.rounds, "groups": self.groups,
-                                             "target": list(self.target)}}
+                                             "target": list(self.target),
+                                             "choice": total.choice}}
         if total.groups is not None:
             arrays = dict(arrays, groups=total.groups)
         return meta, arrays
@@ -116,7 +120,8 @@ class RoundWork:
         inner = {k: v for k, v in arrays.items() if k != "groups"}
         total = decode_sum(meta["sum"], inner) if meta["sum"] else None
         groups = np.array(arrays["groups"], np.uint64) if "groups" in arrays else None
-        return RoundSum(total, groups, list(meta["progressive"]["rounds"]))
+        progressive = meta["progressive"]
+        return RoundSum(total, groups, list(progressive["rounds"]), progressive.get("choice"))
 
     def finish(self, total: RoundSum | None, done: list[Range]) -> RoundSum:
         del done
