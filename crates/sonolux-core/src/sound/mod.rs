@@ -16,6 +16,7 @@
 pub mod field;
 pub mod nee;
 pub mod pattern;
+pub mod receiver_pattern;
 pub mod receivers;
 pub mod reflectance;
 pub mod stats;
