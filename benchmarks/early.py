@@ -158,6 +158,8 @@ def main() -> None:
     if args.scene not in SCENES:
         ap.error(f"--scene: {args.scene!r} is not a scene of this benchmark; "
                  f"allowed: {', '.join(SCENES)}")
+    if args.rays < 0:
+        ap.error(f"--rays: {args.rays}; allowed: 0 (automatic) or a positive count")
     if args.seeds < 3:
         ap.error(f"--seeds: {args.seeds} gives no usable spread; allowed: 3 or more")
     if not args.max_time >= 0:
