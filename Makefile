@@ -81,6 +81,7 @@ bench: build $(VENV)/.peers-stamp ## benchmarks against peers (Embree, pyroomaco
 	$(PY) benchmarks/web_bundle.py
 	$(PY) benchmarks/compact_field.py
 	$(PY) benchmarks/early.py
+	$(PY) benchmarks/early.py --scene shoebox
 	cargo run --release -p sonolux-core --example wave_bench -- --out benchmarks/results/waves.json
 
 validation: build $(VENV)/.peers-stamp ## measured physics checks, rewrites docs/validation.md
