@@ -74,6 +74,7 @@ from sonolux.sound.bake import add_waves, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
+from sonolux.sound.reach import reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
 
 #: Independent ray groups of the jackknife. More groups estimate the error better (the interval
@@ -146,13 +147,17 @@ def first_round_rays(scene: Scene, options: SoundOptions, ceiling: int,
 
 
 def round_errors(scene: Scene, state: RoundSum) -> Errors:
-    """The jackknife errors of a progressive bake's rays so far (near-source rule applied)."""
+    """The jackknife errors of a progressive bake's rays so far (near-source rule applied,
+    receivers no energy reached found: :mod:`sonolux.sound.reach`)."""
     assert state.total is not None and state.groups is not None
     t = state.total.template
-    return near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
-                                 *omni_bins(t, state.total.counts), slowest_decay_s(t)),
-                       scene.receivers.positions_m, np.asarray(t.source_positions_m),
-                       scene.volume_m3, scene.settings.speed_of_sound_m_s)
+    errors = near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
+                                   *omni_bins(t, state.total.counts), slowest_decay_s(t)),
+                         scene.receivers.positions_m, np.asarray(t.source_positions_m),
+                         scene.volume_m3, scene.settings.speed_of_sound_m_s)
+    return replace(errors, reach=reach(state.groups, int(state.total.stats.get("surface_hits", 0)),
+                                       scene.receivers.count, scene.receivers.radius_m,
+                                       scene.area_m2))
 
 
 def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy | None = None, *,
@@ -247,17 +252,45 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
                                      _blocks(rate * accuracy.max_seconds, down=True)))
         if side is not None:  # the next round starts from here if the bake is killed now
             Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state), state, [])
+    unreached = unreached_record(errors, scene)
     if log:
         log(f"progressive bake: {STOPPED[stop]} after {target:,} rays in {len(state.rounds)} "
             f"rounds, {elapsed:.1f} s; standard errors reached: "
             + _describe(errors, accuracy.fraction_of_jnd))
+        for u in unreached:
+            log(unreached_warning(u, target))
     assert state.total is not None
     field = _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds, stop)
+    field = replace(field, settings=dict(field.settings, progressive=dict(
+        field.settings["progressive"], unreached=unreached)))
     if choice is not None:
         field = replace(field, settings=dict(field.settings, estimator_choice=choice))
     if options.waves:  # the hybrid's wave bands, once, to the whole field (as ranges do)
         field = add_waves(scene, options, field, progress=bool(progress), log=log)
     return field, errors
+
+
+def unreached_record(errors: Errors, scene: Scene) -> list[dict[str, Any]]:
+    """The receivers no energy reached (``settings["progressive"]["unreached"]``): row, position
+    (m), the hits expected were it in the diffuse field, the bound on its level (dB)."""
+    if errors.reach is None:
+        return []
+    positions = np.asarray(scene.receivers.positions_m, float)
+    return [{"receiver": r, "position_m": positions[r % len(positions)].tolist(),
+             "expected_hits": float(errors.reach.expected_hits[r]),
+             "level_below_db": float(errors.reach.level_below_db[r])}
+            for r in errors.reach.rows()]
+
+
+def unreached_warning(u: dict[str, Any], rays: int) -> str:
+    """The warning that names an unreached receiver (the bake's end, ``sonolux info``)."""
+    where = ", ".join(f"{v:g}" for v in u["position_m"])
+    return (f"warning: no energy reached receiver #{u['receiver']} at ({where}) m in {rays:,} "
+            f"rays, where a receiver in the room's diffuse field would have been hit about "
+            f"{u['expected_hits']:,.0f} times (its level is at least "
+            f"{-u['level_below_db']:.1f} dB below the room's, 95 %): it is sealed off from the "
+            "sources (a closed door or wall, a separate part of the mesh?); it was not waited "
+            "for and its results are empty")
 
 
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,
@@ -353,6 +386,12 @@ def _describe(errors: Errors, fraction: float) -> str:
                          + " (counted by the fitted value's SE)")
     if left:
         parts.append("left out, more rays cannot define them: " + ", ".join(left))
+    if errors.reach is not None and errors.reach.unreached.any():
+        rows = errors.reach.rows()
+        parts.append(f"no energy reached receiver{'s' if len(rows) > 1 else ''} "
+                     + ", ".join(f"#{r}" for r in rows)
+                     + f" (0 hits, ≥ {errors.reach.expected_hits[rows].min():,.0f} expected in "
+                     "the diffuse field): not waited for")
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
