@@ -128,6 +128,26 @@ def test_the_reachable_receiver_keeps_its_bits(sealed, tmp_path):
     assert one.settings["progressive"]["unreached"] == field.settings["progressive"]["unreached"]
 
 
+def test_in_a_field_per_source_each_source_is_tested_apart(tmp_path):
+    """A source on each side of the wall: each receiver is reached by one source only. The rows
+    (source by source) of the other are left out, named with their source, and ``sonolux ir``
+    says which source's response is silent."""
+    if not engine.core_available():
+        pytest.skip("the compiled core is not built")
+    scene = room(wall(tmp_path), [INSIDE, SEALED], threads=2)
+    two = replace(scene, sources=[*scene.sources, replace(scene.sources[0], name="east",
+                                                          position_m=np.array([4.2, 1.1, 1.5]))])
+    lines: list[str] = []
+    field, _ = progressive.bake(two, PAPER, ACCURACY, log=lines.append)
+    record = field.settings["progressive"]
+    assert record["stopped"] == "converged"
+    assert [(u["row"], u["receiver"], u["source"]) for u in record["unreached"]] == [
+        (1, 1, 0), (2, 0, 1)]
+    assert any("no energy from source 1 (east) reached receiver #0" in line for line in lines)
+    assert "receiver #0 from source 1 at (1.8, 2.9, 1.2) m" in progressive_line(record)
+    assert any("from source east" in w for w in listener_warnings(field, 0))
+
+
 def test_a_receiver_with_any_energy_is_waited_for_and_few_rays_decide_nothing():
     """The decision itself: a row with one count anywhere is reached (noise, waited for); a row
     with none is unreached only once its expected hits μ = hits × 4πr²/S exceed

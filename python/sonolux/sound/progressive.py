@@ -271,12 +271,17 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
 
 
 def unreached_record(errors: Errors, scene: Scene) -> list[dict[str, Any]]:
-    """The receivers no energy reached (``settings["progressive"]["unreached"]``): row, position
-    (m), the hits expected were it in the diffuse field, the bound on its level (dB)."""
+    """The receivers no energy reached (``settings["progressive"]["unreached"]``): the field's
+    row, the receiver, its position (m), the source (index and name; None when the field sums
+    the sources), the hits expected were it in the diffuse field, the bound on its level (dB)."""
     if errors.reach is None:
         return []
     positions = np.asarray(scene.receivers.positions_m, float)
-    return [{"receiver": r, "position_m": positions[r % len(positions)].tolist(),
+    n, per_source = len(positions), len(errors.reach.unreached) > len(positions)
+    return [{"row": r, "receiver": r % n, "label": errors.reach.label(r),
+             "source": r // n if per_source else None,
+             "source_name": scene.sources[r // n].name if per_source else None,
+             "position_m": positions[r % n].tolist(),
              "expected_hits": float(errors.reach.expected_hits[r]),
              "level_below_db": float(errors.reach.level_below_db[r])}
             for r in errors.reach.rows()]
@@ -285,12 +290,14 @@ def unreached_record(errors: Errors, scene: Scene) -> list[dict[str, Any]]:
 def unreached_warning(u: dict[str, Any], rays: int) -> str:
     """The warning that names an unreached receiver (the bake's end, ``sonolux info``)."""
     where = ", ".join(f"{v:g}" for v in u["position_m"])
-    return (f"warning: no energy reached receiver #{u['receiver']} at ({where}) m in {rays:,} "
-            f"rays, where a receiver in the room's diffuse field would have been hit about "
+    source = f" from source {u['source']} ({u['source_name']})" if u["source"] is not None else ""
+    return (f"warning: no energy{source} reached receiver #{u['receiver']} at ({where}) m in "
+            f"{rays:,} rays, where a receiver in the room's diffuse field would have been hit about "
             f"{u['expected_hits']:,.0f} times (its level is at least "
             f"{-u['level_below_db']:.1f} dB below the room's, 95 %): it is sealed off from the "
-            "sources (a closed door or wall, a separate part of the mesh?); it was not waited "
-            "for and its results are empty")
+            f"source{'' if source else 's'} (a closed door or wall, a separate part of the mesh?); "
+            f"it was not waited for and its {'field of that source' if source else 'field'} is "
+            "silent")
 
 
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,
@@ -389,7 +396,7 @@ def _describe(errors: Errors, fraction: float) -> str:
     if errors.reach is not None and errors.reach.unreached.any():
         rows = errors.reach.rows()
         parts.append(f"no energy reached receiver{'s' if len(rows) > 1 else ''} "
-                     + ", ".join(f"#{r}" for r in rows)
+                     + ", ".join(errors.reach.label(r) for r in rows)
                      + f" (0 hits, ≥ {errors.reach.expected_hits[rows].min():,.0f} expected in "
                      "the diffuse field): not waited for")
     near = max(s.get("near_source", 0) for s in errors.summary().values())

@@ -56,9 +56,16 @@ class Reach:
     unreached: np.ndarray
     expected_hits: np.ndarray
     level_below_db: np.ndarray
+    #: Receivers of the scene: rows beyond them are those of a field per source.
+    receivers: int = 0
 
     def rows(self) -> list[int]:
         return [int(r) for r in np.flatnonzero(self.unreached)]
+
+    def label(self, row: int) -> str:
+        """``#k``, and ``from source j`` in a field per source (rows source by source)."""
+        n = self.receivers or len(self.unreached)
+        return f"#{row % n}" + (f" from source {row // n}" if len(self.unreached) > n else "")
 
 
 def reach(groups: np.ndarray, surface_hits: int, receivers: int, radius_m: float,
@@ -74,4 +81,4 @@ def reach(groups: np.ndarray, surface_hits: int, receivers: int, radius_m: float
     none = ~groups.any(axis=(0, 2, 3))
     with np.errstate(divide="ignore"):
         below = 10.0 * np.log10(threshold / expected)
-    return Reach(none & (expected > threshold), expected, below)
+    return Reach(none & (expected > threshold), expected, below, receivers)
