@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import sonolux
-from sonolux import engine
+from sonolux import cli, engine
 from sonolux.sound import progressive
 from sonolux.sound import reach as reach_module
 from sonolux.sound.info import listener_warnings, progressive_line
@@ -184,3 +184,29 @@ def test_the_expected_hits_are_what_a_reachable_receiver_gets():
                 scene.receivers.radius_m, scene.area_m2)
     ratio = field.stats["deposits"] / 4 / got.expected_hits[0]
     assert abs(ratio - 1.0) <= 0.05, ratio
+
+
+@pytest.mark.parametrize("rays", ["auto", "20000"])
+def test_sonolux_bake_names_the_sealed_receiver_once_and_drops_one_outside(capsys, tmp_path,
+                                                                            rays):
+    """From the command line, with a third receiver outside the room: the scene drops that one
+    before tracing (its own warning); the sealed one is named once, by the progressive bake or,
+    for a fixed ray count, after it; a receiver in the room is never named."""
+    if not engine.core_available():
+        pytest.skip("the compiled core is not built")
+    scene = tmp_path / "sealed.toml"
+    scene.write_text(
+        'name = "sealed"\n[settings]\nbands_hz = [250, 500, 1000, 2000]\nmax_time_s = 1.2\n'
+        '[materials.wall]\nabsorption = 0.12\nscattering = 0.3\n'
+        '[[geometry]]\ntype = "shoebox"\nsize_m = [5, 4, 3]\nmaterials = { default = "wall" }\n'
+        f'[[geometry]]\ntype = "mesh"\nfile = "{wall(tmp_path)}"\nmaterial = "wall"\n'
+        '[[sources]]\nposition_m = [1.2, 1.1, 1.5]\n[receivers]\ntype = "points"\n'
+        'positions_m = [[1.8, 2.9, 1.2], [4.0, 2.0, 1.5], [7.0, 2.0, 1.5]]\n')
+    out = tmp_path / "sealed.h5"
+    coarse = ["--accuracy", "0.5"] if rays == "auto" else []
+    assert cli.main(["bake", str(scene), "--no-light", "-q", "--rays", rays, *coarse,
+                     "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "positions_m[2] = [7.0, 2.0, 1.5] is dropped: outside the room" in err
+    assert err.count("warning: no energy reached receiver #1 at (4, 2, 1.5) m") == 1
+    assert "receiver #0" not in err

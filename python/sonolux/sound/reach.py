@@ -37,8 +37,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from sonolux.errors import SonoluxError
 
 #: The reason a receiver's parameters are left out, in the record and on the round line.
 UNREACHED = "no energy reached it"
@@ -82,3 +85,30 @@ def reach(groups: np.ndarray, surface_hits: int, receivers: int, radius_m: float
     with np.errstate(divide="ignore"):
         below = 10.0 * np.log10(threshold / expected)
     return Reach(none & (expected > threshold), expected, below, receivers)
+
+
+def silent_receivers(field: Any, area_m2: float) -> list[str]:
+    """Warnings naming the receivers a bake of a fixed ray count left without energy although
+    its rays would have hit them about μ times in the room's diffuse field (:func:`reach` on the
+    field summed over its sources: every ray counts). A progressive bake says this itself
+    (``settings["progressive"]["unreached"]``): nothing for it here."""
+    if field.settings.get("progressive") or not field.n_receivers:
+        return []
+    energy = field.energy
+    try:  # a compact field: its exact direction sums, without the dense view
+        reached = np.asarray(energy.direction_sums()).any(axis=(1, 2))
+    except (AttributeError, SonoluxError):
+        reached = np.array([np.any(energy[r]) for r in range(field.n_receivers)])
+    flags = reached.astype(np.uint64).reshape(1, -1, 1, 1)
+    found = reach(flags, int(field.stats.get("surface_hits", 0)), field.n_receivers,
+                  float(field.radius_m), area_m2)
+    out = []
+    for r in found.rows():
+        where = ", ".join(f"{v:g}" for v in np.asarray(field.positions_m[r], float))
+        out.append(f"warning: no energy reached receiver #{r} at ({where}) m, where a receiver "
+                   f"in the room's diffuse field would have been hit about "
+                   f"{found.expected_hits[r]:,.0f} times (its level is at least "
+                   f"{-found.level_below_db[r]:.1f} dB below the room's, 95 %): it is sealed "
+                   "off from the sources (a closed door or wall, a separate part of the mesh?) "
+                   "and its field is silent")
+    return out
