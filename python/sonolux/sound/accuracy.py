@@ -1,7 +1,8 @@
 """The error of a progressive sound bake's parameters: T30, EDT and C80 with their delete-a-group
 jackknife standard errors, in units of their just-noticeable differences, and the entries the
 stopping rule leaves out: decay times nearer a source than ISO 3382's minimum distance, and
-parameters undefined for a reason more rays cannot change (:func:`undefined_for_good`). A
+parameters undefined for a reason more rays cannot change (:func:`undefined_for_good`), and
+those of receivers no energy reaches (:mod:`sonolux.sound.reach`). A
 parameter undefined by the rays' noise is waited for (it counts as not converged).
 
 :mod:`sonolux.sound.progressive` bakes in rounds and stops by these numbers; docs/progressive.md

@@ -29,6 +29,10 @@ How (docs/progressive.md has the derivation and the checks):
   d_min = 2 √(V / (c T)) are reported but not waited for: there the decay curve falls through the
   start of their ranges within the direct sound, the parameter jumps between leave-out estimates
   and the jackknife (valid for smooth statistics) reports the jump, not an error.
+- **Receivers no energy reaches** (:mod:`sonolux.sound.reach`): one with not one deposit where
+  the rays would have hit it μ = hits × 4π r² / S times in the room's diffuse field, with
+  e^(−μ) below the bake's 5 % shared by its receivers, is sealed off: it is left out ("no
+  energy reached it"), listed and warned of by name, not waited for until the cap.
 - **Which estimator** (``estimator = "auto"``, :func:`choose`): measured by a pilot of each,
   not assumed, and ranked by counted work (segments, visibility tests, deposits, draws: the
   same on any machine), not by wall time; the chosen pilot is the bake's first round.
