@@ -80,6 +80,11 @@ def cmd_bake(args: argparse.Namespace) -> int:
             if field is not None and field.stats.get("cancelled"):
                 print("sonolux: stopped early: the field holds what was traced so far",
                       file=sys.stderr)
+        if baked.sound is not None:  # a fixed count's unreached receivers (auto says its own)
+            from sonolux.sound.reach import silent_receivers
+
+            for note in silent_receivers(baked.sound, scene.area_m2):
+                print(f"sonolux: {note}", file=sys.stderr)
         path = save_fields(args.output, sound=baked.sound, light=baked.light, bake=baked.report)
         written()
     if baked.sound is not None:

@@ -1,7 +1,8 @@
 """The error of a progressive sound bake's parameters: T30, EDT and C80 with their delete-a-group
 jackknife standard errors, in units of their just-noticeable differences, and the entries the
 stopping rule leaves out: decay times nearer a source than ISO 3382's minimum distance, and
-parameters undefined for a reason more rays cannot change (:func:`undefined_for_good`). A
+parameters undefined for a reason more rays cannot change (:func:`undefined_for_good`), and
+those of receivers no energy reaches (:mod:`sonolux.sound.reach`). A
 parameter undefined by the rays' noise is waited for (it counts as not converged).
 
 :mod:`sonolux.sound.progressive` bakes in rounds and stops by these numbers; docs/progressive.md
@@ -17,6 +18,7 @@ import numpy as np
 
 from sonolux.analysis.decay import CURVATURE_LIMIT_PERCENT, XI_LIMIT_PERMILLE, c80, decay_times
 from sonolux.analysis.params import onsets_s
+from sonolux.sound.reach import UNREACHED, Reach
 
 #: Student's t, 97.5 % quantile, 7 degrees of freedom (8 groups): the 95 % interval of the
 #: reported error.
@@ -62,6 +64,16 @@ class Errors:
     #: value (without the limits) in the JND's unit; NaN elsewhere. The rule counts it: it
     #: waits until the fitted value is known to the target, whichever side of the limit it ends.
     at_limit_error: dict[str, np.ndarray] | None = None
+    #: Receivers no energy reached (:mod:`sonolux.sound.reach`): every parameter of theirs is
+    #: left out of the rule, for the reason :data:`UNREACHED`. None: not tested.
+    reach: Reach | None = None
+
+    def _unreached(self, name: str) -> np.ndarray:
+        """bool[receiver, band]: the entries of unreached receivers (undefined: no energy)."""
+        shape = self.value[name].shape
+        if self.reach is None:
+            return np.zeros(shape, bool)
+        return np.broadcast_to(self.reach.unreached[:, None], shape) & np.isnan(self.value[name])
 
     def waiting(self, name: str) -> np.ndarray:
         """bool[receiver, band]: undefined, not for good, not near a source (the rule waits:
@@ -69,7 +81,7 @@ class Errors:
         out = np.isnan(self.value[name])
         if self.for_good is None:
             return np.zeros_like(out)
-        out = out & ~self.for_good[name]
+        out = out & ~self.for_good[name] & ~self._unreached(name)
         if self.excluded is not None and name in self.excluded:
             out = out & ~self.excluded[name]
         return out
@@ -134,10 +146,10 @@ class Errors:
 
     def left_out(self, name: str) -> dict[str, list[list[int]]]:
         """{reason kind: [[receiver, band], ...]} of the entries undefined for good (not near
-        a source: those are counted as such)."""
+        a source: those are counted as such), those of unreached receivers as :data:`UNREACHED`."""
         if self.for_good is None:
             return {}
-        good = self.for_good[name] & np.isnan(self.value[name])
+        good = (self.for_good[name] | self._unreached(name)) & np.isnan(self.value[name])
         if self.excluded is not None and name in self.excluded:
             good = good & ~self.excluded[name]
         return self._where(name, good)
@@ -147,8 +159,10 @@ class Errors:
         if self.why_undefined is None:
             return {}
         out: dict[str, list[list[int]]] = {}
+        unreached = self._unreached(name)
         for r, b in zip(*np.nonzero(mask)):
-            kind = str(self.why_undefined[name][r, b]).split(":")[0] or "undefined"
+            kind = (UNREACHED if unreached[r, b] else
+                    str(self.why_undefined[name][r, b]).split(":")[0] or "undefined")
             out.setdefault(kind, []).append([int(r), int(b)])
         return out
 

@@ -112,8 +112,11 @@ def progressive_line(p: dict[str, Any]) -> str:
              "max_rays": "stopped at --max-rays, not converged",
              "max_seconds": "stopped at --max-seconds, not converged",
              "cancelled": "cancelled, not converged"}.get(p["stopped"], p["stopped"])
+    unreached = "".join(f"; no energy reached receiver {u.get('label', u['receiver'])} at ("
+                        + ", ".join(f"{v:g}" for v in u["position_m"]) + ") m (left out)"
+                        for u in p.get("unreached", []))
     return (f"  accuracy    {ended} in {len(p['rounds'])} rounds; standard error at the worst "
-            f"receiver and band: {', '.join(errors)}")
+            f"receiver and band: {', '.join(errors)}{unreached}")
 
 
 def _file_bytes_per_receiver(field: SoundField) -> int | None:
@@ -159,4 +162,12 @@ def listener_warnings(field: SoundField, receiver: int) -> list[str]:
                        f"holds source {k} ({d:.2f} m away, inside its {field.radius_m:g} m "
                        "sphere): its direct sound is not that of a listener; listen further "
                        "away")
+    unreached = [u for u in (field.settings.get("progressive") or {}).get("unreached", [])
+                 if u.get("receiver") == receiver]
+    if unreached:
+        apart = [u["source_name"] for u in unreached if u.get("source") is not None]
+        out.append(f"warning: no energy reached receiver #{receiver} in its bake (sealed off "
+                   + (f"from source{'s' if len(apart) > 1 else ''} {', '.join(apart)}): its "
+                      "response from there is silent" if apart
+                      else "from the sources): its response is silent"))
     return out

@@ -29,6 +29,10 @@ How (docs/progressive.md has the derivation and the checks):
   d_min = 2 √(V / (c T)) are reported but not waited for: there the decay curve falls through the
   start of their ranges within the direct sound, the parameter jumps between leave-out estimates
   and the jackknife (valid for smooth statistics) reports the jump, not an error.
+- **Receivers no energy reaches** (:mod:`sonolux.sound.reach`): one with not one deposit where
+  the rays would have hit it μ = hits × 4π r² / S times in the room's diffuse field, with
+  e^(−μ) below the bake's 5 % shared by its receivers, is sealed off: it is left out ("no
+  energy reached it"), listed and warned of by name, not waited for until the cap.
 - **Which estimator** (``estimator = "auto"``, :func:`choose`): measured by a pilot of each,
   not assumed, and ranked by counted work (segments, visibility tests, deposits, draws: the
   same on any machine), not by wall time; the chosen pilot is the bake's first round.
@@ -74,6 +78,7 @@ from sonolux.sound.bake import add_waves, check_wave_sources, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
+from sonolux.sound.reach import reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
 
 #: Independent ray groups of the jackknife. More groups estimate the error better (the interval
@@ -146,13 +151,17 @@ def first_round_rays(scene: Scene, options: SoundOptions, ceiling: int,
 
 
 def round_errors(scene: Scene, state: RoundSum) -> Errors:
-    """The jackknife errors of a progressive bake's rays so far (near-source rule applied)."""
+    """The jackknife errors of a progressive bake's rays so far (near-source rule applied,
+    receivers no energy reached found: :mod:`sonolux.sound.reach`)."""
     assert state.total is not None and state.groups is not None
     t = state.total.template
-    return near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
-                                 *omni_bins(t, state.total.counts), slowest_decay_s(t)),
-                       scene.receivers.positions_m, np.asarray(t.source_positions_m),
-                       scene.volume_m3, scene.settings.speed_of_sound_m_s)
+    errors = near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
+                                   *omni_bins(t, state.total.counts), slowest_decay_s(t)),
+                         scene.receivers.positions_m, np.asarray(t.source_positions_m),
+                         scene.volume_m3, scene.settings.speed_of_sound_m_s)
+    return replace(errors, reach=reach(state.groups, int(state.total.stats.get("surface_hits", 0)),
+                                       scene.receivers.count, scene.receivers.radius_m,
+                                       scene.area_m2))
 
 
 def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy | None = None, *,
@@ -248,17 +257,52 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
                                      _blocks(rate * accuracy.max_seconds, down=True)))
         if side is not None:  # the next round starts from here if the bake is killed now
             Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state), state, [])
+    unreached = unreached_record(errors, scene)
     if log:
         log(f"progressive bake: {STOPPED[stop]} after {target:,} rays in {len(state.rounds)} "
             f"rounds, {elapsed:.1f} s; standard errors reached: "
             + _describe(errors, accuracy.fraction_of_jnd))
+        for u in unreached:
+            log(unreached_warning(u, target))
     assert state.total is not None
     field = _field(state.total, GROUPS, target, ceiling, accuracy, errors, state.rounds, stop)
+    field = replace(field, settings=dict(field.settings, progressive=dict(
+        field.settings["progressive"], unreached=unreached)))
     if choice is not None:
         field = replace(field, settings=dict(field.settings, estimator_choice=choice))
     if options.waves:  # the hybrid's wave bands, once, to the whole field (as ranges do)
         field = add_waves(scene, options, field, progress=bool(progress), log=log)
     return field, errors
+
+
+def unreached_record(errors: Errors, scene: Scene) -> list[dict[str, Any]]:
+    """The receivers no energy reached (``settings["progressive"]["unreached"]``): the field's
+    row, the receiver, its position (m), the source (index and name; None when the field sums
+    the sources), the hits expected were it in the diffuse field, the bound on its level (dB)."""
+    if errors.reach is None:
+        return []
+    positions = np.asarray(scene.receivers.positions_m, float)
+    n, per_source = len(positions), len(errors.reach.unreached) > len(positions)
+    return [{"row": r, "receiver": r % n, "label": errors.reach.label(r),
+             "source": r // n if per_source else None,
+             "source_name": scene.sources[r // n].name if per_source else None,
+             "position_m": positions[r % n].tolist(),
+             "expected_hits": float(errors.reach.expected_hits[r]),
+             "level_below_db": float(errors.reach.level_below_db[r])}
+            for r in errors.reach.rows()]
+
+
+def unreached_warning(u: dict[str, Any], rays: int) -> str:
+    """The warning that names an unreached receiver (the bake's end, ``sonolux info``)."""
+    where = ", ".join(f"{v:g}" for v in u["position_m"])
+    source = f" from source {u['source']} ({u['source_name']})" if u["source"] is not None else ""
+    return (f"warning: no energy{source} reached receiver #{u['receiver']} at ({where}) m in "
+            f"{rays:,} rays, where a receiver in the room's diffuse field would have been hit about "
+            f"{u['expected_hits']:,.0f} times (its level is at least "
+            f"{-u['level_below_db']:.1f} dB below the room's, 95 %): it is sealed off from the "
+            f"source{'' if source else 's'} (a closed door or wall, a separate part of the mesh?); "
+            f"it was not waited for and its {'field of that source' if source else 'field'} is "
+            "silent")
 
 
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,
@@ -354,6 +398,12 @@ def _describe(errors: Errors, fraction: float) -> str:
                          + " (counted by the fitted value's SE)")
     if left:
         parts.append("left out, more rays cannot define them: " + ", ".join(left))
+    if errors.reach is not None and errors.reach.unreached.any():
+        rows = errors.reach.rows()
+        parts.append(f"no energy reached receiver{'s' if len(rows) > 1 else ''} "
+                     + ", ".join(errors.reach.label(r) for r in rows)
+                     + f" (0 hits, ≥ {errors.reach.expected_hits[rows].min():,.0f} expected in "
+                     "the diffuse field): not waited for")
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
