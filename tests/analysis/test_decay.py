@@ -138,6 +138,21 @@ def test_empty_tail_is_cut_and_extrapolated():
     assert got["floor_db"] == pytest.approx(-60.0 * 1.0 / T60_S, abs=0.1)
 
 
+
+def test_a_record_cut_while_sound_still_arrives_is_too_short_not_unreached():
+    # A record that ends while its bins are still densely filled: the decay curve's floor is
+    # the record's end, which more rays cannot lower. T30's range (-35 dB) lies below that
+    # floor: a setting (max_time_s), "record too short", not "range not reached" (the reason a
+    # progressive bake waits on for more rays). A record whose late bins are empty: noise.
+    start, width = nonuniform_axis(T60_S * 30.0 / 60.0)
+    energy = decay_histogram(start, width, [(1.0, T60_S)])
+    got = decay_times(energy, start, width)
+    assert math.isnan(got["t30_s"]) and got["t30_reason"].startswith("record too short"), got["t30_reason"]
+    sparse = energy.copy()
+    sparse[start >= 0.5 * start[-1]] = 0.0  # too few rays: the late bins are empty
+    got = decay_times(sparse, start, width)
+    assert got["t30_reason"].startswith("range not reached"), got["t30_reason"]
+
 def analytic_times(slopes, duration_s=6.0):
     """EDT and T30 of the analytic EDC of sum(A exp(-t/tau)), by plain least squares through
     200 000 uniformly spaced points of the curve over each range: an independent check."""

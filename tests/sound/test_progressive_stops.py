@@ -66,7 +66,8 @@ def uninterrupted():
     return field
 
 
-@pytest.mark.parametrize("kill", ["after round 1", "within round 2"])
+@pytest.mark.parametrize("kill", ["after round 1",
+                                  pytest.param("within round 2", marks=pytest.mark.slow)])
 def test_a_resumed_automatic_bake_keeps_its_choice_and_traces_no_pilot_again(
         tmp_path, monkeypatch, kill, uninterrupted):
     """Killed after round k (its checkpoint written between rounds) or within a round, then
@@ -121,6 +122,7 @@ def test_a_resumed_automatic_bake_keeps_its_choice_and_traces_no_pilot_again(
     assert sum(b - a for _, a, b in traced.ranges) == rounds[-1]["rays"] - restored
 
 
+@pytest.mark.slow
 def test_a_checkpoint_without_a_choice_still_resumes_by_choosing_again(tmp_path, monkeypatch,
                                                                        uninterrupted):
     """A checkpoint of an older version (no choice in it): the pilots run again (the choice is

@@ -33,7 +33,9 @@ Checks. A fit is used only when it passes every check below; otherwise its time 
 reports):
 
 1. range reached: the curve falls to the range's lower end before its floor (the last
-   non-empty bin, or the truncation point t_x);
+   non-empty bin, or the truncation point t_x); when the record's last 10 % is densely filled
+   up to its last bin, the floor is the record's end, which more rays do not lower: the reason
+   is then "record too short" (a setting), not "range not reached" (too few rays);
 2. slope: negative, and no slower than ``max_decay_time_s`` (the slowest decay the room's
    least absorbing surface and its air allow, see :func:`slowest_decay_time_s`);
 3. linearity (T20, T30): ξ = 1000 (1 - r²) ‰ at most 10 ‰ (the non-linearity parameter of
@@ -387,8 +389,11 @@ def _plain_curve(e, edges, cum, last):
     edc_db[last + 1:] = np.nan
     end_power = max(_end_power(e, edges, cum, edges[-1], require_dense=False),
                     _end_power(e, edges, cum, edges[last + 1], require_dense=True))
+    # Sound still arriving densely at the record's end: the curve's floor is the record's,
+    # which more rays do not lower (check 1 then says "record too short", not "not reached").
+    dense_end = last == e.size - 1 and _end_power(e, edges, cum, edges[-1], require_dense=True) > 0
     return {"edc_db": edc_db, "floor_db": float(edc_db[last]), "failure": "",
-            "end_power": float(end_power), "total": float(total)}
+            "end_power": float(end_power), "total": float(total), "dense_end": dense_end}
 
 
 def _end_power(e, edges, cum, t_end, *, require_dense):
@@ -436,6 +441,11 @@ def _checked_fit(t, curve, upper, lower, max_decay_time_s, *, linear, limits=Tru
     y, floor_db = curve["edc_db"], curve["floor_db"]
     # (1) The range is reached above the curve's floor.
     if lower < floor_db:
+        if curve.get("dense_end", False):
+            return {"slope": np.nan, "r": np.nan,
+                    "reason": f"record too short: the decay curve reaches only {floor_db:.1f} dB "
+                              f"before the record ends, not {lower:g} dB, and sound still arrives "
+                              "at its end (bake longer: max_time_s)"}
         return {"slope": np.nan, "r": np.nan,
                 "reason": f"range not reached: the decay curve reaches only {floor_db:.1f} dB "
                           f"before its end, not {lower:g} dB"}
