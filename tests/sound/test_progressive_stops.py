@@ -6,6 +6,7 @@ undefined by the rays' noise is waited for, one undefined for a reason more rays
 from __future__ import annotations
 
 import hashlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,21 +15,14 @@ import sonolux
 from sonolux import engine
 from sonolux.sound import accuracy, progressive
 from sonolux.sound.ranges import SoundRanges
+from tests.sound.test_progressive import room as progressive_room
 
 pytestmark = pytest.mark.usefixtures("core")
 
 
 def room(**settings):
-    """A 5 × 4 × 3 m shoebox, three receivers, octaves 250 Hz–2 kHz: small enough to bake often."""
-    return sonolux.load_scene({
-        "name": "progressive-stops",
-        "settings": {"bands_hz": [250, 500, 1000, 2000], "max_time_s": 1.2, **settings},
-        "materials": {"wall": {"absorption": 0.12, "scattering": 0.3}},
-        "geometry": [{"type": "shoebox", "size_m": [5, 4, 3], "materials": {"default": "wall"}}],
-        "sources": [{"position_m": [1.2, 1.1, 1.5]}],
-        "receivers": {"type": "points",
-                      "positions_m": [[3.8, 2.9, 1.2], [2.5, 1.0, 1.7], [4.0, 1.0, 1.0]]},
-    })
+    """test_progressive's 5 × 4 × 3 m shoebox with three receivers, named for this file."""
+    return replace(progressive_room(**settings), name="progressive-stops")
 
 
 def digest(field) -> str:

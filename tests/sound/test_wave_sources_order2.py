@@ -16,6 +16,7 @@ import sonolux
 from sonolux import engine
 from sonolux.scene.directivity import node_directions
 from sonolux.sound import wave_sources
+from tests.sound.test_wave_sources import windowed_spectrum
 
 pytestmark = pytest.mark.usefixtures("core")
 
@@ -192,24 +193,6 @@ def far_field():
     directional = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers,
                                         settings, terms=cluster)
     return omni, directional, d, u, r, len(cluster[0])
-
-
-def windowed_spectrum(out, r, half_s=0.03):
-    """|H(f)|² of each receiver's impulse response (the run over its pulse), windowed about the
-    direct sound's arrival r/c (a Tukey window), and the frequencies."""
-    p = np.asarray(out["pressure_pa"], np.float64)
-    fs = float(out["sample_rate_hz"])
-    n_fft = sfft.next_fast_len(4 * p.shape[1], real=True)
-    ref = sfft.rfft(np.asarray(out["source_pressure_1m_pa"]), n_fft)
-    keep = np.abs(ref) > 1e-6 * np.abs(ref).max()
-    h = sfft.irfft(sfft.rfft(p, n_fft, axis=1) * np.where(keep, 1 / np.where(keep, ref, 1), 0),
-                   n_fft, axis=1)
-    t = np.arange(n_fft) / fs
-    t = np.where(t > n_fft / fs / 2, t - n_fft / fs, t)  # the non-causal part before 0
-    x = np.abs(t - r / C) / half_s
-    window = np.where(x < 0.5, 1.0, np.where(x < 1.0, 0.5 * (1 + np.cos(2 * np.pi * (x - 0.5))),
-                                             0.0))
-    return np.abs(sfft.rfft(h * window, n_fft, axis=1)) ** 2, sfft.rfftfreq(n_fft, 1 / fs)
 
 
 def test_the_injected_order_2_cluster_radiates_the_beam(far_field):
