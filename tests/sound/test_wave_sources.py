@@ -96,9 +96,16 @@ def far_field():
     cardioid = (0.5 + 0.5 * np.cos(th)) ** 2
     gains = np.column_stack([np.ones_like(th), cardioid, cardioid, cardioid])
     d = pattern(gains)
-    fit = wave_sources.fit(source(), d, len(BANDS))
-    absorption = np.full((1, len(BANDS)), 0.9)
-    f_max = 250.0
+    omni, directional, _ = omni_and_cluster_runs(scene, src, receivers,
+                                                 wave_sources.fit(source(), d, len(BANDS)))
+    return omni, directional, d, receivers - src, r
+
+
+def omni_and_cluster_runs(scene, src, receivers, fit, f_max=250.0, absorption=0.9):
+    """The wave runs of an omni source and of ``fit``'s cluster of monopoles at ``src``, on a
+    grid to ``f_max`` in a box of uniform ``absorption``, long enough for the pulse's delay and
+    60 ms: (omni, directional, the cluster's number of monopoles)."""
+    absorption = np.full((1, len(BANDS)), absorption)
     delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
     settings = engine.WaveSettings(max_frequency_hz=f_max, duration_s=delay + 0.06)
     cluster = wave_sources.terms(src, fit, BANDS, f_max, settings.spacing_m,
@@ -106,7 +113,7 @@ def far_field():
     omni = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers, settings)
     directional = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers,
                                         settings, terms=cluster)
-    return omni, directional, d, receivers - src, r
+    return omni, directional, len(cluster[0])
 
 
 def windowed_spectrum(out, r, half_s=0.03):

@@ -16,7 +16,7 @@ import sonolux
 from sonolux import engine
 from sonolux.scene.directivity import node_directions
 from sonolux.sound import wave_sources
-from tests.sound.test_wave_sources import windowed_spectrum
+from tests.sound.test_wave_sources import omni_and_cluster_runs, windowed_spectrum
 
 pytestmark = pytest.mark.usefixtures("core")
 
@@ -182,17 +182,9 @@ def far_field():
     r = 2.0
     receivers = src + r * u
     d = beam()
-    fit = wave_sources.fit(custom(), d, len(BANDS))
-    absorption = np.full((1, len(BANDS)), 0.9)
-    f_max = 250.0
-    delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
-    settings = engine.WaveSettings(max_frequency_hz=f_max, duration_s=delay + 0.06)
-    cluster = wave_sources.terms(src, fit, BANDS, f_max, settings.spacing_m,
-                                 settings.sample_rate_hz, int(settings.steps), C)
-    omni = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers, settings)
-    directional = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers,
-                                        settings, terms=cluster)
-    return omni, directional, d, u, r, len(cluster[0])
+    omni, directional, monopoles = omni_and_cluster_runs(
+        scene, src, receivers, wave_sources.fit(custom(), d, len(BANDS)))
+    return omni, directional, d, u, r, monopoles
 
 
 def test_the_injected_order_2_cluster_radiates_the_beam(far_field):
