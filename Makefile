@@ -59,7 +59,7 @@ test-all: build $(VENV)/.peers-stamp test-web ## every test, the slow statistica
 lint: build ## ruff, the binding's stubs against the built module (stubtest), clippy
 	$(VENV)/bin/ruff check python tests benchmarks examples
 	cd python && ../$(PY) -m mypy.stubtest sonolux._core
-	cargo clippy --release --workspace --quiet -- -D warnings
+	cargo clippy --release --workspace --all-targets --quiet -- -D warnings
 
 ci: test lint ## what .ci/run does
 

@@ -105,8 +105,8 @@ fn level_db(res: &EarlyResult, r: usize) -> Vec<f64> {
     let mut e = vec![0.0; res.n_bands];
     for (i, a) in res.arrivals.iter().enumerate() {
         if a.receiver == r as u32 {
-            for b in 0..res.n_bands {
-                e[b] += res.energy_of(i)[b];
+            for (eb, add) in e.iter_mut().zip(res.energy_of(i)) {
+                *eb += add;
             }
         }
     }
@@ -217,10 +217,10 @@ fn walk_across_the_boundaries(half_steps: i32) {
         }
         let mut worst = 0.0f64;
         for k in 1..thetas.len() {
-            for b in 0..6 {
-                let step = (levels[k][b] - levels[k - 1][b]).abs();
+            for (b, (now, before)) in levels[k].iter().zip(&levels[k - 1]).enumerate().take(6) {
+                let step = (now - before).abs();
                 worst = worst.max(step);
-                assert!(step < 0.5, "boundary {boundary}°, {}° → {}°, band {b}: {:.2} → {:.2} dB", thetas[k - 1], thetas[k], levels[k - 1][b], levels[k][b]);
+                assert!(step < 0.5, "boundary {boundary}°, {}° → {}°, band {b}: {:.2} → {:.2} dB", thetas[k - 1], thetas[k], before, now);
             }
         }
         for k in [half_steps as usize - 1, half_steps as usize + 1] {

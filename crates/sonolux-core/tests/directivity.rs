@@ -92,8 +92,8 @@ fn each_band_has_mean_gain_one_over_the_sphere() {
             sum[b] += g[b];
         }
     }
-    for b in 0..BANDS {
-        let mean = sum[b] / q.len() as f64;
+    for (b, total) in sum.iter().enumerate() {
+        let mean = total / q.len() as f64;
         assert!((mean - 1.0).abs() < 1e-3, "band {b}: mean gain {mean}");
     }
 }

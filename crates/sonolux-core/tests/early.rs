@@ -60,8 +60,8 @@ fn closed_form(dims: [f64; 3], src: DVec3, rcv: DVec3, ac: &Acoustics, air: &[f6
                         let qa = (q >> ax) & 1;
                         img[ax] = 2.0 * n[ax] as f64 * dims[ax] + (1 - 2 * qa) as f64 * src[ax];
                         let (lo, hi) = ((n[ax] - qa as i64).unsigned_abs() as i32, n[ax].unsigned_abs() as i32);
-                        for b in 0..nb {
-                            e[b] *= keep(faces[ax].0, b).powi(lo) * keep(faces[ax].1, b).powi(hi);
+                        for (b, eb) in e.iter_mut().enumerate() {
+                            *eb *= keep(faces[ax].0, b).powi(lo) * keep(faces[ax].1, b).powi(hi);
                         }
                     }
                     let d = (img - rcv).length();
@@ -103,8 +103,8 @@ fn shoebox_arrivals_equal_the_closed_form_image_enumeration() {
     for (i, (a, (t, e))) in res.arrivals.iter().zip(&expected).enumerate() {
         assert!((a.time_s - t).abs() < 1e-9, "arrival {i}: {} s, closed form {t} s", a.time_s);
         assert_eq!((a.time_s * FS).round(), (t * FS).round(), "arrival {i}: sample");
-        for b in 0..3 {
-            let db = 10.0 * (res.energy_of(i)[b] / e[b]).log10();
+        for (b, eb) in e.iter().enumerate().take(3) {
+            let db = 10.0 * (res.energy_of(i)[b] / eb).log10();
             assert!(db.abs() < 0.1 && db.abs() < 1e-7, "arrival {i} band {b}: {db} dB");
         }
         // The direction points at the image.
@@ -222,7 +222,7 @@ fn l_room_path_is_valid(planes: &[(DVec3, f64)], src: DVec3, rcv: DVec3) -> Opti
         let (n, d) = planes[k];
         let img = images[k + 1];
         let (df, di) = (n.dot(from) - d, n.dot(img) - d);
-        if !(df * di < 0.0) {
+        if df * di >= 0.0 || df.is_nan() || di.is_nan() {
             return None;
         }
         let p = from + (img - from) * (df / (df - di));
