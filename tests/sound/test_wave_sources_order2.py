@@ -44,19 +44,20 @@ def custom():
 def test_the_stencils_errors_are_their_closed_forms():
     """stencil_error is |1 − R| of the fourth-order differences' responses (module doc): checked
     against the terms' own weights summed as plane waves over 2,000 directions (order 1: each
-    first difference along its axis; order 2: second differences and the mixed products), and
-    against the leading terms θ⁴/30 and θ⁴/90 for small θ (relative 2%: the next term)."""
+    first difference along its axis; order 2: second differences and the mixed products;
+    order 3: third differences, ∂ᵢ²∂ⱼ and ∂ₓ∂ᵧ∂𝓏), and against the leading terms θ⁴/30, θ⁴/90
+    and 7θ⁴/120 for small θ (relative 2%: the next term)."""
     u = wave_sources.fibonacci_directions(2000)
     for kh in (0.1, 0.3, 0.628, 1.0):
-        worst = {1: 0.0, 2: 0.0}
-        for k in range(1, 10):
-            order = 1 if k <= 3 else 2
+        worst = {1: 0.0, 2: 0.0, 3: 0.0}
+        for k in range(1, wave_sources.N_COMPONENTS):
+            order = wave_sources.component_order(k)
             phase = np.exp(1j * kh * (u @ np.array([o for o, _ in wave_sources.stencil(k)]).T))
             response = phase @ np.array([w for _, w in wave_sources.stencil(k)])
             exact = (1j * kh) ** order * wave_sources.monomials(u)[:, k]
             big = np.abs(exact) > 0.05 * kh ** order  # the relative error where the term lives
             worst[order] = max(worst[order], np.max(np.abs(1 - response[big] / exact[big])))
-        for order in (1, 2):
+        for order in (1, 2, 3):
             bound = wave_sources.stencil_error(order, kh)
             assert worst[order] <= bound + 1e-12, (kh, order, worst[order], bound)
             assert worst[order] > 0.7 * bound, (kh, order, worst[order], bound)
@@ -64,25 +65,33 @@ def test_the_stencils_errors_are_their_closed_forms():
     np.testing.assert_allclose(
         abs(1 - (30 - 32 * math.cos(0.2) + 2 * math.cos(0.4)) / (12 * 0.04)), 0.2 ** 4 / 90,
         rtol=0.02)
+    np.testing.assert_allclose(wave_sources.stencil_error(3, 0.2), 7 * 0.2 ** 4 / 120, rtol=0.02)
 
 
-def test_every_wave_band_of_the_hybrid_resolves_order_2_and_a_coarse_grid_does_not():
+def test_every_wave_band_of_the_hybrid_resolves_order_3_and_a_coarse_grid_does_not():
     """The rule: order L where its stencils are within 2% at the band's upper edge. The
     hybrid's grid is 10 points per wavelength at f_max = √2·crossover, so the last wave band's
-    upper edge (the crossover) has kΔx = 2π/(10√2) = 0.444: order 2 is within 0.13%. A grid at
-    4 points per wavelength at 500 Hz: the 250 Hz band's upper edge has kΔx = 1.11, where a
-    first difference errs by 5%, so it and the 500 Hz band radiate order 0 only; 125 Hz
-    (kΔx 0.56 at its edge, 0.3%) keeps order 2. (Order 2's mixed terms are first differences,
-    so a band resolves orders 1 and 2 together or neither.)"""
+    upper edge (the crossover) has kΔx = 2π/(10√2) = 0.444: order 3 is within 0.22% (its third
+    difference, 7θ⁴/120). Order 3 holds to kΔx = 0.787 at a band's edge, orders 1 and 2 to
+    0.902 (the first difference's θ⁴/30; order 2's mixed terms are first differences, so a band
+    resolves orders 1 and 2 together or neither). A grid at 4 points per wavelength at 500 Hz:
+    the 250 Hz band's upper edge has kΔx = 1.11, where a first difference errs by 5%, so it and
+    the 500 Hz band radiate order 0 only; 125 Hz (kΔx 0.56 at its edge, 0.55%) keeps order 3.
+    A grid with kΔx = 0.85 at 125 Hz's edge radiates order 2 there, not 3."""
     spacing = C / (math.sqrt(2) * 707.0 * 10)
-    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [2, 2, 2, 2]
-    assert wave_sources.stencil_error(2, 2 * math.pi / (10 * math.sqrt(2))) < 0.0013
+    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [3, 3, 3, 3]
+    assert wave_sources.stencil_error(3, 2 * math.pi / (10 * math.sqrt(2))) < 0.0023
+    assert wave_sources.stencil_error(3, 0.78) < 0.02 < wave_sources.stencil_error(3, 0.80)
+    assert wave_sources.stencil_error(2, 0.89) < 0.02 < wave_sources.stencil_error(2, 0.91)
     coarse = C / (500.0 * 4)
     orders = wave_sources.resolved_orders(BANDS, coarse, C)
-    assert list(orders) == [2, 2, 0, 0], orders
+    assert list(orders) == [3, 3, 0, 0], orders
+    edge_125 = 125.0 * math.sqrt(2.0)
+    between = 0.85 * C / (2 * math.pi * edge_125)
+    assert list(wave_sources.resolved_orders(BANDS, between, C)) == [3, 2, 0, 0]
     # A fit on that grid keeps only those orders, and reports what it leaves out.
     fit = wave_sources.fit_on_grid(custom(), beam(), BANDS, coarse, C)
-    assert list(fit.orders) == [2, 2, 0, 0]
+    assert list(fit.orders) == [3, 3, 0, 0]
     assert np.all(fit.components[2:, 1:] == 0.0)
     # ⟨A⟩ = 1/3 and ⟨A²⟩ = 1/5: order 0 leaves 1 − (1/9)/(1/5) = 4/9.
     np.testing.assert_allclose(fit.residual[1:], [0.0, 4 / 9, 4 / 9], atol=1e-3)
@@ -227,9 +236,9 @@ def talker_room(threads, forward=(1.0, 0.4, 0.0)):
     })
 
 
-def test_a_talker_bakes_with_order_2_and_the_same_bits_on_one_and_two_threads():
-    """A talker (an order-2 pattern, turned off the axes) through the hybrid bake: its log line
-    says order 0-2 in both wave bands and how many monopoles, and energy and wave pressure are
+def test_a_talker_bakes_with_order_3_and_the_same_bits_on_one_and_two_threads():
+    """A talker (turned off the axes, so all 20 components are used) through the hybrid bake:
+    its log line says order 0-3 in both wave bands and how many monopoles, and energy and wave pressure are
     the same bits on 1 and 2 threads (the terms are summed in a fixed order)."""
     from sonolux.sound.bake import bake
 
@@ -237,7 +246,7 @@ def test_a_talker_bakes_with_order_2_and_the_same_bits_on_one_and_two_threads():
     lines: list[str] = []
     out = [bake(talker_room(t), **options, log=lines.append if t == 1 else None) for t in (1, 2)]
     line = next(s for s in lines if "monopoles" in s)
-    assert "order 0-2/0-2 per wave band" in line, line
+    assert "order 0-3/0-3 per wave band" in line, line
     assert int(line.split(" as ")[1].split()[0]) > 20, line
     np.testing.assert_array_equal(out[0].energy, out[1].energy)
     np.testing.assert_array_equal(out[0].waves["pressure"], out[1].waves["pressure"])
@@ -286,9 +295,10 @@ def test_a_measured_phase_is_radiated():
 
 def test_a_talker_against_a_wall_is_refused_before_the_estimator_pilots(monkeypatch):
     """``sonolux.bake`` with estimator "auto" runs pilots (rays) before the bake: the refusal
-    comes before them. A talker (order 2: its mixed terms reach 2√2 cells, 194 mm on the 354 Hz
-    crossover's 68.5 mm grid) 150 mm from a wall, which an order-1 cluster (137 mm) would
-    clear."""
+    comes before them. A talker 120 mm from a wall: on the 354 Hz crossover's 68.5 mm grid
+    its order-3 cluster reaches 237 mm (2√3 cells), order 2's 194 mm (2√2) and even order 1's
+    137 mm (2 cells), so no order fits (at 150 mm order 1 would, and the bake would radiate
+    orders 0-1 there: test_wave_sources_order3)."""
     from sonolux.errors import SettingError
     from sonolux.sound import baking, progressive
 
@@ -298,9 +308,9 @@ def test_a_talker_against_a_wall_is_refused_before_the_estimator_pilots(monkeypa
     monkeypatch.setattr(progressive, "choose_estimator", no_pilots)
     scene = talker_room(1)
     scene.sources[0] = type(scene.sources[0])(**{**scene.sources[0].__dict__,
-                                                 "position_m": (0.15, 1.1, 1.4)})
-    with pytest.raises(SettingError, match=r"talker \(talker\) at \(0.15, 1.1, 1.4\) m is 150 mm "
-                       r"from a wall.*order 0-2 on the 69 mm grid\) reaches 194 mm"):
+                                                 "position_m": (0.12, 1.1, 1.4)})
+    with pytest.raises(SettingError, match=r"talker \(talker\) at \(0.12, 1.1, 1.4\) m is 120 mm "
+                       r"from a wall.*order 0-1 on the 69 mm grid\) reaches 137 mm"):
         baking.bake(scene, rays=3_000, waves=True, crossover_hz=354, estimator="auto")
 
 
