@@ -16,7 +16,7 @@ import sonolux
 from sonolux import engine
 from sonolux.scene.directivity import node_directions
 from sonolux.sound import wave_sources
-from tests.sound.test_wave_sources import omni_and_cluster_runs, windowed_spectrum
+from tests.sound.test_wave_sources import anechoic_box, omni_and_cluster_runs, windowed_spectrum
 
 pytestmark = pytest.mark.usefixtures("core")
 
@@ -105,17 +105,20 @@ def pulse_spectrum(delay_s, f_max, fs, steps, n_fft):
     return sfft.rfft(-q0 * x / sigma * np.exp(-0.5 * x * x), n_fft)
 
 
-def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern():
+@pytest.mark.parametrize("power, order", [(4, 2), (6, 3)])
+def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern(power, order):
     """The terms as free-field monopoles, summed as plane waves (the far field, each term's
     spectrum times e^{ik·u·x_m}) over the reference pulse's spectrum: the pattern's amplitude
-    c₀ + c·u + uᵀDu at every band centre, in 2,000 directions. Tolerance: the stencils' own
-    error (stencil_error at the centre) of the largest amplitude, plus 10⁻³ for the coefficient
+    c₀ + c·u + uᵀDu (+ T·uuu) at every band centre, in 2,000 directions, for the oblique beams
+    of orders 2 (cos⁸(θ/2)) and 3 (cos¹²(θ/2)). Tolerance: the stencils' own error
+    (stencil_error at the centre) of the largest amplitude, plus 10⁻³ for the coefficient
     blends' tails from the neighbouring band (they reach a quarter band from each edge; an
     octave band's centre is half a band from it, so the blend is flat there, up to the FFT's
     resolution). Orders 0 and 1 as well: the bands' patterns differ (63 Hz omni)."""
     f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 8000
     spacing = C / (f_max * 10)
-    fit = wave_sources.fit(custom(), beam(), len(BANDS))
+    fit = wave_sources.fit(custom(), beam(power), len(BANDS))
+    assert np.any(fit.components[:, 10:] != 0.0) == (order == 3)
     pos, sig, delay = wave_sources.terms(np.zeros(3), fit, BANDS, f_max, spacing, fs, steps, C)
     assert len(pos) == len({tuple(np.round(p / spacing).astype(int)) for p in pos})
     n_fft = sfft.next_fast_len(2 * steps, real=True)
@@ -128,19 +131,22 @@ def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern():
         i = int(np.argmin(np.abs(f - centre)))
         k = 2 * math.pi * f[i] / C
         far = np.exp(1j * k * (u @ pos.T)) @ spectra[:, i] / ref[i]
-        tol = (wave_sources.stencil_error(2, k * spacing) + 1e-3) * np.abs(target[:, b]).max()
+        tol = (wave_sources.stencil_error(order, k * spacing) + 1e-3) * np.abs(target[:, b]).max()
         np.testing.assert_allclose(far.real, target[:, b], rtol=0, atol=tol, err_msg=f"{centre}")
         assert np.max(np.abs(far.imag)) < tol
 
 
-def test_what_order_2s_filters_put_before_the_pulse_is_negligible():
-    """Order 2 is fed c²·∫q, faded out below the lowest band (module doc); its zero-phase filter
-    rings before the pulse for about as long as the fade is narrow, so the pulse is delayed by
-    four periods of where the fade starts (212 ms for a 63 Hz lowest band). What falls before
-    the run's start (it is cut) is below 10⁻⁶ of the signal's energy (measured 2.5·10⁻⁸ for the
-    beam's D_xx term), and the signal has no DC (what a soft source must not be fed)."""
+@pytest.mark.parametrize("power, component", [(4, 4), (6, 10)])
+def test_what_the_filters_of_orders_2_and_3_put_before_the_pulse_is_negligible(power, component):
+    """Order 2 is fed c²·∫q and order 3 c³·∬q, faded out below the lowest band (module doc);
+    their zero-phase filters ring before the pulse for about as long as the fade is narrow, so
+    the pulse is delayed by four periods of where the fade starts (212 ms for a 63 Hz lowest
+    band). What falls before the run's start (it is cut) is below 10⁻⁶ of the signal's energy
+    (measured 2.5·10⁻⁸ for the order-2 beam's D_xx term, 5.4·10⁻⁸ for the order-3 beam's
+    T_xxx), and the signal has no DC (what a soft source must not be fed)."""
     f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 20000
-    fit = wave_sources.fit(custom(), beam(), len(BANDS))
+    fit = wave_sources.fit(custom(), beam(power), len(BANDS))
+    order = wave_sources.component_order(component)
     delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
     np.testing.assert_allclose(delay - 6 / (math.pi * f_max),
                                4.0 / (0.5 * wave_sources.lowest_filter_hz(BANDS)))
@@ -151,16 +157,17 @@ def test_what_order_2s_filters_put_before_the_pulse_is_negligible():
     f = sfft.rfftfreq(n_fft, 1.0 / fs)
     fade = wave_sources.order2_fade(f, BANDS)
     assert fade[0] == 0.0 and np.all(fade[f >= wave_sources.lowest_filter_hz(BANDS)] == 1.0)
-    spectrum = sfft.rfft(q, n_fft) * fade / (2j * np.pi * np.where(fade > 0, f, 1.0))
-    coefficient = fit.components[:, 4]  # D_xx
+    spectrum = sfft.rfft(q, n_fft) * fade / (2j * np.pi * np.where(fade > 0, f, 1.0)) ** (
+        order - 1)
+    coefficient = fit.components[:, component]  # D_xx or T_xxx
     gain = coefficient[0] + np.diff(coefficient) @ wave_sources.edge_blends(f, BANDS)
     whole = sfft.irfft(spectrum * gain, n_fft)
     before = whole[steps:]  # the non-causal part wraps to the end of the FFT's buffer
     assert (before ** 2).sum() < 1e-6 * (whole ** 2).sum()
     assert abs(whole.sum()) < 1e-9 * np.abs(whole).sum()
-    # The cut leaves a DC of 7·10⁻⁶ of the signal's; every order-2 stencil's weights sum to
-    # zero, so it injects no net volume (a static quadrupole, falling as 1/r³).
-    for k in range(4, 10):
+    # The cut leaves a DC of 7·10⁻⁶ of the signal's; every order-2 and order-3 stencil's
+    # weights sum to zero, so it injects no net volume (a static multipole, falling as 1/r³).
+    for k in range(4, wave_sources.N_COMPONENTS):
         assert abs(sum(w for _, w in wave_sources.stencil(k))) < 1e-12
 
 
@@ -171,15 +178,7 @@ def far_field():
     (a ring of 12 in its horizontal plane, 6 at ±40° elevation) in a 12 m box with absorbing
     walls (0.9), grid up to 250 Hz. The first reflection comes ≥ 23 ms after the direct sound
     with ≤ 0.5% of its energy (0.1 reflected, 2 m against ≥ 10 m)."""
-    size = 12.0
-    src = np.array([6.03, 5.97, 6.01])
-    scene = sonolux.load_scene({
-        "name": "anechoic-box", "settings": {"bands_hz": BANDS.tolist()},
-        "materials": {"m": {"absorption": 0.9}},
-        "geometry": [{"type": "shoebox", "size_m": [size] * 3, "materials": {"default": "m"}}],
-        "sources": [{"position_m": src.tolist()}],
-        "receivers": {"type": "points", "positions_m": [[1.0, 1.0, 1.0]]},
-    })
+    scene, src = anechoic_box()
     ring = np.radians(np.arange(0, 360, 30) + 7.0)
     up = np.radians(np.arange(0, 360, 120) + 20.0)
     el = np.radians(40.0)
