@@ -117,7 +117,7 @@ def test_order_3_brings_a_hard_cone_closer(far_field):
     2% of the cone's peak gain (1/sin²(15°) = 14.9), the tolerance of the beams, at 125 and 250 Hz
     (measured 0.048 / 0.097 for order 2, 0.20 / 0.18 for order 3, whose larger low-frequency terms
     leak more through the window from 63 Hz). Not at 63 Hz: the cone is directional there too, and
-    the order-3 terms' near field at 2 m below the band (1/(kr)³: ×19 in amplitude at 25 Hz, where
+    the order-3 terms' near field at 2 m below the band (1/(kr)³: ×21 in amplitude at 25 Hz, where
     the fade still passes it) leaks through the ±30 ms window's 33 Hz resolution into the band (0.88
     and 3.9 measured; the cluster's far field in closed form is the fit within 2·10⁻⁴ at 40-63 Hz,
     test_wave_sources_order2's method)."""
