@@ -134,10 +134,11 @@ def test_order_3_brings_a_hard_cone_closer(far_field):
         assert np.all(np.abs(measured - expected).max(axis=0)[1:] < 0.02 * peak)
 
 
-def talker(forward=(1.0, 0.4, 0.3)):
+def talker(forward=(1.0, 0.4, 0.3), bands=BANDS):
+    """The builtin talker facing ``forward`` off the axes, tabulated for octave ``bands``."""
     from sonolux.scene.directivity import builtin_gains
 
-    edges = np.column_stack([BANDS / math.sqrt(2), BANDS * math.sqrt(2)])
+    edges = np.column_stack([bands / math.sqrt(2), bands * math.sqrt(2)])
     return (SimpleNamespace(directivity="talker", forward=forward, name="talker"),
             engine.Directivity.pattern(np.ascontiguousarray(builtin_gains("talker", edges)),
                                        forward, (0.0, 0.0, 1.0)))
@@ -162,3 +163,34 @@ def test_a_wall_caps_the_orders_to_the_cluster_that_fits(clearance_cells, orders
         assert f"orders above {orders} left out: a wall" in fitted.note, fitted.note
     line = wave_sources.describe("talker (talker)", fitted, 10, 3)
     assert line.endswith(fitted.note)
+
+
+def test_the_talkers_phase_is_its_model_s_a_point_half_a_radius_in_front_of_the_mouth():
+    """The builtin talker (Flanagan's point on a 9 cm rigid sphere) is fitted with its model's
+    phase at each band centre, referred to its position (the mouth). At low frequency the
+    model's far field diverges from 1.5a in front of the head's centre (the mouth's offset a
+    plus the rigid sphere's induced dipole, a/2), so its phase is that of a point a/2 = 45 mm in
+    front of the mouth: k·a/2·(cos θ − 1) referred to straight ahead. The fitted pattern's
+    phase follows it within (ka)² of that phase's largest value (the series' next terms):
+    0.5° at 125 Hz, 4° at 250 Hz (measured 0.3° and 1.5°). The energy is the tracer's either
+    way: the fitted energy gains with and without the phase agree within 2·10⁻³ (measured
+    8·10⁻⁴ at 250 Hz), and the phased pattern leaves less than 0.1% of its energy above order 3
+    up to 1 kHz (measured 0.07% at 1 kHz; zero phase 0.21%: the model's own field is the
+    smoother over the sphere)."""
+    bands = np.array([125.0, 250.0, 500.0, 1000.0])
+    source, pattern = talker(bands=bands)
+    zero = wave_sources.fit(source, pattern, len(bands))
+    phased = wave_sources.fit(source, pattern, len(bands), bands_hz=bands)
+    assert np.iscomplexobj(phased.components) and not np.iscomplexobj(zero.components)
+    u = wave_sources.fibonacci_directions(2000)
+    forward = wave_sources.unit(source.forward)
+    radius_m = 0.09
+    for b, f in enumerate(bands[:2]):
+        k = 2 * math.pi * f / C
+        translation = k * radius_m / 2 * (u @ forward - 1.0)
+        error = np.angle(phased.amplitude(u)[:, b] * np.exp(-1j * translation))
+        bound = (k * radius_m) ** 2 * np.abs(translation).max()
+        assert np.abs(error).max() < bound, (f, np.degrees(np.abs(error).max()))
+    np.testing.assert_allclose(phased.energy_gain(u)[:, :2], zero.energy_gain(u)[:, :2],
+                               atol=2e-3)
+    assert np.all(phased.residual < 1e-3), phased.residual

@@ -19,9 +19,12 @@ monopoles at neighbouring nodes). Here:
   (:func:`resolved_orders`); the fit is scaled to radiate the source's power, c₀² + |c|²/3 +
   (2/15)·tr D² + (2/35)·ΣT² = 1 (the means of the harmonics' squares; the tracer's
   convention), and the share of the pattern's energy above the band's order is
-  reported (:attr:`SourceFit.residual`). A pattern given as energy only (the talker, the
-  dodecahedron, SOFA) is taken as zero-phase amplitude √g: the scene's SOFA reader keeps the
-  energy of each direction and band, and the builtin tables are energies (docs/waves.md).
+  reported (:attr:`SourceFit.residual`). *Phase*, at each band centre: a SOFA file's measured
+  relative phase (:func:`measured_phase`); the builtin talker's model phase (a point on a
+  rigid sphere, Morse & Ingard's series referred to the mouth, which in the wave bands is the
+  field of a point a/2 in front of the mouth, within 0.6% of the energy at 500 Hz); none for
+  the dodecahedron, whose harmonics of orders 1-5 vanish by its symmetry, so that a phase could
+  only be common to every direction (docs/waves.md: why neither zero nor minimum phase).
 - **Cluster.** Every term sits at a whole number of cells from the source, x_s + m·Δx, so that
   each term's trilinear spread over the 8 nodes around it has the same fractional offset: the
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
@@ -76,7 +79,7 @@ import numpy as np
 from scipy import fft as sfft
 
 from sonolux.errors import SettingError
-from sonolux.scene.directivity import FIRST_ORDER
+from sonolux.scene.directivity import FIRST_ORDER, talker_phase
 
 #: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
 #: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
@@ -205,7 +208,9 @@ def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: in
     """float64[direction, band] (complex128 with a measured phase): the source's pressure
     pattern, √(energy gain); signed where the first-order family's a + (1 − a)·cos θ is
     negative; times the measured relative phase at each band centre for a SOFA directivity that
-    carries one (:func:`measured_phase`, given ``bands_hz``)."""
+    carries one (:func:`measured_phase`, given ``bands_hz``), or the builtin talker's model
+    phase at each band centre (``scene.directivity.talker_phase``: the source's position is its
+    mouth, and the model's far field diverges from a/2 in front of it; docs/waves.md)."""
     a = np.sqrt(np.maximum(np.asarray(directivity.gains(directions, n_bands), float), 0.0))
     if source.directivity in FIRST_ORDER:
         f = np.asarray(source.forward, float)
@@ -214,9 +219,17 @@ def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: in
         a = a * np.where(first + (1.0 - first) * (directions @ f) < 0.0, -1.0, 1.0)[:, None]
     if bands_hz is not None:
         phase = measured_phase(source, directions, bands_hz)
+        if phase is None and source.directivity == "talker":
+            phase = talker_phase(directions @ unit(source.forward), bands_hz)
         if phase is not None:
             return a * phase
     return a
+
+
+def unit(v: Any) -> np.ndarray:
+    """float64[3]: ``v`` over its length."""
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
 
 
 def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) -> np.ndarray | None:
