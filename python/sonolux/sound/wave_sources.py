@@ -79,7 +79,7 @@ import numpy as np
 from scipy import fft as sfft
 
 from sonolux.errors import SettingError
-from sonolux.scene.directivity import FIRST_ORDER, talker_phase
+from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
 
 #: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
 #: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
@@ -151,6 +151,9 @@ class SourceFit:
     #: Why orders were left out that the grid resolves (a wall too near, :func:`fit_on_grid`),
     #: for the log; empty otherwise.
     note: str = ""
+    #: float64[3]: the cluster's centre from the source's position
+    #: (:func:`acoustic_centre_offset_m`).
+    centre_offset_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -208,9 +211,8 @@ def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: in
     """float64[direction, band] (complex128 with a measured phase): the source's pressure
     pattern, √(energy gain); signed where the first-order family's a + (1 − a)·cos θ is
     negative; times the measured relative phase at each band centre for a SOFA directivity that
-    carries one (:func:`measured_phase`, given ``bands_hz``), or the builtin talker's model
-    phase at each band centre (``scene.directivity.talker_phase``: the source's position is its
-    mouth, and the model's far field diverges from a/2 in front of it; docs/waves.md)."""
+    carries one (:func:`measured_phase`, given ``bands_hz``). The builtin talker's model phase
+    is radiated by moving its cluster instead (:func:`acoustic_centre_offset_m`)."""
     a = np.sqrt(np.maximum(np.asarray(directivity.gains(directions, n_bands), float), 0.0))
     if source.directivity in FIRST_ORDER:
         f = np.asarray(source.forward, float)
@@ -219,11 +221,22 @@ def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: in
         a = a * np.where(first + (1.0 - first) * (directions @ f) < 0.0, -1.0, 1.0)[:, None]
     if bands_hz is not None:
         phase = measured_phase(source, directions, bands_hz)
-        if phase is None and source.directivity == "talker":
-            phase = talker_phase(directions @ unit(source.forward), bands_hz)
         if phase is not None:
             return a * phase
     return a
+
+
+def acoustic_centre_offset_m(source: Any) -> np.ndarray:
+    """float64[3]: where a source's cluster is centred, from its position. The builtin talker
+    (a point mouth on a rigid sphere of radius a, the source's position being the mouth) has a
+    far field whose phase in the wave bands is that of a point a/2 in front of the mouth (the
+    series' first terms, 1 − (3/2)·i·ka·cos θ from the head's centre; ``talker_phase``), so
+    its zero-phase pattern is radiated from there: exact for that translation at every
+    frequency, and the phase left is ≤ 0.06% of the energy up to 354 Hz, 0.57% at 500 Hz
+    (docs/waves.md). Every other source: its position."""
+    if source.directivity == "talker":
+        return 0.5 * TALKER_HEAD_RADIUS_M * unit(source.forward)
+    return np.zeros(3)
 
 
 def unit(v: Any) -> np.ndarray:
@@ -310,7 +323,13 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
     :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
     fitted too (complex coefficients). The first-order family is order 1 exactly and is
-    fitted to order 1 only (its higher part is the lattice's quadrature error).
+    fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
+    orders above the highest that carries :data:`RESOLVED_AMPLITUDE`² (4·10⁻⁴) of the pattern's
+    energy are left out (:attr:`SourceFit.orders` says which are radiated): such an order's
+    amplitude is below the error allowed to the stencils of the orders that are radiated, and
+    leaving it out spares its terms and the room they need around the source (a talker's
+    order 3 below 500 Hz: ≤ 0.004% of its energy, 70 more monopoles, 43 mm more clearance at a
+    354 Hz crossover).
 
     Order 3 is u·T·u·u with T = (35/2)·N − (7/2)·(m_i δ_jk + m_j δ_ik + m_k δ_ij),
     N = ⟨A·v_i v_j v_k⟩ and m = ⟨A·v⟩: the addition theorem's 7⟨A(v)·P₃(u·v)⟩, P₃(x) =
@@ -333,13 +352,20 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     eye = np.eye(3)
     t = 17.5 * n - 3.5 * (np.einsum("bi,jk->bijk", m1, eye) + np.einsum("bj,ik->bijk", m1, eye)
                           + np.einsum("bk,ij->bijk", m1, eye))  # [band, 3, 3, 3]
+    total = weight @ (np.abs(a) ** 2)
+    # Each order's share of the pattern's energy (the means of its part's square); an order
+    # above every one that carries RESOLVED_AMPLITUDE² of it is left out (see the docstring).
+    shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
+                       2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
+                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real])
+    carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
+    highest = np.max(np.where(carried, np.arange(4)[:, None], 0), axis=0)
+    orders = np.minimum(orders, highest)
     c = np.where(orders[None] >= 1, c, 0.0)
     d = np.where((orders >= 2)[:, None, None], d, 0.0)
     t = np.where((orders >= 3)[:, None, None, None], t, 0.0)
-    power = (np.abs(c0) ** 2 + (np.abs(c) ** 2).sum(axis=0) / 3.0
-             + 2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real
-             + 2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real)
-    total = weight @ (np.abs(a) ** 2)
+    power = shares[0] + np.where(orders >= 1, shares[1], 0.0) + np.where(
+        orders >= 2, shares[2], 0.0) + np.where(orders >= 3, shares[3], 0.0)
     norm = np.sqrt(np.maximum(power, 1e-300))
     second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
     third = np.column_stack([t[:, i, j, k] * len(set(itertools.permutations((i, j, k))))
@@ -349,7 +375,7 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
-    return SourceFit(components, orders, residual)
+    return SourceFit(components, orders, residual, centre_offset_m=acoustic_centre_offset_m(source))
 
 
 def lowest_filter_hz(bands_hz: np.ndarray) -> float:
@@ -448,37 +474,44 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
                 by_offset[offset] = by_offset[offset] + w * signal
             else:
                 by_offset[offset] = w * signal
-    centre = np.asarray(position_m, float)
+    centre = np.asarray(position_m, float) + source_fit.centre_offset_m
     keys = sorted(by_offset)
     positions = np.array([centre + h * np.asarray(o, float) for o in keys])
     return positions, np.ascontiguousarray([by_offset[o] for o in keys]), delay
 
 
 def reach_m(source_fit: SourceFit, spacing_m: float) -> float:
-    """How far from the source its cluster's terms reach."""
-    return source_fit.reach_cells() * spacing_m
+    """How far from the source's position its cluster's terms reach (the cluster's centre may
+    be moved from it, :attr:`SourceFit.centre_offset_m`)."""
+    return source_fit.reach_cells() * spacing_m + float(np.linalg.norm(source_fit.centre_offset_m))
 
 
-def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any]) -> None:
+def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any],
+                    wave_bands: int | None = None) -> None:
     """Refuses a directional source nearer a wall than even its order-1 cluster reaches on the
     grid of ``max_frequency_hz`` (its terms would be outside the room's air), naming the
     source, its distance, the clearance it needs and what to do; a source with room for order
     1 but not for all the orders the grid resolves radiates the highest that fit
-    (:func:`fit_on_grid`). ``directivities``: each source's engine directivity. Called by the
-    bake once the crossover is known, before any ray is traced."""
+    (:func:`fit_on_grid`). ``directivities``: each source's engine directivity; ``wave_bands``:
+    how many bands the waves give (None: those centred below the crossover, f_max/√2, the
+    hybrid's rule in ``waves.choose_crossover``). Called by the bake once the crossover is
+    known, before any ray is traced."""
     from sonolux import engine
 
     c = float(scene.settings.speed_of_sound_m_s)
     spacing_m = engine.WaveSettings(max_frequency_hz=float(max_frequency_hz), duration_s=1.0,
                                     speed_of_sound_m_s=c).spacing_m
     bands = np.asarray(scene.settings.bands_hz, float)
+    if wave_bands is None:
+        wave_bands = int(np.sum(bands < max_frequency_hz / math.sqrt(2.0)))
     positions = np.array([s.position_m for s in scene.sources], float)
     distance = np.asarray(scene.geometry.distance_to_surface(np.ascontiguousarray(positions)),
                           float)
     for i, (src, d) in enumerate(zip(scene.sources, directivities)):
         if src.directivity == "omni":
             continue
-        fitted = fit_on_grid(src, d, bands, spacing_m, c, clearance_m=float(distance[i]))
+        fitted = fit_on_grid(src, d, bands, spacing_m, c, clearance_m=float(distance[i]),
+                             wave_bands=wave_bands)
         need = reach_m(fitted, spacing_m)
         if distance[i] <= need:
             raise SettingError(
@@ -491,21 +524,33 @@ def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any
 
 
 def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: float,
-                speed_of_sound_m_s: float, clearance_m: float = math.inf) -> SourceFit:
+                speed_of_sound_m_s: float, clearance_m: float = math.inf,
+                wave_bands: int | None = None) -> SourceFit:
     """The source's fit with, in each band, the highest order the grid of ``spacing_m``
-    resolves (:func:`resolved_orders`) and, when the source is ``clearance_m`` from the
-    nearest wall, whose cluster fits inside that: each order's terms reach farther (2, 2√2, 3
+    resolves (:func:`resolved_orders`); with ``wave_bands``, the bands above the waves' take
+    the last wave band's fit (its pattern is held across the crossover, as the tracer's band
+    holds it; the waves' result above is not used, and fitting those bands would only add
+    terms and reach); and, when the source is ``clearance_m`` from the nearest wall, whose
+    cluster fits inside that: each order's terms reach farther (2, 2√2, 3
     or 2√3 cells, :meth:`SourceFit.reach_cells`), so near a wall the orders are capped, the
     highest first, down to 1 (a cluster that does not fit even then is the caller's to refuse,
     :func:`check_clearance`); the fit's :attr:`SourceFit.note` says so, for the log."""
     b = np.asarray(bands_hz, float)
     orders = resolved_orders(b, spacing_m, speed_of_sound_m_s)
-    fitted = fit(source, directivity, b.size, orders, b)
-    cap = int(orders.max())
+
+    def held(f: SourceFit) -> SourceFit:
+        if wave_bands is None or not 0 < wave_bands < b.size:
+            return f
+        keep = np.minimum(np.arange(b.size), wave_bands - 1)
+        return dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
+                                   residual=f.residual[keep])
+
+    fitted = held(fit(source, directivity, b.size, orders, b))
+    cap = int(fitted.orders.max())
     while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
         wanted = reach_m(fitted, spacing_m)
         cap -= 1
-        fitted = fit(source, directivity, b.size, np.minimum(orders, cap), b)
+        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b))
         fitted = dataclasses.replace(fitted, note=(
             f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
             f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm"))
@@ -517,6 +562,7 @@ def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -
     the pattern's energy above them."""
     orders = source_fit.orders[:wave_bands]
     return (f"waves: source {label} as {n_terms} monopoles, spherical harmonics of order "
-            f"{'/'.join(f'0-{int(L)}' for L in orders)} per wave band; the pattern's energy above "
+            f"{'/'.join(f'0-{int(L)}' if L else '0' for L in orders)} per wave band; the pattern's "
+            "energy above "
             f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}"
             + source_fit.note)
