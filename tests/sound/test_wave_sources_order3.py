@@ -16,7 +16,7 @@ from scipy import fft as sfft
 
 from sonolux import engine
 from sonolux.sound import wave_sources
-from tests.sound.test_wave_sources import anechoic_box, cluster_runs, windowed_spectrum
+from tests.sound.test_wave_sources import anechoic_box, band_gains, cluster_runs
 from tests.sound.test_wave_sources_order2 import BANDS, FORWARD, C, beam, custom, pulse_spectrum
 
 pytestmark = pytest.mark.usefixtures("core")
@@ -30,39 +30,6 @@ def cone(half_angle_deg):
     """The engine's hard-edged cone about :data:`FORWARD` (uniform inside, nothing outside)."""
     return (SimpleNamespace(directivity="cone", forward=FORWARD, name="cone"),
             engine.Directivity.cone(FORWARD, half_angle_deg))
-
-
-def near_field(order, kr):
-    """The near-field factor of an order-L multipole's pressure over its far field at kr:
-    h_L(kr)·kr·i^{L+1}·e^{−ikr} = Σ_{m=0}^{L} (L + m)!/(m!(L − m)!)·(i/(2kr))^m (the spherical
-    Hankel function's finite series, Abramowitz and Stegun 10.1.16): 1 + i/x for a dipole,
-    1 + 6i/x − 15/x² − 15i/x³ for order 3 (1.19 in magnitude at 125 Hz and 2 m)."""
-    return sum(math.factorial(order + m) / (math.factorial(m) * math.factorial(order - m))
-               * (1j / (2.0 * kr)) ** m for m in range(order + 1))
-
-
-def band_gains(omni, directional, fit):
-    """Measured and expected float64[receiver, band] for the first three bands: the
-    directional run's energy over the omni run's, windowed ±30 ms about the direct sound and
-    summed over each band's core (a quarter band either side of the centre, where the fit's
-    coefficients are the band's own); and the same ratio for the fit's own field at 2 m, each
-    order's part A_L(u) (its traceless monomials) times its near-field factor, weighted by
-    the omni run's spectrum. At 2 m the low bands are not yet the far field (kr = 2.3 at
-    63 Hz, 4.6 at 125 Hz), so the far-field pattern is not what a receiver there hears."""
-    e_omni, f = windowed_spectrum(omni, RADIUS_M)
-    e_dir, _ = windowed_spectrum(directional, RADIUS_M)
-    weight = e_omni.mean(axis=0)
-    mono = wave_sources.monomials(DIRECTIONS)
-    orders = np.array([wave_sources.component_order(k) for k in range(mono.shape[1])])
-    measured, expected = [], []
-    for b, centre in enumerate(BANDS[:3]):
-        band = (f > centre / 2 ** 0.25) & (f < centre * 2 ** 0.25)
-        measured.append(e_dir[:, band].sum(axis=1) / e_omni[:, band].sum(axis=1))
-        parts = [mono[:, orders == L] @ fit.components[b, orders == L] for L in range(4)]
-        field = [np.abs(sum(near_field(L, 2 * math.pi * fi * RADIUS_M / C) * parts[L]
-                            for L in range(4))) ** 2 for fi in f[band]]
-        expected.append(weight[band] @ np.array(field) / weight[band].sum())
-    return np.column_stack(measured), np.column_stack(expected)
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +53,7 @@ def far_field():
         "cone 3": (wave_sources.fit(cone_source, cone_pattern, len(BANDS)), cone_pattern),
     }
     omni, runs = cluster_runs(scene, src, receivers, [fit for fit, _ in fits.values()])
-    return {name: (band_gains(omni, run, fit), fit, pattern, n)
+    return {name: (band_gains(omni, run, fit, DIRECTIONS, RADIUS_M), fit, pattern, n)
             for (name, (fit, pattern)), (run, n) in zip(fits.items(), runs)}
 
 
