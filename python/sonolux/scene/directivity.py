@@ -132,11 +132,43 @@ def caps_on_sphere(dirs: np.ndarray, axes: np.ndarray, band_edges_hz: np.ndarray
     for b, (lo, hi) in enumerate(band_edges_hz):
         energy = np.zeros(dirs.shape[0])
         for f in np.geomspace(lo, hi, 11)[1:-1]:
-            ka = 2.0 * np.pi * f / SPEED_OF_SOUND_M_S * radius_m
-            dh = special.spherical_jn(orders, ka, True) + 1j * special.spherical_yn(orders, ka, True)
-            coeff = v * (-1j) ** (orders + 1) / dh
-            energy += np.abs(coeff @ legendre_sum) ** 2
+            energy += np.abs(sphere_series(f, radius_m, v) @ legendre_sum) ** 2
         out[:, b] = energy
+    return out
+
+
+def sphere_series(f_hz: float, radius_m: float, v: np.ndarray) -> np.ndarray:
+    """complex128[order]: the far-field coefficients v_n (−i)^(n+1) / h_n'(ka) of the series
+    for caps on a rigid sphere (Morse & Ingard 1968, §7.2; time factor e^{−iωt}, referred to the
+    sphere's centre), for velocity coefficients ``v`` float64[order] (see the module docs)."""
+    orders = np.arange(v.size)
+    ka = 2.0 * np.pi * f_hz / SPEED_OF_SOUND_M_S * radius_m
+    dh = special.spherical_jn(orders, ka, True) + 1j * special.spherical_yn(orders, ka, True)
+    return v * (-1j) ** (orders + 1) / dh
+
+
+def talker_phase(cos_to_mouth_axis: np.ndarray, frequencies_hz: np.ndarray,
+                 radius_m: float = TALKER_HEAD_RADIUS_M) -> np.ndarray:
+    """complex128[direction, frequency]: the unit phasor of the talker model's far-field
+    pressure (:func:`talker`'s series, not averaged) towards directions at ``cos_to_mouth_axis``
+    from ``forward``, referred to the mouth (the source's position; a point ``radius_m`` in
+    front of the head's centre) and to the pressure straight ahead, in the time convention of
+    an FFT of a response (e^{−iωt} in the transform: a delay τ is e^{−iωτ}, the conjugate of
+    Morse & Ingard's). At low frequency it is e^{ik(a/2)(cos θ − 1)}: the series' first two
+    terms are 1 − (3/2)·i·ka·cos θ, the field of a point 1.5a in front of the head's centre,
+    a/2 in front of the mouth (docs/waves.md)."""
+    c = np.clip(np.asarray(cos_to_mouth_axis, float), -1.0, 1.0)
+    f_top = float(np.max(frequencies_hz))
+    n_max = int(2.0 * np.pi * f_top / SPEED_OF_SOUND_M_S * radius_m) + 25
+    orders = np.arange(n_max + 1)
+    legendre = np.stack([special.eval_legendre(n, np.append(c, 1.0)) for n in orders])
+    out = np.empty((c.size, len(frequencies_hz)), complex)
+    for i, f in enumerate(np.asarray(frequencies_hz, float)):
+        k = 2.0 * np.pi * f / SPEED_OF_SOUND_M_S
+        p = np.conj(sphere_series(f, radius_m, (2.0 * orders + 1.0) / 2.0) @ legendre)
+        p = p * np.exp(-1j * k * radius_m * np.append(c, 1.0))  # referred to the mouth
+        p = p[:-1] * np.conj(p[-1])  # and to straight ahead
+        out[:, i] = p / np.maximum(np.abs(p), 1e-300)
     return out
 
 

@@ -10,16 +10,24 @@ monopoles at neighbouring nodes). Here:
 - **Fit, per band.** The pattern's amplitude A_b(u) (the square root of the engine's energy
   gain towards u, normalised over the sphere; signed for the first-order family, whose pressure
   a + (1 − a)·cos θ changes sign behind the hypercardioid, supercardioid and figure-of-eight)
-  is projected on the spherical harmonics of orders 0, 1 and 2 over :data:`FIT_DIRECTIONS`
-  nearly uniform directions (plain means integrate): c₀ = ⟨A⟩; c = 3⟨A·u⟩ (order 1, c·u);
-  and order 2 as uᵀDu with D = (15/2)(M − tr M·I/3), M = ⟨A·uuᵀ⟩, the addition theorem's
-  5·⟨A(v)·P₂(u·v)⟩ written in Cartesian form (D symmetric and traceless). Each band keeps the
-  orders the grid resolves there (:func:`resolved_orders`); the fit is scaled to radiate the
-  source's power, c₀² + |c|²/3 + (2/15)·tr D² = 1 (the means of the harmonics' squares; the
-  tracer's convention), and the share of the pattern's energy above the band's order is
-  reported (:attr:`SourceFit.residual`). A pattern given as energy only (the talker, the
-  dodecahedron, SOFA) is taken as zero-phase amplitude √g: the scene's SOFA reader keeps the
-  energy of each direction and band, and the builtin tables are energies (docs/waves.md).
+  is projected on the spherical harmonics of orders 0 to 3 by a product Gauss quadrature
+  (:func:`fit_directions`): c₀ = ⟨A⟩; c = 3⟨A·u⟩ (order 1, c·u);
+  order 2 as uᵀDu with D = (15/2)(M − tr M·I/3), M = ⟨A·uuᵀ⟩, the addition theorem's
+  5·⟨A(v)·P₂(u·v)⟩ written in Cartesian form (D symmetric and traceless); order 3 as
+  T_ijk·u_i u_j u_k, the addition theorem's 7·⟨A(v)·P₃(u·v)⟩ in the same form (T symmetric and
+  traceless, :func:`fit`). Each band keeps the orders the grid resolves there
+  (:func:`resolved_orders`); the fit is scaled to radiate the source's power, c₀² + |c|²/3 +
+  (2/15)·tr D² + (2/35)·ΣT² = 1 (the means of the harmonics' squares; the tracer's
+  convention), and the share of the pattern's energy above the band's order is
+  reported (:attr:`SourceFit.residual`). Orders a band's pattern hardly carries are left out,
+  and the bands above the waves' hold the last wave band's fit (:func:`fit`,
+  :func:`fit_on_grid`). *Phase*: a SOFA file's measured relative phase at each band centre
+  (:func:`measured_phase`); the builtin talker's model phase (a point on a rigid sphere, Morse
+  & Ingard's series referred to the mouth) is, in the wave bands, that of a point a/2 in front
+  of the mouth (within 0.6% of the energy at 500 Hz), so its zero-phase pattern is radiated
+  from there (:func:`acoustic_centre_offset_m`); none for the dodecahedron, whose harmonics of
+  orders 1-5 vanish by its symmetry, so that a phase could only be common to every direction
+  (docs/waves.md: why neither zero nor minimum phase).
 - **Cluster.** Every term sits at a whole number of cells from the source, x_s + m·Δx, so that
   each term's trilinear spread over the 8 nodes around it has the same fractional offset: the
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
@@ -27,37 +35,45 @@ monopoles at neighbouring nodes). Here:
   over two nodes loses cos(kΔx/2) that the centre term does not, and breaks the differences).
   The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
   difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
-  8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), mixed ∂ᵢ∂ⱼ as the product
-  of two first differences. A term of order L in direction u radiates R(kΔx·u) times the
-  exact u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30) and
-  (30 − 32 cos θ + 2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90).
+  8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), ∂³ ≈ (δ₋₃ − 8δ₋₂ +
+  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), and a mixed term as the product of one-axis differences
+  (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏). A term of order L in direction u radiates R(kΔx·u) times the exact
+  u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30), (30 − 32 cos θ +
+  2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90) and (26 sin θ − 16 sin 2θ + 2 sin 3θ)/(8θ³) for a
+  third (1 − 7θ⁴/120).
 - **Signals.** A monopole fed q̇ radiates ρq̇(τ)/(4πr). A term f(t)·∂^α δ of order L radiates
-  (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q and order 2
-  c²·(its coefficient)·∫q: the coefficient times the pulse integrated L − 1 times. ∫q has a
-  DC part (a step), which a soft source must not be fed (Sheaffer, van Walstijn and Fazenda,
-  JASA 135(1), 2014): order 2 is faded out below the lowest band's filter (a raised sine in
-  log frequency over the octave below where that band's filter starts, :func:`order2_fade`),
-  where no band looks. The coefficients are each band's within the band and blend across a
-  quarter band on either side of each band edge (the width of the energy bands' own
-  crossovers in ``bands.rs``), flat beyond the outer bands, applied to the pulse by FFT; the
-  pulse is delayed (:func:`pulse_delay_s`) so that the filters' non-causal half fits before it.
+  (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q, order 2 c²·(its
+  coefficient)·∫q and order 3 c³·(its coefficient)·∬q: the coefficient times the pulse
+  integrated L − 1 times. ∫q has a DC part (a step), which a soft source must not be fed
+  (Sheaffer, van Walstijn and Fazenda, JASA 135(1), 2014): orders 2 and 3 are faded out below
+  the lowest band's filter (a raised sine in log frequency over the octave below where that
+  band's filter starts, :func:`order2_fade`), where no band looks. The coefficients are each
+  band's within the band and blend across a quarter band on either side of each band edge (the
+  width of the energy bands' own crossovers in ``bands.rs``), flat beyond the outer bands,
+  applied to the pulse by FFT; the pulse is delayed (:func:`pulse_delay_s`) so that the filters'
+  non-causal half fits before it.
 - **Which orders, per band** (:func:`resolved_orders`): order L is radiated in a band when its
   stencils' worst amplitude error over all directions, at the band's upper edge, is within
   :data:`RESOLVED_AMPLITUDE` (2%, 0.17 dB); the highest such L ≤ :data:`MAX_ORDER`. With the
   hybrid's grid (10 points per wavelength at f_max = √2 × the crossover) every wave band
-  resolves order 2 (worst 0.13% at the crossover). Order 3 is not built: its fourth-order
-  difference spans ±3 cells, and the patterns' energy above order 2 is what is printed.
+  resolves order 3 (worst 0.23% at the crossover, the third difference's). The pattern's
+  energy above the radiated orders is printed.
 - **Direct sound.** The terms' direct sound is taken out of the responses in the core (each a
   monopole with its own signal) and the exact pattern's direct sound is added back by the bake
   (the tracer's gain towards each receiver), so the direct sound is the target's exactly and only
   the room's part carries the fit.
 - **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells on an
-  axis, 2√2 on a plane's diagonal for order 2's mixed terms). A directional source nearer a
-  wall than that is refused before anything is traced (:func:`check_clearance`).
+  axis, 2√2 on a plane's diagonal for order 2's mixed terms, 3 on an axis and 2√3 on the cube's
+  diagonal for order 3's). Near a wall the orders are capped to the highest whose cluster fits
+  in the air around the source (:func:`fit_on_grid`, said in the log); a directional source
+  nearer a wall than even order 1 reaches is refused before anything is traced
+  (:func:`check_clearance`).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -66,48 +82,81 @@ import numpy as np
 from scipy import fft as sfft
 
 from sonolux.errors import SettingError
-from sonolux.scene.directivity import FIRST_ORDER
+from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
 
-#: Directions of the fit (a Fibonacci lattice: nearly equal areas, so plain means integrate).
-FIT_DIRECTIONS = 4096
+#: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
+#: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
+#: azimuths − 1 in φ (Abramowitz and Stegun 25.4.29 in z, the trapezoid rule in φ), and
+#: antipodally symmetric, so a symmetric pattern's odd moments are exactly 0. (A Fibonacci
+#: lattice of 4,096 points, used before, misses ⟨y·z²⟩ of a constant by 1.4·10⁻⁴, which added
+#: order-3 terms to the dodecahedron and the talker that they do not have.)
+FIT_RINGS = 48
+FIT_AZIMUTHS = 96
 #: The pulse of a directional source is delayed by this many periods of the lowest frequency its
-#: filters pass (the lowest band centre; with order 2, where order 2's fade starts), plus its
+#: filters pass (the lowest band centre; with order 2 or 3, where their fade starts), plus its
 #: own 6σ: room for the non-causal half of the coefficient filters.
 PRE_PERIODS = 4.0
 #: The air density the wave settings use (the core's WaveSettings default): the terms' signals
 #: are volume accelerations scaled as the core's reference pulse.
 AIR_DENSITY_KG_M3 = 1.2
 #: The highest spherical-harmonic order radiated.
-MAX_ORDER = 2
+MAX_ORDER = 3
 #: An order is radiated in a band where its stencils' amplitude error is at most this (0.17 dB)
 #: at the band's upper edge, in every direction.
 RESOLVED_AMPLITUDE = 0.02
 #: A fitted component below this in every band is left out (ten times the fit lattice's
 #: quadrature error; < 0.02% of the pattern's energy).
 NEGLIGIBLE = 1e-4
-#: Fourth-order centred differences on the nodes −2..2 (Fornberg 1988), × Δx and × Δx².
-FIRST_DIFFERENCE = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
-SECOND_DIFFERENCE = np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / 12.0
+#: Fourth-order centred differences (Fornberg 1988, table 1), × Δx^L: the L-th derivative on the
+#: nodes −2..2 (L = 1, 2) and −3..3 (L = 3); index = the derivative's order.
+DIFFERENCES = (
+    (np.array([0]), np.array([1.0])),
+    (np.arange(-2, 3), np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0),
+    (np.arange(-2, 3), np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / 12.0),
+    (np.arange(-3, 4), np.array([1.0, -8.0, 13.0, 0.0, -13.0, 8.0, -1.0]) / 8.0),
+)
+FIRST_DIFFERENCE = DIFFERENCES[1][1]
+SECOND_DIFFERENCE = DIFFERENCES[2][1]
+THIRD_DIFFERENCE = DIFFERENCES[3][1]
 OFFSETS = np.arange(-2, 3)
 #: The components of a fit, in the columns of :attr:`SourceFit.components`: order 0, order 1
-#: along x, y, z, then order 2's monomials u_i·u_j (i ≤ j) with their coefficient (D_ii, 2·D_ij).
+#: along x, y, z, then order 2's monomials u_i·u_j (i ≤ j) with their coefficient (D_ii, 2·D_ij),
+#: then order 3's u_i·u_j·u_k (i ≤ j ≤ k) with theirs (T_iii, 3·T_iij, 6·T_xyz).
 PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+TRIPLES = ((0, 0, 0), (1, 1, 1), (2, 2, 2), (0, 0, 1), (0, 0, 2), (0, 1, 1), (1, 1, 2),
+           (0, 2, 2), (1, 2, 2), (0, 1, 2))
+#: The monomials' index tuples, component by component (order 0 is the empty tuple).
+MONOMIALS: tuple[tuple[int, ...], ...] = ((), (0,), (1,), (2,), *PAIRS, *TRIPLES)
+#: The number of components (orders 0-3: 1 + 3 + 6 + 10).
+N_COMPONENTS = len(MONOMIALS)
+
+
+def component_order(component: int) -> int:
+    """The spherical-harmonic order (the derivative's) of a component of :data:`MONOMIALS`."""
+    return len(MONOMIALS[component])
 
 
 @dataclass(frozen=True)
 class SourceFit:
     """A pattern's spherical-harmonic fit per band, orders 0 to :attr:`orders`."""
 
-    #: float64[band, 10] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
-    #: coefficients of u_i·u_j for the pairs
-    #: :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz, 2D_yz), world frame, scaled so that the
-    #: fitted pattern radiates the source's power; zero above the band's order.
+    #: float64[band, 20] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
+    #: coefficients of u_i·u_j for the pairs :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz,
+    #: 2D_yz); then of u_i·u_j·u_k for :data:`TRIPLES` (T_xxx, T_yyy, T_zzz, 3T_xxy, …,
+    #: 6T_xyz); world frame, scaled so that the fitted pattern radiates the source's power; zero
+    #: above the band's order.
     components: np.ndarray
     #: int[band]: the highest order radiated in each band.
     orders: np.ndarray
     #: float64[band]: the share of the pattern's energy above the band's order (0 for the
     #: first-order family).
     residual: np.ndarray
+    #: Why orders were left out that the grid resolves (a wall too near, :func:`fit_on_grid`),
+    #: for the log; empty otherwise.
+    note: str = ""
+    #: float64[3]: the cluster's centre from the source's position
+    #: (:func:`acoustic_centre_offset_m`).
+    centre_offset_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -123,20 +172,23 @@ class SourceFit:
         return np.abs(self.amplitude(directions)) ** 2
 
     def reach_cells(self) -> float:
-        """How far from the source the cluster's terms reach, in cells: 0 (omni), 2 (orders 1
-        and 2 along the axes) or 2√2 (order 2's mixed terms)."""
-        used = np.any(self.components != 0.0, axis=0)
-        if np.any(used[7:]):
-            return 2.0 * math.sqrt(2.0)
-        return 2.0 if np.any(used[1:7]) else 0.0
+        """How far from the source the cluster's terms reach, in cells: the farthest node of
+        any component it uses (:func:`stencil`): 0 (omni), 2 (orders 1 and 2 along the axes),
+        2√2 (order 2's mixed terms, order 3's ∂ᵢ²∂ⱼ), 3 (order 3 along an axis) or 2√3
+        (order 3's ∂ₓ∂ᵧ∂𝓏)."""
+        used = np.flatnonzero(np.any(self.components != 0.0, axis=0))
+        return max((math.sqrt(sum(o * o for o in offset)) for k in used
+                    for offset, _ in stencil(int(k))), default=0.0)
 
 
 def monomials(u: np.ndarray) -> np.ndarray:
-    """float64[direction, 10]: 1, u_x, u_y, u_z and u_i·u_j for :data:`PAIRS`."""
-    return np.column_stack([np.ones(len(u)), u] + [u[:, i] * u[:, j] for i, j in PAIRS])
+    """float64[direction, 20]: the monomials of :data:`MONOMIALS`: 1, u_x, u_y, u_z, u_i·u_j for
+    :data:`PAIRS` and u_i·u_j·u_k for :data:`TRIPLES`."""
+    return np.column_stack([np.prod(u[:, list(m)], axis=1) if m else np.ones(len(u))
+                            for m in MONOMIALS])
 
 
-def fibonacci_directions(n: int = FIT_DIRECTIONS) -> np.ndarray:
+def fibonacci_directions(n: int = 4096) -> np.ndarray:
     """float64[n, 3]: unit vectors of the Fibonacci lattice on the sphere."""
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
@@ -145,12 +197,25 @@ def fibonacci_directions(n: int = FIT_DIRECTIONS) -> np.ndarray:
     return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
 
 
+def fit_directions() -> tuple[np.ndarray, np.ndarray]:
+    """The fit's quadrature (:data:`FIT_RINGS`, :data:`FIT_AZIMUTHS`): unit directions
+    float64[direction, 3] and weights float64[direction] summing to 1 (a weighted sum is the
+    mean over the sphere)."""
+    z, wz = np.polynomial.legendre.leggauss(FIT_RINGS)
+    phi = 2.0 * math.pi * (np.arange(FIT_AZIMUTHS) + 0.5) / FIT_AZIMUTHS
+    s = np.sqrt(1.0 - z * z)
+    u = np.stack([np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)),
+                  np.repeat(z[:, None], FIT_AZIMUTHS, axis=1)], axis=-1).reshape(-1, 3)
+    return u, np.repeat(wz / (2.0 * FIT_AZIMUTHS), FIT_AZIMUTHS)
+
+
 def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: int,
               bands_hz: np.ndarray | None = None) -> np.ndarray:
     """float64[direction, band] (complex128 with a measured phase): the source's pressure
     pattern, √(energy gain); signed where the first-order family's a + (1 − a)·cos θ is
     negative; times the measured relative phase at each band centre for a SOFA directivity that
-    carries one (:func:`measured_phase`, given ``bands_hz``)."""
+    carries one (:func:`measured_phase`, given ``bands_hz``). The builtin talker's model phase
+    is radiated by moving its cluster instead (:func:`acoustic_centre_offset_m`)."""
     a = np.sqrt(np.maximum(np.asarray(directivity.gains(directions, n_bands), float), 0.0))
     if source.directivity in FIRST_ORDER:
         f = np.asarray(source.forward, float)
@@ -162,6 +227,25 @@ def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: in
         if phase is not None:
             return a * phase
     return a
+
+
+def acoustic_centre_offset_m(source: Any) -> np.ndarray:
+    """float64[3]: where a source's cluster is centred, from its position. The builtin talker
+    (a point mouth on a rigid sphere of radius a, the source's position being the mouth) has a
+    far field whose phase in the wave bands is that of a point a/2 in front of the mouth (the
+    series' first terms, 1 − (3/2)·i·ka·cos θ from the head's centre; ``talker_phase``), so
+    its zero-phase pattern is radiated from there: exact for that translation at every
+    frequency, and the phase left is ≤ 0.06% of the energy up to 354 Hz, 0.57% at 500 Hz
+    (docs/waves.md). Every other source: its position."""
+    if source.directivity == "talker":
+        return 0.5 * TALKER_HEAD_RADIUS_M * unit(source.forward)
+    return np.zeros(3)
+
+
+def unit(v: Any) -> np.ndarray:
+    """float64[3]: ``v`` over its length."""
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
 
 
 def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) -> np.ndarray | None:
@@ -191,19 +275,30 @@ def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) ->
     return np.where(magnitude > 0, z / np.where(magnitude > 0, magnitude, 1.0), 1.0)
 
 
+def difference_response(derivative: int, kh: float) -> float:
+    """R(θ): the response of the fourth-order difference of ``derivative`` (1, 2, 3) to a plane
+    wave along its axis at θ = kΔx, over the exact derivative's (iθ)^L: (8 sin θ − sin 2θ)/(6θ)
+    (1 − θ⁴/30), (30 − 32 cos θ + 2 cos 2θ)/(12θ²) (1 − θ⁴/90) and (26 sin θ − 16 sin 2θ +
+    2 sin 3θ)/(8θ³) (1 − 7θ⁴/120): Σ w_m e^{imθ} of the weights of :data:`DIFFERENCES`."""
+    th = max(float(kh), 1e-12)
+    if derivative == 1:
+        return (8.0 * math.sin(th) - math.sin(2.0 * th)) / (6.0 * th)
+    if derivative == 2:
+        return (30.0 - 32.0 * math.cos(th) + 2.0 * math.cos(2.0 * th)) / (12.0 * th * th)
+    return (26.0 * math.sin(th) - 16.0 * math.sin(2.0 * th) + 2.0 * math.sin(3.0 * th)) / (
+        8.0 * th ** 3)
+
+
 def stencil_error(order: int, kh: float) -> float:
     """The worst amplitude error, over all directions, of the cluster's terms of ``order`` at
-    kΔx = ``kh``: |1 − R| of a first difference along an axis for order 1; for order 2 the
-    worse of a second difference along an axis and a mixed term (two first differences, worst
-    where one factor has the whole kΔx). 0 for order 0 (the monopole itself)."""
+    kΔx = ``kh``: the worst |1 − R| (:func:`difference_response`) of the one-axis differences
+    the order's terms are products of (order 1: first differences; order 2: second and first;
+    order 3: third, second and first). A product term's error is worst where one factor has the
+    whole kΔx: its factors' errors grow as θ⁴, and θᵢ⁴ + θⱼ⁴ ≤ (θᵢ² + θⱼ²)². 0 for order 0
+    (the monopole itself)."""
     if order <= 0:
         return 0.0
-    th = max(float(kh), 1e-12)
-    first = (8.0 * math.sin(th) - math.sin(2.0 * th)) / (6.0 * th)
-    if order == 1:
-        return abs(1.0 - first)
-    second = (30.0 - 32.0 * math.cos(th) + 2.0 * math.cos(2.0 * th)) / (12.0 * th * th)
-    return max(abs(1.0 - second), abs(1.0 - first))
+    return max(abs(1.0 - difference_response(L, kh)) for L in range(1, order + 1))
 
 
 def band_upper_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
@@ -231,29 +326,59 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
     :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
     fitted too (complex coefficients). The first-order family is order 1 exactly and is
-    fitted to order 1 only (its order-2 part is the lattice's quadrature error)."""
+    fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
+    orders above the highest that carries :data:`RESOLVED_AMPLITUDE`² (4·10⁻⁴) of the pattern's
+    energy are left out (:attr:`SourceFit.orders` says which are radiated): such an order's
+    amplitude is below the error allowed to the stencils of the orders that are radiated, and
+    leaving it out spares its terms and the room they need around the source (a talker's
+    order 3 below 500 Hz: ≤ 0.004% of its energy, 70 more monopoles, 43 mm more clearance at a
+    354 Hz crossover).
+
+    Order 3 is u·T·u·u with T = (35/2)·N − (7/2)·(m_i δ_jk + m_j δ_ik + m_k δ_ij),
+    N = ⟨A·v_i v_j v_k⟩ and m = ⟨A·v⟩: the addition theorem's 7⟨A(v)·P₃(u·v)⟩, P₃(x) =
+    (5x³ − 3x)/2, with u·v written as (u·v)(u·u) on the sphere. T is symmetric and traceless
+    (its trace is 35/2·m − 7/2·5m = 0), so it is order 3 only, and the mean of its square over
+    the sphere is (2/35)·Σ T_ijk² (of the 15 pairings in ⟨u⁶⟩ = (1/105)·Σ δδδ only the 6
+    that pair each index of one T with the other's survive a trace-free T)."""
     orders = np.full(n_bands, MAX_ORDER, int) if orders is None else np.asarray(orders, int)
     if source.directivity in FIRST_ORDER:
         orders = np.minimum(orders, 1)
-    u = fibonacci_directions()
+    u, weight = fit_directions()
     a = amplitude(source, directivity, u, n_bands, bands_hz)  # [direction, band]
-    c0 = a.mean(axis=0)
-    c = 3.0 * (u.T @ a) / len(u)  # [axis, band]
-    m = np.einsum("di,dj,db->bij", u, u, a) / len(u)
+    wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
+    c0 = wa.sum(axis=0)
+    c = 3.0 * (u.T @ wa)  # [axis, band]
+    m = np.einsum("di,dj,db->bij", u, u, wa)
     d = 7.5 * (m - np.einsum("bii->b", m)[:, None, None] * np.eye(3) / 3.0)  # [band, 3, 3]
+    n = np.einsum("di,dj,dk,db->bijk", u, u, u, wa)
+    m1 = (c / 3.0).T  # [band, axis]: ⟨A·v⟩
+    eye = np.eye(3)
+    t = 17.5 * n - 3.5 * (np.einsum("bi,jk->bijk", m1, eye) + np.einsum("bj,ik->bijk", m1, eye)
+                          + np.einsum("bk,ij->bijk", m1, eye))  # [band, 3, 3, 3]
+    total = weight @ (np.abs(a) ** 2)
+    # Each order's share of the pattern's energy (the means of its part's square); an order
+    # above every one that carries RESOLVED_AMPLITUDE² of it is left out (see the docstring).
+    shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
+                       2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
+                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real])
+    carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
+    highest = np.max(np.where(carried, np.arange(4)[:, None], 0), axis=0)
+    orders = np.minimum(orders, highest)
     c = np.where(orders[None] >= 1, c, 0.0)
     d = np.where((orders >= 2)[:, None, None], d, 0.0)
-    power = (np.abs(c0) ** 2 + (np.abs(c) ** 2).sum(axis=0) / 3.0
-             + 2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real)
-    total = (np.abs(a) ** 2).mean(axis=0)
+    t = np.where((orders >= 3)[:, None, None, None], t, 0.0)
+    power = shares[0] + np.where(orders >= 1, shares[1], 0.0) + np.where(
+        orders >= 2, shares[2], 0.0) + np.where(orders >= 3, shares[3], 0.0)
     norm = np.sqrt(np.maximum(power, 1e-300))
     second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
-    components = np.column_stack([c0, c.T, second]) / norm[:, None]
+    third = np.column_stack([t[:, i, j, k] * len(set(itertools.permutations((i, j, k))))
+                             for i, j, k in TRIPLES])
+    components = np.column_stack([c0, c.T, second, third]) / norm[:, None]
     # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
-    return SourceFit(components, orders, residual)
+    return SourceFit(components, orders, residual, centre_offset_m=acoustic_centre_offset_m(source))
 
 
 def lowest_filter_hz(bands_hz: np.ndarray) -> float:
@@ -265,7 +390,7 @@ def lowest_filter_hz(bands_hz: np.ndarray) -> float:
 
 
 def order2_fade(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
-    """float64[frequency]: order 2's fade, 0 below half of :func:`lowest_filter_hz`, 1 above
+    """float64[frequency]: the fade of orders 2 and 3, 0 below half of :func:`lowest_filter_hz`, 1 above
     it, a raised sine in log frequency across that octave."""
     top = lowest_filter_hz(bands_hz)
     with np.errstate(divide="ignore"):
@@ -276,8 +401,8 @@ def order2_fade(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
 def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
                   source_fit: SourceFit | None = None) -> float:
     """The delay of a directional source's pulse: its own 6σ plus :data:`PRE_PERIODS` periods of
-    the lowest band centre, or, when ``source_fit`` radiates order 2, of the frequency where
-    order 2's fade starts (its filter is as long as that fade is narrow)."""
+    the lowest band centre, or, when ``source_fit`` radiates order 2 or 3, of the frequency
+    where their fade starts (its filter is as long as that fade is narrow)."""
     lowest = float(np.min(bands_hz))
     if source_fit is not None and np.any(source_fit.orders >= 2):
         lowest = 0.5 * lowest_filter_hz(bands_hz)
@@ -299,28 +424,16 @@ def edge_blends(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
 
 def stencil(component: int) -> list[tuple[tuple[int, int, int], float]]:
     """The node offsets (in cells) and weights (× Δx^L) of a component's term (see
-    :data:`PAIRS`): the monopole; a first difference along an axis; a second difference along
-    an axis; or a product of two first differences."""
-    def along(axis: int, m: int) -> tuple[int, int, int]:
-        out = [0, 0, 0]
-        out[axis] = m
-        return (out[0], out[1], out[2])
-
-    if component == 0:
-        return [((0, 0, 0), 1.0)]
-    if component <= 3:
-        return [(along(component - 1, int(m)), float(w))
-                for m, w in zip(OFFSETS, FIRST_DIFFERENCE) if w != 0.0]
-    i, j = PAIRS[component - 4]
-    if i == j:
-        return [(along(i, int(m)), float(w)) for m, w in zip(OFFSETS, SECOND_DIFFERENCE)]
-    out = []
-    for m, wm in zip(OFFSETS, FIRST_DIFFERENCE):
-        for n, wn in zip(OFFSETS, FIRST_DIFFERENCE):
-            if wm != 0.0 and wn != 0.0:
-                a, b = along(i, int(m)), along(j, int(n))
-                out.append(((a[0] + b[0], a[1] + b[1], a[2] + b[2]), float(wm * wn)))
-    return out
+    :data:`MONOMIALS`): the product over the axes of the one-axis difference of each axis'
+    power in the monomial (:data:`DIFFERENCES`): the monopole; a first, second or third
+    difference along an axis; or a product of them (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏). Nodes of weight 0
+    are left out."""
+    powers = [MONOMIALS[component].count(axis) for axis in range(3)]
+    (ox, wx), (oy, wy), (oz, wz) = (DIFFERENCES[p] for p in powers)
+    return [((int(a), int(b), int(e)), float(u * v * w))
+            for a, u in zip(ox, wx) if u != 0.0
+            for b, v in zip(oy, wy) if v != 0.0
+            for e, w in zip(oz, wz) if w != 0.0]
 
 
 def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
@@ -343,17 +456,20 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     b = np.asarray(bands_hz, float)
     blends = edge_blends(f, b)  # [edge, frequency]
     c, h = speed_of_sound_m_s, spacing_m
-    # The signals of each order before its coefficient: q̇, c·q, c²·∫q (faded below the bands).
+    # The signals of each order before its coefficient: q̇, c·q, c²·∫q, c³·∬q (orders 2 and 3
+    # faded out below the bands).
     spectra = [sfft.rfft(q_dot, n_fft), c * sfft.rfft(q, n_fft)]
-    fade = order2_fade(f, b)  # 0 at DC, so ∫q's 1/(iω) is never reached there
-    integrated = c * spectra[1] * fade / (2j * np.pi * np.where(fade > 0.0, f, 1.0))
+    fade = order2_fade(f, b)  # 0 at DC, so 1/(iω) is never reached there
+    per_integral = c / (2j * np.pi * np.where(fade > 0.0, f, 1.0))
+    integrated = spectra[1] * fade * per_integral
     spectra.append(np.where(fade > 0.0, integrated, 0.0))
+    spectra.append(np.where(fade > 0.0, integrated * per_integral, 0.0))
     by_offset: dict[tuple[int, int, int], np.ndarray] = {}
     for k in range(source_fit.components.shape[1]):
         coefficient = source_fit.components[:, k]
         if np.all(coefficient == 0.0):
             continue
-        order = 0 if k == 0 else (1 if k <= 3 else 2)
+        order = component_order(k)
         gain = coefficient[0] + np.diff(coefficient) @ blends
         signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
         for offset, w in stencil(k):
@@ -361,54 +477,87 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
                 by_offset[offset] = by_offset[offset] + w * signal
             else:
                 by_offset[offset] = w * signal
-    centre = np.asarray(position_m, float)
+    centre = np.asarray(position_m, float) + source_fit.centre_offset_m
     keys = sorted(by_offset)
     positions = np.array([centre + h * np.asarray(o, float) for o in keys])
     return positions, np.ascontiguousarray([by_offset[o] for o in keys]), delay
 
 
 def reach_m(source_fit: SourceFit, spacing_m: float) -> float:
-    """How far from the source its cluster's terms reach."""
-    return source_fit.reach_cells() * spacing_m
+    """How far from the source's position its cluster's terms reach (the cluster's centre may
+    be moved from it, :attr:`SourceFit.centre_offset_m`)."""
+    return source_fit.reach_cells() * spacing_m + float(np.linalg.norm(source_fit.centre_offset_m))
 
 
-def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any]) -> None:
-    """Refuses a directional source nearer a wall than its cluster reaches on the grid of
-    ``max_frequency_hz`` (its terms would be outside the room's air), naming the source, its
-    distance, the clearance it needs and what to do. ``directivities``: each source's engine
-    directivity. Called by the bake once the crossover is known, before any ray is traced."""
+def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any],
+                    wave_bands: int | None = None) -> None:
+    """Refuses a directional source nearer a wall than even its order-1 cluster reaches on the
+    grid of ``max_frequency_hz`` (its terms would be outside the room's air), naming the
+    source, its distance, the clearance it needs and what to do; a source with room for order
+    1 but not for all the orders the grid resolves radiates the highest that fit
+    (:func:`fit_on_grid`). ``directivities``: each source's engine directivity; ``wave_bands``:
+    how many bands the waves give (None: those centred below the crossover, f_max/√2, the
+    hybrid's rule in ``waves.choose_crossover``). Called by the bake once the crossover is
+    known, before any ray is traced."""
     from sonolux import engine
 
     c = float(scene.settings.speed_of_sound_m_s)
     spacing_m = engine.WaveSettings(max_frequency_hz=float(max_frequency_hz), duration_s=1.0,
                                     speed_of_sound_m_s=c).spacing_m
     bands = np.asarray(scene.settings.bands_hz, float)
-    fits = [None if s.directivity == "omni" else fit_on_grid(s, d, bands, spacing_m, c)
-            for s, d in zip(scene.sources, directivities)]
+    if wave_bands is None:
+        wave_bands = int(np.sum(bands < max_frequency_hz / math.sqrt(2.0)))
     positions = np.array([s.position_m for s in scene.sources], float)
     distance = np.asarray(scene.geometry.distance_to_surface(np.ascontiguousarray(positions)),
                           float)
-    for i, (src, fitted) in enumerate(zip(scene.sources, fits)):
-        if fitted is None:
+    for i, (src, d) in enumerate(zip(scene.sources, directivities)):
+        if src.directivity == "omni":
             continue
+        fitted = fit_on_grid(src, d, bands, spacing_m, c, clearance_m=float(distance[i]),
+                             wave_bands=wave_bands)
         need = reach_m(fitted, spacing_m)
         if distance[i] <= need:
-            orders = int(fitted.orders.max())
             raise SettingError(
                 f"waves: source {src.name or i + 1} ({src.directivity}) at "
                 f"{tuple(round(float(v), 3) for v in src.position_m)} m is "
                 f"{1e3 * distance[i]:.0f} mm from a wall; its cluster of monopoles (spherical "
-                f"harmonics of order 0-{orders} on the {1e3 * spacing_m:.0f} mm grid) reaches "
-                f"{1e3 * need:.0f} mm, so it needs more than that much air on every side: move it "
-                "into the room or make it omni")
+                f"harmonics of order 0-{int(fitted.orders.max())} on the {1e3 * spacing_m:.0f} mm "
+                f"grid) reaches {1e3 * need:.0f} mm, so it needs more than that much air on every "
+                "side: move it into the room or make it omni")
 
 
 def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: float,
-                speed_of_sound_m_s: float) -> SourceFit:
+                speed_of_sound_m_s: float, clearance_m: float = math.inf,
+                wave_bands: int | None = None) -> SourceFit:
     """The source's fit with, in each band, the highest order the grid of ``spacing_m``
-    resolves (:func:`resolved_orders`)."""
+    resolves (:func:`resolved_orders`); with ``wave_bands``, the bands above the waves' take
+    the last wave band's fit (its pattern is held across the crossover, as the tracer's band
+    holds it; the waves' result above is not used, and fitting those bands would only add
+    terms and reach); and, when the source is ``clearance_m`` from the nearest wall, whose
+    cluster fits inside that: each order's terms reach farther (2, 2√2, 3
+    or 2√3 cells, :meth:`SourceFit.reach_cells`), so near a wall the orders are capped, the
+    highest first, down to 1 (a cluster that does not fit even then is the caller's to refuse,
+    :func:`check_clearance`); the fit's :attr:`SourceFit.note` says so, for the log."""
     b = np.asarray(bands_hz, float)
-    return fit(source, directivity, b.size, resolved_orders(b, spacing_m, speed_of_sound_m_s), b)
+    orders = resolved_orders(b, spacing_m, speed_of_sound_m_s)
+
+    def held(f: SourceFit) -> SourceFit:
+        if wave_bands is None or not 0 < wave_bands < b.size:
+            return f
+        keep = np.minimum(np.arange(b.size), wave_bands - 1)
+        return dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
+                                   residual=f.residual[keep])
+
+    fitted = held(fit(source, directivity, b.size, orders, b))
+    cap = int(fitted.orders.max())
+    while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
+        wanted = reach_m(fitted, spacing_m)
+        cap -= 1
+        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b))
+        fitted = dataclasses.replace(fitted, note=(
+            f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
+            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm"))
+    return fitted
 
 
 def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -> str:
@@ -416,5 +565,7 @@ def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -
     the pattern's energy above them."""
     orders = source_fit.orders[:wave_bands]
     return (f"waves: source {label} as {n_terms} monopoles, spherical harmonics of order "
-            f"{'/'.join(f'0-{int(L)}' for L in orders)} per wave band; the pattern's energy above "
-            f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}")
+            f"{'/'.join(f'0-{int(L)}' if L else '0' for L in orders)} per wave band; the pattern's "
+            "energy above "
+            f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}"
+            + source_fit.note)

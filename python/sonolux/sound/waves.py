@@ -309,7 +309,10 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                                         without_direct=True, energy_bands=k)
             gains = None
         else:
-            fitted = wave_sources.fit_on_grid(src, pattern, bands, settings.spacing_m, c)
+            fitted = wave_sources.fit_on_grid(
+                src, pattern, bands, settings.spacing_m, c, clearance_m=float(
+                    scene.geometry.distance_to_surface(np.ascontiguousarray(source_m[None]))[0]),
+                wave_bands=k)
             longer = wave_settings(cross.max_frequency_hz, duration_s + wave_sources.pulse_delay_s(
                 bands, cross.max_frequency_hz, fitted), c, scene.settings.threads,
                 memory_limit_bytes)
