@@ -99,36 +99,88 @@ def band_power_gain(f_hz, centre_hz):
 
 
 def locally_reacting_modal_decay(size_m, source_m, points_m, admittance, bands_hz, air_per_m,
-                                 fit_limits=True, record_s=3.0):
+                                 fit_limits=True, record_s=3.0, coherent_s=None):
     """T30, T20 and EDT per octave (and the decay's curvature, %) of a rectangular room whose
     walls are locally reacting with real specific admittances ``admittance`` = {axis: (at 0,
     at L)}, from its exact modes (:func:`locally_reacting_modes`), as a band of the waves
-    measures it: the room's impulse response (per unit volume acceleration, the waves'
-    normalisation: h = δ(t − r/c)/r in free field) is Σ_n ψ_n(s)ψ_n(r)/(VΛ_n)·sin(ω_n t)/ω_n
-    (the modal expansion of the Green's function, Morse and Ingard ch. 9), so mode n counts in a
-    band with |ψ_n(s)|²·mean|ψ_n(r)|²/(|Λ_n|²·|ω_n|²) times the band filter's power gain at its
-    frequency, and decays as exp(−2c·Im k_n·t); the modes' cross terms average out over the
-    band and the points. The mean is over ``points_m`` (the receivers' cubature points, as the
-    waves and the rays average over a sphere). The air adds m·c per band. ``fit_limits``: as decay_times'.
-    ``record_s``: the modal decay's length (decay_times' truncation check wants the record to reach
-    20 dB below T30's lower end: 3 s holds T30 up to about 3 s)."""
+    measures it. The room's impulse response (per unit volume acceleration, the waves'
+    normalisation: h = δ(t − r/c)/r in free field) is the modal expansion of the Green's function
+    (Morse and Ingard ch. 9), h(t) = Re Σ_n −j·ψ_n(s)ψ_n(r)/(VΛ_n k_n)·exp(jck_n t) for t > 0
+    (:func:`modal_responses`). The air adds m·c per band. ``fit_limits``: as decay_times'.
+    ``record_s``: the modal decay's length (decay_times' truncation check wants the record to
+    reach 20 dB below T30's lower end: 3 s holds T30 up to about 3 s).
+
+    Incoherent (``coherent_s=None``): mode n counts in a band with |ψ_n(s)|²·mean|ψ_n(r)|²/
+    (|Λ_n|²·|k_n|²) times the band filter's power gain at its frequency, and decays as
+    exp(−2c·Im k_n·t): the cross terms of the modes are dropped. They vanish from the mean over
+    points that fill the room (the modes are orthogonal, ∫ψ_nψ_m dV = 0), and late in the decay
+    (they beat at the modes' differences); they do not vanish early at points that share one
+    height with the source, as the paper rooms' receivers do: there the modes that differ only
+    along the vertical add up coherently to the direct sound and the early reflections, which
+    travel near the floor and are absorbed slowly. So the incoherent sum is right for T30 and
+    wrong for EDT there (paper-large, 125 Hz: EDT 2.55 s incoherent, 3.03 s coherent; T30 3.25
+    and 3.29). ``coherent_s``: the responses are then summed coherently (:func:`modal_responses`)
+    over [0, coherent_s), band-filtered with the waves' zero-phase filters, squared and averaged
+    over the points; the incoherent sum continues the decay after coherent_s (where the cross
+    terms have died down; the EDC at coherent_s sets only the level the early decay falls to)."""
     c = 343.0
     size = np.asarray(size_m, float)
-    _, k, kap = locally_reacting_modes(size, admittance, max(bands_hz) * 2 ** 0.75, c)
+    top_hz = max(bands_hz) * 2 ** 0.75  # the top band filter's gain is 0 above it
+    _, k, kap = locally_reacting_modes(size, admittance, top_hz * (1.25 if coherent_s else 1.0), c)
     at_source, norm = mode_shapes(kap, k, admittance, size, np.asarray(source_m, float)[None])
     at_points, _ = mode_shapes(kap, k, admittance, size, points_m)
     weight = (np.abs(at_source[:, 0]) ** 2 * np.mean(np.abs(at_points) ** 2, axis=1)
               / (np.abs(norm) ** 2 * np.abs(k) ** 2))
     f_hz, rate = c * k.real / (2 * math.pi), 2 * c * k.imag
     t = np.arange(0.0, record_s, 1e-3)
+    widths = np.full(t.size, 1e-3)
+    if coherent_s:
+        fs = 2.5 * top_hz * 1.25  # above twice the highest mode summed: no aliasing
+        coefficients = (at_source[:, 0] / (norm * k))[:, None] * at_points
+        # 0.2 s more than kept: room for the zero-phase filters' ringing at the cut.
+        early_t, responses = modal_responses(coefficients, c * k, coherent_s + 0.2, fs)
+        n = int(np.searchsorted(early_t, coherent_s))
+        late_t = np.arange(early_t[n], record_s, 1e-3)
+        t = np.concatenate([early_t[:n], late_t])
+        widths = np.concatenate([np.full(n, 1 / fs), np.full(late_t.size, 1e-3)])
+        spectrum = np.fft.rfft(responses, 2 * early_t.size)
+        spectrum_f = np.fft.rfftfreq(2 * early_t.size, 1 / fs)
     out = {"t30_s": [], "t20_s": [], "edt_s": [], "curvature_percent": []}
     for fc, m in zip(bands_hz, air_per_m):
-        w = weight * band_power_gain(f_hz, fc)
-        d = decay_times((w[:, None] * np.exp(-(rate[:, None] + m * c) * t)).sum(0), t,
-                        np.full(t.size, 1e-3), fit_limits=fit_limits)
+        # Power: half each mode's squared amplitude (the mean of Re² over a period).
+        energy = decaying_sum(0.5 * weight * band_power_gain(f_hz, fc), rate, t) * widths
+        if coherent_s:
+            banded = np.fft.irfft(spectrum * np.sqrt(band_power_gain(
+                np.maximum(spectrum_f, 1e-9), fc)), 2 * early_t.size)[:, :n]
+            energy[:n] = (banded**2).mean(0) / fs
+        d = decay_times(energy * np.exp(-m * c * t), t, widths, fit_limits=fit_limits)
         for key in out:
             out[key].append(float(d[key]))
     return {key: np.array(v) for key, v in out.items()}
+
+
+def decaying_sum(amplitude, rate, t, chunk=512):
+    """Σ_n amplitude_n·exp(−rate_n·t) at the times ``t``, a few hundred times at once (the
+    modes × times matrix of paper-large's 250 Hz band would take gigabytes)."""
+    return np.concatenate([np.exp(-np.outer(t[i:i + chunk], rate)) @ amplitude
+                           for i in range(0, t.size, chunk)])
+
+
+def modal_responses(coefficients, omega, record_s, sample_rate_hz, chunk=256):
+    """h_p(t) = Re Σ_n −j·a_np·exp(jω_n t) at ``sample_rate_hz`` over [0, ``record_s``):
+    ``coefficients`` a[M, P] (ψ_n(s)ψ_n(r_p)/(Λ_n k_n), the constant factors dropped),
+    ``omega`` the modes' complex angular frequencies ω_n = ck_n [M] (Im > 0: decaying). Each mode
+    of a lossy room with frequency-independent admittance is a pole of the Green's function at
+    k_n and at −k_n*; with a rigid room's a_np = ψψ/(Λω) this is Σψψ/Λ·sin(ω_n t)/ω_n. The
+    residue's correction for the modes' dependence on k through the walls, (k/K_n)·dK_n/dk − 1,
+    is of order β/(kL) (below 0.2 % in the paper rooms) and is left out. Returns (t [T],
+    h [P, T])."""
+    t = np.arange(int(round(record_s * sample_rate_hz))) / sample_rate_hz
+    h = np.empty((coefficients.shape[1], t.size))
+    a = -1j * coefficients.T
+    for i in range(0, t.size, chunk):
+        h[:, i:i + chunk] = (a @ np.exp(1j * omega[:, None] * t[None, i:i + chunk])).real
+    return t, h
 
 
 def iso_3382_2_sigma(key, t_s, bandwidth_hz, points):
