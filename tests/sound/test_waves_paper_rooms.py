@@ -47,8 +47,10 @@ def room_decays(name):
     """The hybrid of the built-in room ``name`` (automatic crossover, its automatic wall model),
     mean T30 and EDT per band over the receivers that do not hold the source, and the room's
     exact modes at its wave bands and its first ray band (T30 the fitted line; record 8 s, for
-    paper-large's 3 s decays), computed once a session: (hybrid, modes, wave bands, bandwidths
-    of the last wave band and the first ray band, Hz)."""
+    paper-large's 3 s decays; summed coherently over the first second, which EDT needs: the
+    receivers share the source's height, see ``locally_reacting_modal_decay``), computed once a
+    session: (hybrid, modes, wave bands, bandwidths of the last wave band and the first ray
+    band, Hz)."""
     if name not in _DECAYS:
         from sonolux.sound.wave_spheres import ball_points
 
@@ -69,7 +71,8 @@ def room_decays(name):
         modes = locally_reacting_modal_decay(
             data["geometry"][0]["size_m"], hybrid.source_positions_m[0], points,
             {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}, bands,
-            hybrid.settings["air_attenuation_per_m"][:nb + 1], fit_limits=False, record_s=8.0)
+            hybrid.settings["air_attenuation_per_m"][:nb + 1], fit_limits=False, record_s=8.0,
+            coherent_s=1.0)
         h = mean_times(hybrid, far)
         print(name, "crossover", hybrid.waves["crossover_hz"], "hybrid", h, "modes", modes)
         widths = [b * (2**0.5 - 2**-0.5) for b in bands[nb - 1:nb + 1]]
