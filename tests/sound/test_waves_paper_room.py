@@ -196,10 +196,11 @@ def iso_3382_2_sigma(key, t_s, bandwidth_hz, points):
 WALLS, FLOOR = 0.05, 0.30  # paper-small's random-incidence absorption, walls and ceiling / floor
 
 
-def paper_room_modes(scene, field, far, bands_hz, first_band, fit_limits=True):
+def paper_room_modes(scene, field, far, bands_hz, first_band, fit_limits=True, coherent_s=None):
     """:func:`locally_reacting_modal_decay` of paper-small as ``field`` was baked: its source,
     the cubature points of its receivers ``far`` (wave_spheres.ball_points, the points the waves
-    average over), each band's g from Paris' formula and the field's air."""
+    average over), each band's g from Paris' formula and the field's air; ``coherent_s`` as
+    there (the receivers share the source's height: EDT needs it)."""
     from sonolux.sound.wave_spheres import ball_points
 
     walls, floor = (admittance_from_random(a) for a in (WALLS, FLOOR))
@@ -209,7 +210,7 @@ def paper_room_modes(scene, field, far, bands_hz, first_band, fit_limits=True):
     return locally_reacting_modal_decay(
         (6.0, 2.5, 2.0), field.source_positions_m[0], points,
         {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}, bands_hz, air,
-        fit_limits=fit_limits)
+        fit_limits=fit_limits, coherent_s=coherent_s)
 
 
 def mean_times(field, far, fit_limits=True):
@@ -236,9 +237,12 @@ def test_paper_room_decay_continuous_across_the_crossover():
     noise at 20,000 rays is far below it. EDT: 15 %.
 
     Measured (2026-11-27, this test's bakes): waves 500 Hz EDT 0.623 s, rays 1 kHz 0.607 s
-    (with the angle-independent α of a plain bake 0.756); the room's exact modes 0.665 and
-    0.650. The hybrid's step −2.7 % against the room's −2.3 % (with angle-independent walls
-    +24 % apart, which the test asserts would fail; their 1 kHz EDT is +16 % off the room's). T30 is
+    (with the angle-independent α of a plain bake 0.756); the room's exact modes, summed
+    coherently (the receivers share the source's height), 0.650 and 0.588. The hybrid's step
+    −2.7 % against the room's −9.4 %, 7.5 % apart (with angle-independent walls +34 % apart,
+    which the test asserts would fail; their 1 kHz EDT is +28 % off the room's); the rays' 1 kHz
+    EDT +3.1 % off the room's. (The modes summed incoherently gave 0.665 and 0.650: the room's
+    step −2.3 %, the rays −6.6 % off it.) T30 is
     ``test_paper_room_t30_step_across_the_crossover_is_the_rooms`` (a strict xfail) and
     ``test_the_rays_t30_in_this_room_is_their_scattering``."""
     h, plain, modal = _paper_room_decays()
@@ -295,7 +299,8 @@ def _paper_room_decays():
         assert plain.settings["wall_model"] == "random-incidence"
         assert hybrid.waves["wave_bands"] == 3
         far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
-        modal = paper_room_modes(scene, hybrid, far, [500.0, 1000.0], 2, fit_limits=False)
+        modal = paper_room_modes(scene, hybrid, far, [500.0, 1000.0], 2, fit_limits=False,
+                                 coherent_s=0.4)
         h, p = mean_times(hybrid, far), mean_times(plain, far)
         print("T30 hybrid", h["t30_s"], "plain", p["t30_s"], "modal", modal["t30_s"])
         print("EDT hybrid", h["edt_s"], "plain", p["edt_s"], "modal", modal["edt_s"])
@@ -305,24 +310,32 @@ def _paper_room_decays():
 
 @pytest.mark.slow
 def test_the_waves_follow_the_modes_of_the_locally_reacting_room():
-    """The waves against the exact modes of the same locally reacting room: T30 and EDT per
-    octave within three σ of the mean of 4 independent points with no noise in the model, 11 %
-    at 250-500 Hz (EDT as T20, 14 %) and 15 % at 125 Hz (B = 88 Hz). Measured (2026-11-27):
-    T30 −2.5/−2.5/−1.8 %, EDT −1.3/−1.9/−6.2 %. First-order perturbation (the modes' rates
-    c·Σ g·ε/L, Morse and Bolt's ε = 1 along an axis without a node) is not valid here for the
-    floor's grazing modes (k(β₀ + β_L)L = 1.0 at 500 Hz): it put the room's 500 Hz T30 at
-    0.769 s, the waves +8.3 % above it; the exact modes give 0.848. At twice the grid's
-    resolution (crossover 1414 Hz) the waves' 500 Hz T30 moves by 0.1 %: the grid has
-    converged (docs/waves.md, "Continuity")."""
+    """The waves against the exact modes of the same locally reacting room, summed coherently
+    (``coherent_s``: the receivers share the source's height), at the same cubature points
+    through the same band filters: T30 and EDT per octave within 5 %, the just noticeable
+    difference of both (ISO 3382-1:2009 table A.1). Both are deterministic models of one room
+    at the same points, so no measurement noise applies; what separates them is the scheme's
+    discretisation (walls rounded to cells, the boundary's numerical reflectance), which should
+    not be audible. Measured (2026-11-27): T30 −2.9/−2.5/−2.5 %, EDT −0.5/−1.4/−4.1 % at
+    125/250/500 Hz (the incoherent modes, whose EDT is not this room's: EDT −1.3/−1.9/−6.2 %).
+    First-order perturbation (the modes' rates c·Σ g·ε/L, Morse and Bolt's ε = 1 along an axis
+    without a node) is not valid here for the floor's grazing modes (k(β₀ + β_L)L = 1.0 at
+    500 Hz): it put the room's 500 Hz T30 at 0.769 s, the waves +8.3 % above it; the exact
+    modes give 0.853. At twice the grid's resolution (crossover 1414 Hz) the waves' 500 Hz T30
+    moves by 0.1 %: the grid has converged (docs/waves.md, "Continuity")."""
     scene = sonolux.load_scene("paper-small")
     hybrid = bake(scene, rays=2_000, waves=True, crossover_hz=707)
     far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
     h = mean_times(hybrid, far)
-    modal = paper_room_modes(scene, hybrid, far, [125.0, 250.0, 500.0], 0)
+    modal = paper_room_modes(scene, hybrid, far, [125.0, 250.0, 500.0], 0, coherent_s=0.4)
     print("waves", h, "modes", modal)
-    for key, tol in (("t30_s", (0.15, 0.11, 0.11)), ("edt_s", (0.15, 0.14, 0.14))):
+    for key in ("t30_s", "edt_s"):
         ratio = h[key][:3] / modal[key] - 1
-        assert np.all(np.abs(ratio) < tol), (key, ratio)
+        assert np.all(np.abs(ratio) < JND[key]), (key, ratio)
+
+
+#: Just noticeable differences, relative (ISO 3382-1:2009 table A.1).
+JND = {"t30_s": 0.05, "edt_s": 0.05}
 
 
 @pytest.mark.slow
