@@ -118,8 +118,8 @@ def locally_reacting_modal_decay(size_m, source_m, points_m, admittance, bands_h
     height with the source, as the paper rooms' receivers do: there the modes that differ only
     along the vertical add up coherently to the direct sound and the early reflections, which
     travel near the floor and are absorbed slowly. So the incoherent sum is right for T30 and
-    wrong for EDT there (paper-large, 125 Hz: EDT 2.55 s incoherent, 3.03 s coherent; T30 3.25
-    and 3.29). ``coherent_s``: the responses are then summed coherently (:func:`modal_responses`)
+    wrong for EDT there (paper-large, 125 Hz: EDT 2.55 s incoherent, 3.04 s coherent; T30 3.25
+    and 3.24). ``coherent_s``: the responses are then summed coherently (:func:`modal_responses`)
     over [0, coherent_s), band-filtered with the waves' zero-phase filters, squared and averaged
     over the points; the incoherent sum continues the decay after coherent_s (where the cross
     terms have died down; the EDC at coherent_s sets only the level the early decay falls to)."""
