@@ -24,7 +24,7 @@
 //! normal-incidence reflection of each well (`admittance::Discretisation`:
 //! R = (e^{−jφ} − Y(s̃)·cos(ωΔt/2))/(e^{jφ} + Y(s̃)·cos(ωΔt/2))), of this very draw of depths.
 //! Below the duct's first cut-on, c/(2·width), nothing but the plane mode propagates and s = 0
-//! whatever the wells: the band judged starts an octave above it.
+//! whatever the wells: the bands judged start two octaves above it.
 
 mod common;
 
