@@ -99,36 +99,88 @@ def band_power_gain(f_hz, centre_hz):
 
 
 def locally_reacting_modal_decay(size_m, source_m, points_m, admittance, bands_hz, air_per_m,
-                                 fit_limits=True, record_s=3.0):
+                                 fit_limits=True, record_s=3.0, coherent_s=None):
     """T30, T20 and EDT per octave (and the decay's curvature, %) of a rectangular room whose
     walls are locally reacting with real specific admittances ``admittance`` = {axis: (at 0,
     at L)}, from its exact modes (:func:`locally_reacting_modes`), as a band of the waves
-    measures it: the room's impulse response (per unit volume acceleration, the waves'
-    normalisation: h = δ(t − r/c)/r in free field) is Σ_n ψ_n(s)ψ_n(r)/(VΛ_n)·sin(ω_n t)/ω_n
-    (the modal expansion of the Green's function, Morse and Ingard ch. 9), so mode n counts in a
-    band with |ψ_n(s)|²·mean|ψ_n(r)|²/(|Λ_n|²·|ω_n|²) times the band filter's power gain at its
-    frequency, and decays as exp(−2c·Im k_n·t); the modes' cross terms average out over the
-    band and the points. The mean is over ``points_m`` (the receivers' cubature points, as the
-    waves and the rays average over a sphere). The air adds m·c per band. ``fit_limits``: as decay_times'.
-    ``record_s``: the modal decay's length (decay_times' truncation check wants the record to reach
-    20 dB below T30's lower end: 3 s holds T30 up to about 3 s)."""
+    measures it. The room's impulse response (per unit volume acceleration, the waves'
+    normalisation: h = δ(t − r/c)/r in free field) is the modal expansion of the Green's function
+    (Morse and Ingard ch. 9), h(t) = Re Σ_n −j·ψ_n(s)ψ_n(r)/(VΛ_n k_n)·exp(jck_n t) for t > 0
+    (:func:`modal_responses`). The air adds m·c per band. ``fit_limits``: as decay_times'.
+    ``record_s``: the modal decay's length (decay_times' truncation check wants the record to
+    reach 20 dB below T30's lower end: 3 s holds T30 up to about 3 s).
+
+    Incoherent (``coherent_s=None``): mode n counts in a band with |ψ_n(s)|²·mean|ψ_n(r)|²/
+    (|Λ_n|²·|k_n|²) times the band filter's power gain at its frequency, and decays as
+    exp(−2c·Im k_n·t): the cross terms of the modes are dropped. They vanish from the mean over
+    points that fill the room (the modes are orthogonal, ∫ψ_nψ_m dV = 0), and late in the decay
+    (they beat at the modes' differences); they do not vanish early at points that share one
+    height with the source, as the paper rooms' receivers do: there the modes that differ only
+    along the vertical add up coherently to the direct sound and the early reflections, which
+    travel near the floor and are absorbed slowly. So the incoherent sum is right for T30 and
+    wrong for EDT there (paper-large, 125 Hz: EDT 2.55 s incoherent, 3.04 s coherent; T30 3.25
+    and 3.24). ``coherent_s``: the responses are then summed coherently (:func:`modal_responses`)
+    over [0, coherent_s), band-filtered with the waves' zero-phase filters, squared and averaged
+    over the points; the incoherent sum continues the decay after coherent_s (where the cross
+    terms have died down; the EDC at coherent_s sets only the level the early decay falls to)."""
     c = 343.0
     size = np.asarray(size_m, float)
-    _, k, kap = locally_reacting_modes(size, admittance, max(bands_hz) * 2 ** 0.75, c)
+    top_hz = max(bands_hz) * 2 ** 0.75  # the top band filter's gain is 0 above it
+    _, k, kap = locally_reacting_modes(size, admittance, top_hz * (1.25 if coherent_s else 1.0), c)
     at_source, norm = mode_shapes(kap, k, admittance, size, np.asarray(source_m, float)[None])
     at_points, _ = mode_shapes(kap, k, admittance, size, points_m)
     weight = (np.abs(at_source[:, 0]) ** 2 * np.mean(np.abs(at_points) ** 2, axis=1)
               / (np.abs(norm) ** 2 * np.abs(k) ** 2))
     f_hz, rate = c * k.real / (2 * math.pi), 2 * c * k.imag
     t = np.arange(0.0, record_s, 1e-3)
+    widths = np.full(t.size, 1e-3)
+    if coherent_s:
+        fs = 2.5 * top_hz * 1.25  # above twice the highest mode summed: no aliasing
+        coefficients = (at_source[:, 0] / (norm * k))[:, None] * at_points
+        # 0.2 s more than kept: room for the zero-phase filters' ringing at the cut.
+        early_t, responses = modal_responses(coefficients, c * k, coherent_s + 0.2, fs)
+        n = int(np.searchsorted(early_t, coherent_s))
+        late_t = np.arange(early_t[n], record_s, 1e-3)
+        t = np.concatenate([early_t[:n], late_t])
+        widths = np.concatenate([np.full(n, 1 / fs), np.full(late_t.size, 1e-3)])
+        spectrum = np.fft.rfft(responses, 2 * early_t.size)
+        spectrum_f = np.fft.rfftfreq(2 * early_t.size, 1 / fs)
     out = {"t30_s": [], "t20_s": [], "edt_s": [], "curvature_percent": []}
     for fc, m in zip(bands_hz, air_per_m):
-        w = weight * band_power_gain(f_hz, fc)
-        d = decay_times((w[:, None] * np.exp(-(rate[:, None] + m * c) * t)).sum(0), t,
-                        np.full(t.size, 1e-3), fit_limits=fit_limits)
+        # Power: half each mode's squared amplitude (the mean of Re² over a period).
+        energy = decaying_sum(0.5 * weight * band_power_gain(f_hz, fc), rate, t) * widths
+        if coherent_s:
+            banded = np.fft.irfft(spectrum * np.sqrt(band_power_gain(
+                np.maximum(spectrum_f, 1e-9), fc)), 2 * early_t.size)[:, :n]
+            energy[:n] = (banded**2).mean(0) / fs
+        d = decay_times(energy * np.exp(-m * c * t), t, widths, fit_limits=fit_limits)
         for key in out:
             out[key].append(float(d[key]))
     return {key: np.array(v) for key, v in out.items()}
+
+
+def decaying_sum(amplitude, rate, t, chunk=512):
+    """Σ_n amplitude_n·exp(−rate_n·t) at the times ``t``, a few hundred times at once (the
+    modes × times matrix of paper-large's 250 Hz band would take gigabytes)."""
+    return np.concatenate([np.exp(-np.outer(t[i:i + chunk], rate)) @ amplitude
+                           for i in range(0, t.size, chunk)])
+
+
+def modal_responses(coefficients, omega, record_s, sample_rate_hz, chunk=256):
+    """h_p(t) = Re Σ_n −j·a_np·exp(jω_n t) at ``sample_rate_hz`` over [0, ``record_s``):
+    ``coefficients`` a[M, P] (ψ_n(s)ψ_n(r_p)/(Λ_n k_n), the constant factors dropped),
+    ``omega`` the modes' complex angular frequencies ω_n = ck_n [M] (Im > 0: decaying). Each mode
+    of a lossy room with frequency-independent admittance is a pole of the Green's function at
+    k_n and at −k_n*; with a rigid room's a_np = ψψ/(Λω) this is Σψψ/Λ·sin(ω_n t)/ω_n. The
+    residue's correction for the modes' dependence on k through the walls, (k/K_n)·dK_n/dk − 1,
+    is of order β/(kL) (below 0.2 % in the paper rooms) and is left out. Returns (t [T],
+    h [P, T])."""
+    t = np.arange(int(round(record_s * sample_rate_hz))) / sample_rate_hz
+    h = np.empty((coefficients.shape[1], t.size))
+    a = -1j * coefficients.T
+    for i in range(0, t.size, chunk):
+        h[:, i:i + chunk] = (a @ np.exp(1j * omega[:, None] * t[None, i:i + chunk])).real
+    return t, h
 
 
 def iso_3382_2_sigma(key, t_s, bandwidth_hz, points):
@@ -144,10 +196,11 @@ def iso_3382_2_sigma(key, t_s, bandwidth_hz, points):
 WALLS, FLOOR = 0.05, 0.30  # paper-small's random-incidence absorption, walls and ceiling / floor
 
 
-def paper_room_modes(scene, field, far, bands_hz, first_band, fit_limits=True):
+def paper_room_modes(scene, field, far, bands_hz, first_band, fit_limits=True, coherent_s=None):
     """:func:`locally_reacting_modal_decay` of paper-small as ``field`` was baked: its source,
     the cubature points of its receivers ``far`` (wave_spheres.ball_points, the points the waves
-    average over), each band's g from Paris' formula and the field's air."""
+    average over), each band's g from Paris' formula and the field's air; ``coherent_s`` as
+    there (the receivers share the source's height: EDT needs it)."""
     from sonolux.sound.wave_spheres import ball_points
 
     walls, floor = (admittance_from_random(a) for a in (WALLS, FLOOR))
@@ -157,7 +210,7 @@ def paper_room_modes(scene, field, far, bands_hz, first_band, fit_limits=True):
     return locally_reacting_modal_decay(
         (6.0, 2.5, 2.0), field.source_positions_m[0], points,
         {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}, bands_hz, air,
-        fit_limits=fit_limits)
+        fit_limits=fit_limits, coherent_s=coherent_s)
 
 
 def mean_times(field, far, fit_limits=True):
@@ -184,9 +237,12 @@ def test_paper_room_decay_continuous_across_the_crossover():
     noise at 20,000 rays is far below it. EDT: 15 %.
 
     Measured (2026-11-27, this test's bakes): waves 500 Hz EDT 0.623 s, rays 1 kHz 0.607 s
-    (with the angle-independent α of a plain bake 0.756); the room's exact modes 0.665 and
-    0.650. The hybrid's step −2.7 % against the room's −2.3 % (with angle-independent walls
-    +24 % apart, which the test asserts would fail; their 1 kHz EDT is +16 % off the room's). T30 is
+    (with the angle-independent α of a plain bake 0.756); the room's exact modes, summed
+    coherently (the receivers share the source's height), 0.650 and 0.588. The hybrid's step
+    −2.7 % against the room's −9.4 %, 7.5 % apart (with angle-independent walls +34 % apart,
+    which the test asserts would fail; their 1 kHz EDT is +28 % off the room's); the rays' 1 kHz
+    EDT +3.1 % off the room's. (The modes summed incoherently gave 0.665 and 0.650: the room's
+    step −2.3 %, the rays −6.6 % off it.) T30 is
     ``test_paper_room_t30_step_across_the_crossover_is_the_rooms`` (a strict xfail) and
     ``test_the_rays_t30_in_this_room_is_their_scattering``."""
     h, plain, modal = _paper_room_decays()
@@ -243,7 +299,8 @@ def _paper_room_decays():
         assert plain.settings["wall_model"] == "random-incidence"
         assert hybrid.waves["wave_bands"] == 3
         far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
-        modal = paper_room_modes(scene, hybrid, far, [500.0, 1000.0], 2, fit_limits=False)
+        modal = paper_room_modes(scene, hybrid, far, [500.0, 1000.0], 2, fit_limits=False,
+                                 coherent_s=0.4)
         h, p = mean_times(hybrid, far), mean_times(plain, far)
         print("T30 hybrid", h["t30_s"], "plain", p["t30_s"], "modal", modal["t30_s"])
         print("EDT hybrid", h["edt_s"], "plain", p["edt_s"], "modal", modal["edt_s"])
@@ -253,24 +310,32 @@ def _paper_room_decays():
 
 @pytest.mark.slow
 def test_the_waves_follow_the_modes_of_the_locally_reacting_room():
-    """The waves against the exact modes of the same locally reacting room: T30 and EDT per
-    octave within three σ of the mean of 4 independent points with no noise in the model, 11 %
-    at 250-500 Hz (EDT as T20, 14 %) and 15 % at 125 Hz (B = 88 Hz). Measured (2026-11-27):
-    T30 −2.5/−2.5/−1.8 %, EDT −1.3/−1.9/−6.2 %. First-order perturbation (the modes' rates
-    c·Σ g·ε/L, Morse and Bolt's ε = 1 along an axis without a node) is not valid here for the
-    floor's grazing modes (k(β₀ + β_L)L = 1.0 at 500 Hz): it put the room's 500 Hz T30 at
-    0.769 s, the waves +8.3 % above it; the exact modes give 0.848. At twice the grid's
-    resolution (crossover 1414 Hz) the waves' 500 Hz T30 moves by 0.1 %: the grid has
-    converged (docs/waves.md, "Continuity")."""
+    """The waves against the exact modes of the same locally reacting room, summed coherently
+    (``coherent_s``: the receivers share the source's height), at the same cubature points
+    through the same band filters: T30 and EDT per octave within 5 %, the just noticeable
+    difference of both (ISO 3382-1:2009 table A.1). Both are deterministic models of one room
+    at the same points, so no measurement noise applies; what separates them is the scheme's
+    discretisation (walls rounded to cells, the boundary's numerical reflectance), which should
+    not be audible. Measured (2026-11-27): T30 −2.9/−2.5/−2.5 %, EDT −0.5/−1.4/−4.1 % at
+    125/250/500 Hz (the incoherent modes, whose EDT is not this room's: EDT −1.3/−1.9/−6.2 %).
+    First-order perturbation (the modes' rates c·Σ g·ε/L, Morse and Bolt's ε = 1 along an axis
+    without a node) is not valid here for the floor's grazing modes (k(β₀ + β_L)L = 1.0 at
+    500 Hz): it put the room's 500 Hz T30 at 0.769 s, the waves +8.3 % above it; the exact
+    modes give 0.853. At twice the grid's resolution (crossover 1414 Hz) the waves' 500 Hz T30
+    moves by 0.1 %: the grid has converged (docs/waves.md, "Continuity")."""
     scene = sonolux.load_scene("paper-small")
     hybrid = bake(scene, rays=2_000, waves=True, crossover_hz=707)
     far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
     h = mean_times(hybrid, far)
-    modal = paper_room_modes(scene, hybrid, far, [125.0, 250.0, 500.0], 0)
+    modal = paper_room_modes(scene, hybrid, far, [125.0, 250.0, 500.0], 0, coherent_s=0.4)
     print("waves", h, "modes", modal)
-    for key, tol in (("t30_s", (0.15, 0.11, 0.11)), ("edt_s", (0.15, 0.14, 0.14))):
+    for key in ("t30_s", "edt_s"):
         ratio = h[key][:3] / modal[key] - 1
-        assert np.all(np.abs(ratio) < tol), (key, ratio)
+        assert np.all(np.abs(ratio) < JND[key]), (key, ratio)
+
+
+#: Just noticeable differences, relative (ISO 3382-1:2009 table A.1).
+JND = {"t30_s": 0.05, "edt_s": 0.05}
 
 
 @pytest.mark.slow
@@ -357,3 +422,37 @@ def test_exact_modes_are_first_order_perturbation_for_small_admittance_only():
               "others", ratio[band & ~grazing].min(), ratio[band & ~grazing].max())
         assert lo < ratio[band & grazing].min() and ratio[band & grazing].max() < hi
         assert np.all(np.abs(ratio[band & ~grazing] - 1) < others)
+
+
+def test_coherent_modes_are_incoherent_over_the_volume_but_not_at_one_height():
+    """The coherent reference (``coherent_s``) checked on its own. Averaged over points that
+    fill the room (a midpoint grid finer than the highest mode's half wavelength on each axis,
+    on which the rigid modes are exactly orthogonal), the modes' cross terms cancel and the
+    coherent decay is the incoherent one: paper-small at 250 Hz, EDT and T30 within 1 % (the
+    residue: the lossy modes are orthogonal without the conjugate, and |h|² takes it; measured
+    −0.2 % and 0.0 %). At receivers that share the source's height (paper-large, 125 Hz, 1.5 m
+    as the scene's, every 2 m) the modes differing only along the vertical stay coherent early:
+    EDT 17 % longer coherent (asserted > 10 %), while T30 agrees within 1 % (measured −0.6 %).
+    That was paper-large's "+14.6 %" of the waves' EDT (docs/waves.md, "Continuity")."""
+    walls, floor = (admittance_from_random(a) for a in (WALLS, FLOOR))
+    admittance = {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}
+
+    def points(size, counts, height=None):
+        axes = [(np.arange(n) + 0.5) / n * length for n, length in zip(counts, size)]
+        if height is not None:
+            axes[2] = np.array([height])
+        return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+
+    for size, source, grid, height, band, record_s, coherent_s in (
+            ((6.0, 2.5, 2.0), (1.5, 1.1, 1.5), (20, 9, 7), None, 250.0, 3.0, 0.5),
+            ((24.0, 10.0, 8.0), (6.1, 4.3, 1.5), (12, 5, 1), 1.5, 125.0, 8.0, 1.0)):
+        at = points(size, grid, height)
+        incoherent, coherent = (
+            locally_reacting_modal_decay(size, source, at, admittance, [band], [0.0],
+                                         fit_limits=False, record_s=record_s, coherent_s=s)
+            for s in (None, coherent_s))
+        edt = coherent["edt_s"][0] / incoherent["edt_s"][0] - 1
+        t30 = coherent["t30_s"][0] / incoherent["t30_s"][0] - 1
+        print(size, band, "EDT coherent/incoherent", edt, "T30", t30)
+        assert abs(t30) < 0.01
+        assert (abs(edt) < 0.01) if height is None else (edt > 0.10)

@@ -154,19 +154,54 @@ pub fn build_solver(
     let estimate = settings.memory_estimate(&scene, n_receivers, fitted);
     settings.check_memory(&estimate, &scene, n_receivers, &materials.band_centres_hz)?;
 
-    let h = settings.spacing_m();
-    let dt = settings.time_step_s();
-    let mut grid = Grid::over(&mesh.bounds(), h)?;
-    let (faces, voxels) = voxel::voxelise(mesh, &mut grid)?;
-
     let nb = materials.n_bands();
     let (a2, _) = scheme::coefficients(settings.courant);
-    let scheme = admittance::Discretisation { time_step_s: dt, courant: (a2 as f64).sqrt() };
+    let scheme = admittance::Discretisation { time_step_s: settings.time_step_s(), courant: (a2 as f64).sqrt() };
     let fits = materials
         .absorption
         .chunks(nb)
         .map(|a| fit::fit_material(&materials.band_centres_hz, a, settings.absorption_kind, settings.max_frequency_hz, Some(scheme)))
         .collect::<Result<Vec<_>, _>>()?;
+    assemble(mesh, fits, settings, estimate, start)
+}
+
+/// [`build_solver`] with each material's wall admittance given (one per material id of the
+/// mesh) instead of fitted to absorption per band: for boundary models that are not a fit to
+/// band values, such as the phase-grating wells of Kowalczyk, van Walstijn and Murphy (IEEE
+/// TASLP 19(3), 2011) written as Foster branches (tests/wave_scattering.rs). Every branch must
+/// be passive (D, E, F ≥ 0): the walls are then stable by construction ([`boundary`]).
+pub fn build_solver_with_walls(mesh: &Mesh, walls: &[Admittance], settings: &WaveSettings, n_receivers: usize) -> Result<(WaveSolver, WaveStats), CoreError> {
+    let start = Instant::now();
+    settings.validate()?;
+    let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+    if walls.len() != n_mat {
+        return Err(CoreError::invalid("walls", format!("{} admittances given; the mesh names {n_mat} materials", walls.len())));
+    }
+    let passive = |b: &Branch| b.mass_s >= 0.0 && b.resistance >= 0.0 && b.stiffness_per_s >= 0.0 && b.mass_s + b.resistance > 0.0;
+    if let Some(i) = walls.iter().position(|w| !(w.conductance >= 0.0) || !w.branches.iter().all(passive)) {
+        return Err(CoreError::invalid("walls", format!("material {i}'s admittance is not passive (every conductance, mass, resistance and stiffness must be ≥ 0, and each branch needs a mass or a resistance)")));
+    }
+    let scene = SceneSize::of(mesh);
+    // The estimate counts branch state by fitted bands, about three branches a band.
+    let bands = walls.iter().map(|w| w.branches.len().div_ceil(3)).max().unwrap_or(0);
+    let estimate = settings.memory_estimate(&scene, n_receivers, bands);
+    if estimate.total_bytes > settings.memory_limit_bytes {
+        return Err(CoreError::invalid("max_frequency_hz", format!("the run needs {} bytes, more than the limit of {}", estimate.total_bytes, settings.memory_limit_bytes)));
+    }
+    let fits = walls
+        .iter()
+        .map(|y| fit::MaterialFit { admittance: y.clone(), n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false })
+        .collect();
+    assemble(mesh, fits, settings, estimate, start)
+}
+
+/// The solver for `mesh` with the walls of `fits` (one per material id).
+fn assemble(mesh: &Mesh, fits: Vec<fit::MaterialFit>, settings: &WaveSettings, estimate: MemoryEstimate, start: Instant) -> Result<(WaveSolver, WaveStats), CoreError> {
+    let h = settings.spacing_m();
+    let dt = settings.time_step_s();
+    let mut grid = Grid::over(&mesh.bounds(), h)?;
+    let (faces, voxels) = voxel::voxelise(mesh, &mut grid)?;
+    let (a2, _) = scheme::coefficients(settings.courant);
     let walls: Vec<boundary::DiscreteWall> = fits.iter().map(|f| boundary::DiscreteWall::new(&f.admittance, dt)).collect();
 
     let nx = grid.dims[0];
