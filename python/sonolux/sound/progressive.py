@@ -74,12 +74,13 @@ from sonolux.sound.accuracy import (  # noqa: F401  (the error estimate, used th
     near_source,
     parameters,
 )
-from sonolux.sound.bake import add_waves, check_wave_sources, ray_count
+from sonolux.sound.bake import add_waves, check_waves, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
 from sonolux.sound.reach import reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
+from sonolux.sound.waves import with_scene
 
 #: Independent ray groups of the jackknife. More groups estimate the error better (the interval
 #: uses Student's t with GROUPS − 1 degrees of freedom) but each is one more call of the tracer
@@ -179,8 +180,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     why the bake stopped, the error summary. With ``estimator = "auto"`` the pilots of
     :func:`choose` run first, and the chosen estimator's pilot is the first round."""
     accuracy = (accuracy or Accuracy()).validate()
-    options = (options or SoundOptions()).validate()
-    check_wave_sources(scene, options)  # before the pilots' rays
+    # The scene's [waves] table resolved here, so that the check and the waves added agree.
+    options = with_scene(scene, (options or SoundOptions()).validate())
+    check_waves(scene, options, log=log)  # the hybrid's clearance and memory, before the pilots
     if options.ray_range is not None:
         raise SonoluxError("a progressive bake (rays = auto) cannot trace a ray range: give the "
                            "bake's ray count (--rays N) to split it")
