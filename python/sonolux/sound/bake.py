@@ -242,7 +242,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         arrivals = _stacked_arrivals(early_sound.arrival_table(found), runs,
                                      scene.receivers.count)
         early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
-    memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s))
+    memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s),
+                         group_bands=sound_levels.largest_group(levels))
     if log:
         log(memory.describe())
     out = trace_tiles(scene, geometry_args=(acoustics, sources, levels, parts), runs=runs,
@@ -510,10 +511,12 @@ def field_shape(scene: Scene, options: SoundOptions, max_time_s: float,
 
 
 def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray], *,
-                settings_of: tuple[int, float]) -> sound_budget.MemoryPlan:
+                settings_of: tuple[int, float],
+                group_bands: int | None = None) -> sound_budget.MemoryPlan:
     """How the bake fits its budget (``options.memory_bytes``, default
-    :func:`sonolux.memory.budget_bytes`) with ``settings_of`` = (rays traced, max_time_s);
-    refused up front with what would fit."""
+    :func:`sonolux.memory.budget_bytes`) with ``settings_of`` = (rays traced, max_time_s) and,
+    with level of detail, ``group_bands`` the largest band group traced at once; refused up
+    front with what would fit."""
     traced, max_time_s = settings_of
     shape = field_shape(scene, options, max_time_s, arrays)
     compact = options.storage == "compact"
@@ -532,7 +535,7 @@ def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
     partial = options.ray_range is not None and tuple(options.ray_range) != (0, options.rays)
     return sound_budget.plan(shape, options.memory_bytes or budget_bytes(), compact=compact,
                              keep_counts=options.ray_range is not None, early_cells=cells,
-                             fields=fields,
+                             fields=fields, group_bands=group_bands,
                              reduced=None if partial else
                              reduction(options, scene.settings.sample_rate_hz))
 

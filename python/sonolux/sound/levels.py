@@ -71,6 +71,14 @@ def plan(scene: Scene, arrays: dict[str, np.ndarray],
     return out
 
 
+def largest_group(levels: list[LevelGeometry] | None) -> int | None:
+    """The bands of the largest group :func:`trace` traces at once (None without levels): what
+    the memory plan counts beside the joined field (:func:`sonolux.sound.budget.plan`)."""
+    if levels is None:
+        return None
+    return max(lg.level.bands.stop - lg.level.bands.start for lg in levels)
+
+
 #: A band group spans less than an octave: IEC 61260-1's base-10 octave ratio 10^(3/10).
 OCTAVE_RATIO = 10.0 ** 0.3
 
@@ -223,4 +231,4 @@ def early_arrivals(levels: list[LevelGeometry], scene: Scene, receivers: Any, se
     return out
 
 
-__all__ = ["LevelGeometry", "early_arrivals", "plan", "trace"]
+__all__ = ["LevelGeometry", "early_arrivals", "largest_group", "plan", "trace"]
