@@ -238,7 +238,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
                                       settings) if levels is None else \
             sound_levels.early_arrivals(levels, scene, receivers, settings, parts,
-                                        len(scene.settings.bands_hz), acoustics.wall_model)
+                                        len(scene.settings.bands_hz), acoustics.wall_model,
+                                        sound_levels.level_receivers(scene))
         arrivals = _stacked_arrivals(early_sound.arrival_table(found), runs,
                                      scene.receivers.count)
         early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
