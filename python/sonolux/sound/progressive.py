@@ -78,7 +78,7 @@ from sonolux.sound.bake import add_waves, check_waves, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
-from sonolux.sound.reach import reach
+from sonolux.sound.reach import SEALED_OR_COUPLED, reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
 from sonolux.sound.waves import with_scene
 
@@ -301,10 +301,10 @@ def unreached_warning(u: dict[str, Any], rays: int) -> str:
     return (f"warning: no energy{source} reached receiver #{u['receiver']} at ({where}) m in "
             f"{rays:,} rays, where a receiver in the room's diffuse field would have been hit about "
             f"{u['expected_hits']:,.0f} times (its level is at least "
-            f"{-u['level_below_db']:.1f} dB below the room's, 95 %): it is sealed off from the "
-            f"source{'' if source else 's'} (a closed door or wall, a separate part of the mesh?); "
-            f"it was not waited for and its {'field of that source' if source else 'field'} is "
-            "silent")
+            f"{-u['level_below_db']:.1f} dB below the room's, 95 %): "
+            + SEALED_OR_COUPLED.format(sources="source" if source else "sources")
+            + f"; it was not waited for and its {'field of that source' if source else 'field'} "
+            "is silent")
 
 
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,
