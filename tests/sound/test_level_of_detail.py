@@ -139,7 +139,8 @@ BOX_BANDS = [63, 125, 250, 500, 1000, 2000, 4000]
 BOX_ALPHA_HARD, BOX_ALPHA_ROOM = 0.03, 0.12
 
 
-def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True, rays: str = "octave"):
+def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True, rays: str = "octave",
+             channels: list | None = None):
     """8 × 6 × 3 m; the west wall and its boxes hard (α 0.03, s 0.05), the rest α 0.12, s 0.2;
     nine listeners at 1.2 m. Level of detail applies to every reflection (max_order 0: the
     direct sound exact, every reflection the particles')."""
@@ -164,7 +165,9 @@ def box_room(tmp_path: Path, boxes: bool, level_of_detail: bool = True, rays: st
     }
     if boxes:
         data["geometry"].append({"type": "mesh", "file": str(obj), "material": "hard"})
-    return sonolux.load_scene(data)
+    if channels is not None:
+        data["receivers"]["channels"] = channels
+    return sonolux.load_scene(data, base_dir=tmp_path)
 
 
 def eyring_t60_s(boxes: bool) -> float:
@@ -324,3 +327,74 @@ def test_per_band_geometry_holds_in_a_progressive_bake(tmp_path):
     plain = bake(scene, rays=field.settings["rays"], air_absorption=False, max_time_s=0.3)
     np.testing.assert_allclose(np.asarray(field.energy), np.asarray(plain.energy), rtol=1e-6,
                                atol=0)
+
+
+def test_the_memory_plan_counts_the_join_and_one_band_group(tmp_path):
+    # With levels a tile holds its field joined over every band (float32, + u64 counts for a
+    # ray range) and the tracer's 20-byte cells of one band group (sonolux.sound.levels.trace),
+    # not the tracer's cells of every band: the plan's bytes a receiver are exactly that, and
+    # the bake plans with its largest group (the octave bake's: one band) and says so.
+    from sonolux.sound import levels
+    from sonolux.sound.bake import band_arrays, memory_plan
+    from sonolux.sound.budget import TRACE_BYTES_PER_CELL
+    scene = box_room(tmp_path, True)
+    arrays = band_arrays(scene)
+    assert levels.largest_group(levels.plan(scene, arrays)) == 1
+    assert levels.largest_group(None) is None
+    options = sonolux.SoundOptions(rays=3000, storage="full", max_time_s=0.3).validate()
+    plain = memory_plan(scene, options, arrays, settings_of=(3000, 0.3))
+    cells, bands = plain.shape.cells_per_receiver, plain.shape.bands
+    assert plain.tile_bytes == plain.tile_receivers * cells * TRACE_BYTES_PER_CELL
+    for group, ray_range, value in ((1, None, 4), (bands - 1, (0, 1000), 12)):
+        with_levels = memory_plan(scene, sonolux.SoundOptions(
+            rays=3000, storage="full", max_time_s=0.3, ray_range=ray_range).validate(), arrays,
+            settings_of=(3000, 0.3), group_bands=group)
+        per_receiver = cells * value + cells // bands * group * TRACE_BYTES_PER_CELL
+        assert with_levels.tile_bytes == with_levels.tile_receivers * per_receiver
+    notes: list[str] = []
+    bake(scene, rays=500, storage="full", max_time_s=0.3, log=notes.append)
+    assert any(n.startswith("memory:") and "one group of 1 band(s)" in n for n in notes), notes
+
+
+def sloped_array(path: Path) -> None:
+    """A GeneralTF array of one capsule, the same in every direction, |H|² = (f / 1 kHz)²: its
+    band gains differ by about 12 dB an octave (0.004 at 63 Hz, 16 at 4 kHz)."""
+    import sofar
+    az, el = np.meshgrid(np.arange(0, 360, 10.0), np.arange(-90, 91, 10.0))
+    f = np.geomspace(20, 20000, 200)
+    s = sofar.Sofa("GeneralTF")
+    s.SourcePosition = np.stack([az.ravel(), el.ravel(), np.ones(az.size)], axis=1)
+    s.SourcePosition_Type = "spherical"
+    s.SourcePosition_Units = "degree, degree, metre"
+    s.ReceiverPosition = np.zeros((1, 3))
+    s.N = f
+    s.Data_Real = np.broadcast_to(f / 1000.0, (az.size, 1, f.size)).copy()
+    s.Data_Imag = np.zeros_like(s.Data_Real)
+    sofar.write_sofa(str(path), s)
+
+
+def test_sofa_receiver_channels_take_each_band_groups_own_gains(tmp_path):
+    # A SOFA channel with level of detail: each band group's tracer and image sources see that
+    # group's gains. A capsule the same in every direction weighs every arrival by its band's
+    # gain, so beside an omni channel at the same point its energy is the band's gain times
+    # the omni's, band by band (the library's own band means: sofa_receiver_gains). Tolerance
+    # 1e-5: the two channels' deposits are rounded to the fixed-point quantum apart (~1e-12).
+    # A mixed-up group (its gains from another band) would be off by 12 dB an octave. Ray
+    # ranges need one quantum for every group, which a gain that peaks differently per group
+    # does not give: refused by name.
+    from sonolux.errors import SonoluxError
+    from sonolux.scene.receiver_channels import sofa_receiver_gains
+    from sonolux.sound import levels
+    from sonolux.sound.bake import band_arrays
+    sloped_array(tmp_path / "sloped.sofa")
+    scene = box_room(tmp_path, True, channels=["omni", {"sofa": "sloped.sofa", "name": "mic"}])
+    assert len(levels.plan(scene, band_arrays(scene))) == len(BOX_BANDS)
+    field = bake(scene, rays=1000, air_absorption=False, max_time_s=0.3)
+    e = np.asarray(field.energy, float).sum(axis=(1, 3)).reshape(9, 2, -1)
+    capsule = scene.receivers.channels[1].sofa
+    gain = sofa_receiver_gains(capsule, scene.settings.band_set.edges_hz)[0, 0]
+    assert gain[-1] / gain[0] > 1e3
+    np.testing.assert_allclose(e[:, 1] / e[:, 0], np.broadcast_to(gain, e[:, 0].shape),
+                               rtol=1e-5)
+    with pytest.raises(SonoluxError, match="SOFA receiver channel.*bake it whole"):
+        bake(scene, rays=1000, ray_range=(0, 500), air_absorption=False, max_time_s=0.3)

@@ -61,7 +61,7 @@ def test_waves_that_would_not_fit_are_refused_before_any_ray(monkeypatch):
     scene = room(PTS)
     options = SoundOptions(rays=2000, waves=True, crossover_hz=354, max_time_s=0.15,
                            storage="full")
-    memory = bake_module.waves_memory(scene, options, bake_module.band_arrays(scene), 0.15)
+    memory = bake_module.check_waves(scene, options, from_ray_zero=False)
     assert memory.wave_bands == 2 and memory.points == 2 * 7
 
     def no_rays(*a, **k):
@@ -87,9 +87,6 @@ def test_paper_large_default_waves_fit_with_a_wide_margin():
     dense binning. Its estimate now must be under 4 GB (1 wave band of 7; estimated 2.66 GB), a
     fifth of the 17.6 GB limit this machine had."""
     scene = sonolux.load_scene("paper-large")
-    options = SoundOptions(waves=True)
-    arrays = bake_module.band_arrays(scene)
-    memory = bake_module.waves_memory(scene, options, arrays,
-                                      bake_module.auto_max_time(scene, arrays))
+    memory = bake_module.check_waves(scene, SoundOptions(waves=True), from_ray_zero=False)
     assert memory.wave_bands < memory.bands
     assert memory.total_bytes < 4e9, memory.describe()

@@ -49,30 +49,33 @@ def cmd_bake(args: argparse.Namespace) -> int:
     load_s = time.perf_counter() - started
     for w in scene.warnings:
         print(f"sonolux: warning: {w}", file=sys.stderr)
-    estimator = args.estimator
     spread.progressive_accuracy(args)  # its usage errors before any pilot ray is traced
-    if estimator == "auto" and args.rays != "auto" and args.sound is not False and scene.sources:
+    sound_options = SoundOptions(rays=args.rays, estimator=args.estimator,
+                                 nee_receivers=args.nee_receivers,
+                                 azimuth_bands=args.azimuth_bands,
+                                 elevation_bands=args.elevation_bands, ray_range=args.range,
+                                 air_absorption=not args.no_air, storage=args.storage,
+                                 memory_bytes=args.memory,
+                                 sources=tuple(args.bake_source) or None,
+                                 **({} if args.late_bin_ms is None
+                                    else {"late_bin_s": args.late_bin_ms / 1e3}),
+                                 waves=args.waves, crossover_hz=args.crossover_hz,
+                                 wave_time_budget_s=args.wave_time_budget)
+    if (args.estimator == "auto" and args.rays != "auto" and args.sound is not False
+            and scene.sources):
         # A fixed ray count: the estimator is measured here (a progressive bake measures it
-        # itself, before its first round).
+        # itself, before its first round), after the hybrid's checks (clearance, memory).
+        from sonolux.sound.bake import check_waves
         from sonolux.sound.progressive import choose_estimator
 
-        estimator = choose_estimator(scene, SoundOptions(nee_receivers=args.nee_receivers),
-                                     log=lambda m: print(f"sonolux: {m}", file=sys.stderr)
-                                     )[0].estimator
+        check_waves(scene, sound_options.validate())
+        sound_options = replace(sound_options, estimator=choose_estimator(
+            scene, SoundOptions(nee_receivers=args.nee_receivers),
+            log=lambda m: print(f"sonolux: {m}", file=sys.stderr))[0].estimator)
     with spread.bakers(args) as (sound_baker, light_baker, written):
         baked = bake_senses(
             scene, sound=args.sound, light=args.light, load_s=load_s,
-            sound_options=SoundOptions(rays=args.rays, estimator=estimator,
-                                       nee_receivers=args.nee_receivers,
-                                       azimuth_bands=args.azimuth_bands,
-                                       elevation_bands=args.elevation_bands, ray_range=args.range,
-                                       air_absorption=not args.no_air, storage=args.storage,
-                                       memory_bytes=args.memory,
-                                       sources=tuple(args.bake_source) or None,
-                                       **({} if args.late_bin_ms is None
-                                          else {"late_bin_s": args.late_bin_ms / 1e3}),
-                                       waves=args.waves, crossover_hz=args.crossover_hz,
-                                       wave_time_budget_s=args.wave_time_budget),
+            sound_options=sound_options,
             light_options=LightOptions(particles=args.particles, patch_size_m=args.patch_size),
             progress=not args.quiet, log=lambda m: print(f"sonolux: {m}", file=sys.stderr),
             sound_baker=sound_baker, light_baker=light_baker)

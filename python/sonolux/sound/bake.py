@@ -183,7 +183,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if end > rays:
         raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
     max_time_s = options.max_time_s or auto_max_time(scene, arrays)
-    check_wave_sources(scene, options, arrays, max_time_s)
+    # The hybrid's check before any ray: the clearance of every range, the memory of the one
+    # that computes the waves.
+    check_waves(scene, options, arrays, max_time_s, from_ray_zero=first == 0, log=log)
     early_s, stored_late_s, split = stored_axis(scene, options, arrays)
     groups = late_groups(scene, options, arrays, stored_late_s)
     picked = traced_sources(scene, options)
@@ -203,11 +205,6 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         max_field_bytes=options.max_field_bytes or budget_bytes(),
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
-    if options.waves and first == 0:
-        memory = waves_memory(scene, options, arrays, max_time_s)
-        if log:
-            log(f"waves: about {wave_memory.gb(memory.total_bytes)} at most ({memory.describe()})")
-        wave_memory.check(memory, options.max_field_bytes)
     wall_model, wall_why = sound_walls.resolve(scene, options)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model)
     wall_kept = [list(k) for k in acoustics.kept_constant()]
@@ -241,11 +238,13 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         found = engine.early_arrivals(scene.geometry, acoustics, sources, receivers, early,
                                       settings) if levels is None else \
             sound_levels.early_arrivals(levels, scene, receivers, settings, parts,
-                                        len(scene.settings.bands_hz), acoustics.wall_model)
+                                        len(scene.settings.bands_hz), acoustics.wall_model,
+                                        sound_levels.level_receivers(scene))
         arrivals = _stacked_arrivals(early_sound.arrival_table(found), runs,
                                      scene.receivers.count)
         early_stats = dict(found["stats"], seconds=time.perf_counter() - started)
-    memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s))
+    memory = memory_plan(scene, options, arrays, settings_of=(end - first, max_time_s),
+                         group_bands=sound_levels.largest_group(levels))
     if log:
         log(memory.describe())
     out = trace_tiles(scene, geometry_args=(acoustics, sources, levels, parts), runs=runs,
@@ -316,42 +315,55 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     return with_wave_range(scene, options, field, first, progress=progress, log=log)
 
 
-def check_wave_sources(scene: Scene, options: SoundOptions,
-                       arrays: dict[str, np.ndarray] | None = None,
-                       max_time_s: float | None = None) -> None:
-    """Before any ray (``sonolux.bake``, the range baker and the progressive bake call it before
-    their pilots and ranges too): in a bake with waves, a
-    directional source must have room for its cluster of monopoles on the grid of the crossover,
-    which is a function of the scene, not of the machine
-    (:func:`sonolux.sound.wave_sources.check_clearance`)."""
+def check_waves(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray] | None = None,
+                max_time_s: float | None = None, *, from_ray_zero: bool = True,
+                log: Callable[[str], None] | None = None) -> wave_memory.WaveMemory | None:
+    """The hybrid's one check at the edge, before any ray or pilot (issue 18): every entry that
+    traces rays calls it first (:func:`bake`, ``sonolux.bake``, the range baker
+    :class:`sonolux.sound.ranges.SoundRanges` and the progressive bake). The crossover is chosen
+    once, as :func:`wave_part` will choose it (a function of the scene and the options, not of
+    the machine: no timing run), on the field's own time axis; then
+
+    - a directional source must have room for its cluster of monopoles on that grid
+      (:func:`sonolux.sound.wave_sources.check_clearance`, SettingError);
+    - for the bake or range that computes the waves (``from_ray_zero``: the one from ray 0), the
+      waves must fit in memory (:mod:`sonolux.sound.wave_memory`, MemoryLimitError), the
+      estimate logged.
+
+    Returns the memory estimate (its ``crossover_hz`` the crossover), or None without waves."""
     options = wave_sound.with_scene(scene, options)
-    if not options.waves or all(s.directivity == "omni" for s in scene.sources):
-        return
+    if not options.waves:
+        return None
+    wave_sound.check_scene(scene)
     arrays = bake_arrays(scene, options) if arrays is None else arrays
     max_time_s = max_time_s or options.max_time_s or auto_max_time(scene, arrays)
-    cross = wave_sound.choose_crossover(
-        scene, max_time_s, crossover_hz=options.crossover_hz, time_budget_s=math.inf,
-        memory_limit_bytes=options.max_field_bytes or wave_sound.GRID_MEMORY_BYTES,
-        absorption=arrays["absorption"], measure=False)
-    wave_sources.check_clearance(scene, cross.max_frequency_hz, [
-        _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
+    early_s, stored_late_s, split = stored_axis(scene, options, arrays)
+    time_bins, end_s = wave_memory.field_axis(early_s, stored_late_s, split,
+                                              float(scene.settings.sample_rate_hz), max_time_s)
+    cross = wave_crossover(scene, options, arrays["absorption"], end_s, measure=False)
+    if any(s.directivity != "omni" for s in scene.sources):
+        wave_sources.check_clearance(scene, cross.max_frequency_hz, [
+            _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
+    memory = wave_memory.estimate(scene, cross, duration_s=end_s, time_bins=time_bins,
+                                  directions=options.azimuth_bands * options.elevation_bands,
+                                  max_field_bytes=options.max_field_bytes)
+    if from_ray_zero:
+        if log:
+            log(f"waves: about {wave_memory.gb(memory.total_bytes)} at most ({memory.describe()})")
+        wave_memory.check(memory, options.max_field_bytes, options.memory_bytes)
+    return memory
 
 
-def waves_memory(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray],
-                 max_time_s: float) -> wave_memory.WaveMemory:
-    """The waves' memory estimate (:mod:`sonolux.sound.wave_memory`), made before any ray: the
-    field's bins as :func:`wave_part` will have them (``split`` + 1 late bins more, for a compact
-    field's last coarse bin past ``max_time_s``, shown as ``split`` bins)."""
-    early_s, _, split = stored_axis(scene, options, arrays)
-    fs = float(scene.settings.sample_rate_hz)
-    early_bins = round(early_s * fs)
-    time_bins = early_bins + math.ceil(max(max_time_s - early_bins / fs, 0.0)
-                                       / options.late_bin_s) + split + 1
-    return wave_memory.estimate(
-        scene, arrays["absorption"], duration_s=max_time_s + options.late_bin_s,
-        time_bins=time_bins, directions=options.azimuth_bands * options.elevation_bands,
-        crossover_hz=options.crossover_hz, wave_time_budget_s=options.wave_time_budget_s,
-        max_field_bytes=options.max_field_bytes)
+def wave_crossover(scene: Scene, options: SoundOptions, absorption: np.ndarray, end_s: float, *,
+                   measure: bool) -> wave_sound.Crossover:
+    """The crossover of a hybrid bake whose field ends at ``end_s``: the same arguments before
+    the rays (:func:`check_waves`, ``measure=False``) and for the waves (:func:`wave_part`,
+    which measures the machine's speed for the printed time only)."""
+    return wave_sound.choose_crossover(
+        scene, end_s, crossover_hz=options.crossover_hz,
+        time_budget_s=options.wave_time_budget_s or wave_sound.DEFAULT_TIME_BUDGET_S,
+        absorption=absorption, measure=measure,
+        memory_limit_bytes=options.max_field_bytes or wave_sound.GRID_MEMORY_BYTES)
 
 
 def with_wave_range(scene: Scene, options: SoundOptions, field: SoundField, first: int, *,
@@ -401,12 +413,7 @@ def wave_part(scene: Scene, options: SoundOptions, field: SoundField, *,
         azimuth_bands=rec["azimuth_bands"], elevation_bands=rec["elevation_bands"],
         max_field_bytes=options.max_field_bytes or budget_bytes())
     limit = wave_sound.memory_limit(options.max_field_bytes)
-    cross = wave_sound.choose_crossover(scene, end_s, crossover_hz=options.crossover_hz,
-                                        time_budget_s=(options.wave_time_budget_s
-                                                       or wave_sound.DEFAULT_TIME_BUDGET_S),
-                                        absorption=arrays["absorption"],
-                                        memory_limit_bytes=(options.max_field_bytes
-                                                            or wave_sound.GRID_MEMORY_BYTES))
+    cross = wave_crossover(scene, options, arrays["absorption"], end_s, measure=True)
     edges_hz = scene.settings.band_set.edges_hz
     part = wave_sound.bake_waves(scene, arrays, binning, cross, end_s, limit,
                                  (field.bin_start_s, field.bin_width_s),
@@ -505,10 +512,12 @@ def field_shape(scene: Scene, options: SoundOptions, max_time_s: float,
 
 
 def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray], *,
-                settings_of: tuple[int, float]) -> sound_budget.MemoryPlan:
+                settings_of: tuple[int, float],
+                group_bands: int | None = None) -> sound_budget.MemoryPlan:
     """How the bake fits its budget (``options.memory_bytes``, default
-    :func:`sonolux.memory.budget_bytes`) with ``settings_of`` = (rays traced, max_time_s);
-    refused up front with what would fit."""
+    :func:`sonolux.memory.budget_bytes`) with ``settings_of`` = (rays traced, max_time_s) and,
+    with level of detail, ``group_bands`` the largest band group traced at once; refused up
+    front with what would fit."""
     traced, max_time_s = settings_of
     shape = field_shape(scene, options, max_time_s, arrays)
     compact = options.storage == "compact"
@@ -527,7 +536,7 @@ def memory_plan(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
     partial = options.ray_range is not None and tuple(options.ray_range) != (0, options.rays)
     return sound_budget.plan(shape, options.memory_bytes or budget_bytes(), compact=compact,
                              keep_counts=options.ray_range is not None, early_cells=cells,
-                             fields=fields,
+                             fields=fields, group_bands=group_bands,
                              reduced=None if partial else
                              reduction(options, scene.settings.sample_rate_hz))
 

@@ -14,7 +14,7 @@ from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.sound import progressive
 from sonolux.sound import ranges as in_ranges
-from sonolux.sound.bake import check_wave_sources
+from sonolux.sound.bake import check_waves
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.waves import with_scene
@@ -36,7 +36,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     ``settings["progressive"]`` says how it ended and which errors it reached.
     """
     options = with_scene(scene, replace(options or SoundOptions(), **overrides).validate())
-    check_wave_sources(scene, options)  # before any ray, pilots included
+    # The hybrid's clearance and memory, before any ray, pilots included.
+    check_waves(scene, options, from_ray_zero=(options.ray_range or (0,))[0] == 0)
     if accuracy is None and options.estimator == "auto":
         # A fixed ray count: the estimator that reaches a quarter of a JND sooner (the pilots'
         # measure of speed; the count itself stays the caller's).

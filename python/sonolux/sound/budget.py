@@ -61,6 +61,7 @@ class MemoryPlan:
     tile_bytes: int
     compact: bool
     fields: int = 1
+    group_bands: int | None = None
 
     @property
     def tiles(self) -> int:
@@ -74,10 +75,14 @@ class MemoryPlan:
         s = self.shape
         passes = "one pass over the rays" if self.tiles == 1 else \
             f"{self.tiles} tiles of {self.tile_receivers:,} receivers (one pass over the rays each)"
+        joined = ("" if self.group_bands is None else
+                  f" (level of detail: a tile's field joined over every band + one group of "
+                  f"{self.group_bands} band(s) traced at a time)")
         return (f"memory: about {gb(self.total_bytes)} of a {gb(self.budget_bytes)} budget: "
                 f"{gb(self.kept_bytes)} for the {'compact' if self.compact else 'full'} field"
                 f"{f's of {self.fields} sources' if self.fields > 1 else ''} of "
-                f"{s.receivers:,} receivers, {gb(self.tile_bytes)} while tracing; {passes}")
+                f"{s.receivers:,} receivers, {gb(self.tile_bytes)} while tracing{joined}; "
+                f"{passes}")
 
 
 def early_cells_estimate(shape: FieldShape, *, rays: int, sources: int, estimator: str,
@@ -101,14 +106,17 @@ def flag_size(n: float) -> str:
 
 def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bool,
          early_cells: int, reduced: tuple[int, int] | None = None,
-         fields: int = 1) -> MemoryPlan:
+         fields: int = 1, group_bands: int | None = None) -> MemoryPlan:
     """The tile size that fits ``budget_bytes``, or :class:`MemoryLimitError` saying what would
     fit. Kept per receiver: float32 energies (and u64 counts for a ray range) of the late part
     and of the early part: dense when full; when compact its non-zero cells (each with a u32
     index), or, ``reduced`` = (arrivals, samples per envelope bin) for a whole bake, its
     envelope and the cells of its strongest arrivals (twice as many, for the onset's).
     ``fields``: fields kept per receiver (one per source of a bake of several sources, each
-    traced alone: the tracer holds one at a time)."""
+    traced alone: the tracer holds one at a time). ``group_bands``: with level of detail
+    (:func:`sonolux.sound.levels.trace`), the bands of the largest group traced at once: a tile
+    then holds its joined field over every band (float32, and u64 counts for a ray range) and
+    the tracer's cells of one group, not the tracer's cells of every band."""
     value = 4 + (8 if keep_counts else 0)
     late = shape.directions * shape.bands * shape.late_bins
     early_dense = shape.directions * shape.bands * shape.early_bins
@@ -119,6 +127,9 @@ def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bo
         early = min(early, envelope + 2 * arrivals * shape.bands * (value + 4) + 16)
     kept = fields * shape.receivers * (late * value + early)
     per_receiver = shape.cells_per_receiver * TRACE_BYTES_PER_CELL
+    if group_bands is not None:  # the join over every band + one group's tracer cells
+        per_receiver = shape.cells_per_receiver * value + \
+            shape.cells_per_receiver * group_bands // shape.bands * TRACE_BYTES_PER_CELL
     room = budget_bytes - BASE_BYTES - kept
     tile = min(shape.receivers, room // per_receiver) if room > 0 else 0
     if tile < 1:
@@ -130,4 +141,5 @@ def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bo
             f"rest), more than the budget of {gb(budget_bytes)}: give --memory {flag_size(need * 1.05)} "
             "or more, or fewer receivers, a shorter max_time_s or wider late bins")
     tile = int(tile)
-    return MemoryPlan(shape, budget_bytes, kept, tile, tile * per_receiver, compact, fields)
+    return MemoryPlan(shape, budget_bytes, kept, tile, tile * per_receiver, compact, fields,
+                      group_bands)

@@ -167,7 +167,8 @@ def listener_warnings(field: SoundField, receiver: int) -> list[str]:
     if unreached:
         apart = [u["source_name"] for u in unreached if u.get("source") is not None]
         out.append(f"warning: no energy reached receiver #{receiver} in its bake (sealed off "
-                   + (f"from source{'s' if len(apart) > 1 else ''} {', '.join(apart)}): its "
-                      "response from there is silent" if apart
-                      else "from the sources): its response is silent"))
+                   + (f"from source{'s' if len(apart) > 1 else ''} {', '.join(apart)}"
+                      if apart else "from the sources")
+                   + ", or joined only through an opening too small for the bake's rays): its "
+                   + ("response from there is silent" if apart else "response is silent"))
     return out

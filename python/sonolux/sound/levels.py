@@ -26,6 +26,7 @@ from sonolux import engine
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.scene.simplify import Level, band_levels
+from sonolux.sound.receiver_patterns import banded_patterns
 
 
 @dataclass
@@ -49,9 +50,6 @@ def plan(scene: Scene, arrays: dict[str, np.ndarray],
         levels = by_octave(levels, scene.settings.band_set.exact_hz)
     if len(levels) == 1 and levels[0].removed == 0:
         return None
-    if scene.receivers.channels and any(c.pattern == "sofa" for c in scene.receivers.channels):
-        raise SonoluxError(f"{scene.origin}: [early] level_of_detail with per-band geometry "
-                           "does not take SOFA receiver channels yet (their gains are per band)")
     out: list[LevelGeometry] = []
     labels = scene.settings.band_set.labels()
     for lv in levels:
@@ -69,6 +67,24 @@ def plan(scene: Scene, arrays: dict[str, np.ndarray],
                 f"{lv.removed} small feature(s) replaced by the surfaces they sit on "
                 f"(+{lv.volume_added_m3:.3g} m³ of air)" if lv.removed else "the full mesh"))
     return out
+
+
+def largest_group(levels: list[LevelGeometry] | None) -> int | None:
+    """The bands of the largest group :func:`trace` traces at once (None without levels): what
+    the memory plan counts beside the joined field (:func:`sonolux.sound.budget.plan`)."""
+    if levels is None:
+        return None
+    return max(lg.level.bands.stop - lg.level.bands.start for lg in levels)
+
+
+def level_receivers(scene: Scene) -> Callable[[slice], Any] | None:
+    """A level's receivers (every one) with its band group's patterns, when they depend on the
+    band (SOFA channels); else None (the bake's receivers serve every level)."""
+    banded = banded_patterns(scene)
+    if banded is None:
+        return None
+    positions = np.ascontiguousarray(scene.receivers.positions_m, float)
+    return lambda b: engine.Receivers(positions, scene.receivers.radius_m, banded(b))
 
 
 #: A band group spans less than an octave: IEC 61260-1's base-10 octave ratio 10^(3/10).
@@ -116,11 +132,15 @@ def _joined_stats(parts: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sources: Any,
           receivers: Any, settings: dict[str, Any], progress: Any, early: Any,
-          parts: Callable[[slice], tuple[Any, Any, Any]], **whole: Any) -> dict[str, Any]:
+          parts: Callable[[slice], tuple[Any, Any, Any]],
+          receivers_of: Callable[[slice], tuple[Any, dict[str, Any]]] | None = None,
+          **whole: Any) -> dict[str, Any]:
     """``engine.trace_sound`` of one tile and run: plain without levels; with them, each level
     on its geometry and bands (``parts(bands)`` gives that level's (sources, early settings,
     air)), the fields joined along the band axis. ``whole``: passed on to every trace (the
-    bake's receivers when this is a tile of them)."""
+    bake's receivers when this is a tile of them). ``receivers_of(bands)``: (the receivers,
+    ``whole``) of a level's bands, when the receivers' patterns depend on the band (SOFA
+    channels: :func:`sonolux.sound.receiver_patterns.banded_patterns`)."""
     if levels is None:
         return engine.trace_sound(scene.geometry, acoustics, sources, receivers,
                                   engine.SoundSettings(**settings), progress, early, **whole)
@@ -137,9 +157,10 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
                                        np.ascontiguousarray(lg.level.scattering[:, b]),
                                        wall_model=acoustics.wall_model)
         step = None if progress is None else _level_progress(progress, j, len(levels))
-        part = engine.trace_sound(lg.geometry, acoustics_b, src, receivers,
+        rec, extra = (receivers, whole) if receivers_of is None else receivers_of(b)
+        part = engine.trace_sound(lg.geometry, acoustics_b, src, rec,
                                   engine.SoundSettings(**dict(settings, air_attenuation_per_m=air)),
-                                  step, early_b, **whole)
+                                  step, early_b, **extra)
         if not out:
             out = dict(part)
             shape = list(part["energy"].shape)
@@ -153,8 +174,9 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
         if "counts" in part:
             if part["quantum"] != out["quantum"]:
                 raise SonoluxError("level of detail: the band groups' fixed-point quanta differ "
-                                   "(a directional source whose peak gain differs between the "
-                                   "groups); ray ranges cannot be kept exact: bake it whole")
+                                   "(a directional source, or a SOFA receiver channel, whose "
+                                   "peak gain differs between the groups); ray ranges cannot be "
+                                   "kept exact: bake it whole (--no-checkpoint, a fixed --rays)")
             out["counts"][:, :, b] = part.pop("counts")
         parts_stats.append(part["stats"])
         cancelled |= bool(part["cancelled"])
@@ -181,11 +203,13 @@ _PATH_KEYS = ("source", "receiver", "time_s", "kind", "order")
 
 def early_arrivals(levels: list[LevelGeometry], scene: Scene, receivers: Any, settings: Any,
                    parts: Callable[[slice], tuple[Any, Any, Any]],
-                   n_bands: int, wall_model: str) -> dict[str, Any]:
+                   n_bands: int, wall_model: str,
+                   receivers_of: Callable[[slice], Any] | None = None) -> dict[str, Any]:
     """The image sources and diffraction of every level on its own geometry and bands, as one
     arrival list over all bands: a path found by several levels (a reflection off the floor is
     in every level) is one arrival holding each level's bands; a path of one level only has
-    zeros in the other bands."""
+    zeros in the other bands. ``receivers_of(bands)``: a level's receivers when their patterns
+    depend on the band (SOFA channels)."""
     rows: dict[tuple, int] = {}
     table: dict[str, list[Any]] = {}
     energy: list[np.ndarray] = []
@@ -197,7 +221,8 @@ def early_arrivals(levels: list[LevelGeometry], scene: Scene, receivers: Any, se
         acoustics_b = engine.Acoustics(np.ascontiguousarray(lg.level.absorption[:, b]),
                                        np.ascontiguousarray(lg.level.scattering[:, b]),
                                        wall_model=wall_model)
-        found = engine.early_arrivals(lg.geometry, acoustics_b, src, receivers, early_b, settings)
+        rec = receivers if receivers_of is None else receivers_of(b)
+        found = engine.early_arrivals(lg.geometry, acoustics_b, src, rec, early_b, settings)
         for k, v in found["stats"].items():
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 stats[k] = stats.get(k, 0) + v
@@ -223,4 +248,4 @@ def early_arrivals(levels: list[LevelGeometry], scene: Scene, receivers: Any, se
     return out
 
 
-__all__ = ["LevelGeometry", "early_arrivals", "plan", "trace"]
+__all__ = ["LevelGeometry", "early_arrivals", "largest_group", "level_receivers", "plan", "trace"]

@@ -74,12 +74,13 @@ from sonolux.sound.accuracy import (  # noqa: F401  (the error estimate, used th
     near_source,
     parameters,
 )
-from sonolux.sound.bake import add_waves, check_wave_sources, ray_count
+from sonolux.sound.bake import add_waves, check_waves, ray_count
 from sonolux.sound.field import SoundField
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
-from sonolux.sound.reach import reach
+from sonolux.sound.reach import SEALED_OR_COUPLED, reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
+from sonolux.sound.waves import with_scene
 
 #: Independent ray groups of the jackknife. More groups estimate the error better (the interval
 #: uses Student's t with GROUPS − 1 degrees of freedom) but each is one more call of the tracer
@@ -179,8 +180,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     why the bake stopped, the error summary. With ``estimator = "auto"`` the pilots of
     :func:`choose` run first, and the chosen estimator's pilot is the first round."""
     accuracy = (accuracy or Accuracy()).validate()
-    options = (options or SoundOptions()).validate()
-    check_wave_sources(scene, options)  # before the pilots' rays
+    # The scene's [waves] table resolved here, so that the check and the waves added agree.
+    options = with_scene(scene, (options or SoundOptions()).validate())
+    check_waves(scene, options, log=log)  # the hybrid's clearance and memory, before the pilots
     if options.ray_range is not None:
         raise SonoluxError("a progressive bake (rays = auto) cannot trace a ray range: give the "
                            "bake's ray count (--rays N) to split it")
@@ -299,10 +301,10 @@ def unreached_warning(u: dict[str, Any], rays: int) -> str:
     return (f"warning: no energy{source} reached receiver #{u['receiver']} at ({where}) m in "
             f"{rays:,} rays, where a receiver in the room's diffuse field would have been hit about "
             f"{u['expected_hits']:,.0f} times (its level is at least "
-            f"{-u['level_below_db']:.1f} dB below the room's, 95 %): it is sealed off from the "
-            f"source{'' if source else 's'} (a closed door or wall, a separate part of the mesh?); "
-            f"it was not waited for and its {'field of that source' if source else 'field'} is "
-            "silent")
+            f"{-u['level_below_db']:.1f} dB below the room's, 95 %): "
+            + SEALED_OR_COUPLED.format(sources="source" if source else "sources")
+            + f"; it was not waited for and its {'field of that source' if source else 'field'} "
+            "is silent")
 
 
 def _field(total: SoundSum, n_groups: int, done: int, ceiling: int, accuracy: Accuracy,

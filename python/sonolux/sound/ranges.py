@@ -24,14 +24,14 @@ from sonolux.checkpoint import fingerprint
 from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.sound import walls
-from sonolux.sound.bake import add_waves, check_wave_sources, ray_count, with_wave_range
+from sonolux.sound.bake import add_waves, check_waves, ray_count, with_wave_range
 from sonolux.sound.bake import bake as bake_whole
 from sonolux.sound.compact import CompactArray, add_counts, energy_of, reduced
 from sonolux.sound.early import add_arrivals
 from sonolux.sound.field import SoundField, with_source_energy
 from sonolux.sound.options import SoundOptions
 from sonolux.sound.stats import combine_stats
-from sonolux.sound.waves import is_wave_part, with_wave_part
+from sonolux.sound.waves import is_wave_part, with_scene, with_wave_part
 from sonolux.version import __version__
 
 #: The SoundField arrays a sum carries besides the counts (small: bins, bands, points).
@@ -90,13 +90,16 @@ class SoundRanges:
 
     def __init__(self, scene: Scene, options: SoundOptions | None = None,
                  log: Callable[[str], None] | None = None) -> None:
-        options = (options or SoundOptions()).validate()
-        check_wave_sources(scene, options)  # before any range is traced
+        # The scene's [waves] table resolved here too, so that the check and finish agree.
+        options = with_scene(scene, (options or SoundOptions()).validate())
         rays = ray_count(scene, options, log=log)
         self.total = rays
         self.target = tuple(options.ray_range or (0, rays))
         if self.target[1] > rays:
             raise SonoluxError(f"ray_range {options.ray_range} goes past the bake's {rays} rays")
+        # Before any range is traced: the hybrid's clearance, and the memory of its waves when
+        # this work holds ray 0 (finish computes them then).
+        check_waves(scene, options, from_ray_zero=self.target[0] == 0, log=log)
         # The memory limits do not change the bits: they are left out of the fingerprint.
         self.options = replace(options, rays=rays, ray_range=None, max_field_bytes=None,
                                memory_bytes=None)

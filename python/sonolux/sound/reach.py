@@ -29,6 +29,12 @@ expected that none at all is improbable beyond the bake's stated confidence:
   is waited for. The decision is taken again every round from all rays so far: one that later
   gets a deposit is waited for again.
 
+What the test cannot tell: a receiver joined to the sources only through a small opening (a
+coupled space) has an energy density far below the room's average (about the opening's area over
+its own room's absorption area, Kuttruff's coupled rooms), so it too may get no hit in the first
+rounds and be declared unreached, then be waited for again once a ray comes through. The bound
+stated (its level at least so far below the room's) holds either way; the messages say both.
+
 Rows of a field per source (rows source by source, docs/fieldfile.md) are each tested against
 that source's share of the hits (each source traces the same number of rays).
 """
@@ -45,6 +51,12 @@ from sonolux.errors import SonoluxError
 
 #: The reason a receiver's parameters are left out, in the record and on the round line.
 UNREACHED = "no energy reached it"
+#: What an unreached receiver may be: the rays cannot tell a sealed space from one joined through
+#: an opening so small that no ray has come through yet (a 1 cm² hole in a wall between two
+#: reverberant rooms: none of 16,384 rays, some of 131,072; tests/sound/test_progressive_reach.py).
+SEALED_OR_COUPLED = ("it is sealed off from the {sources} (a closed door or wall, a separate part "
+                     "of the mesh?) or joined to them only through an opening too small for the "
+                     "rays so far (a coupled space: more rays, --rays N, tell them apart)")
 #: The confidence of the decision: the bake's reported interval (t(0.975, G − 1) × SE).
 CONFIDENCE = 0.95
 
@@ -108,7 +120,6 @@ def silent_receivers(field: Any, area_m2: float) -> list[str]:
         out.append(f"warning: no energy reached receiver #{r} at ({where}) m, where a receiver "
                    f"in the room's diffuse field would have been hit about "
                    f"{found.expected_hits[r]:,.0f} times (its level is at least "
-                   f"{-found.level_below_db[r]:.1f} dB below the room's, 95 %): it is sealed "
-                   "off from the sources (a closed door or wall, a separate part of the mesh?) "
-                   "and its field is silent")
+                   f"{-found.level_below_db[r]:.1f} dB below the room's, 95 %): "
+                   + SEALED_OR_COUPLED.format(sources="sources") + "; its field is silent")
     return out

@@ -7,6 +7,7 @@ the line to the first source (ISO 3382-1 A.2.4: the figure-of-eight's null towar
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -22,14 +23,21 @@ from sonolux.scene.receiver_channels import (
 from sonolux.scene.schema import Scene
 
 
-def receiver_patterns(scene: Scene) -> list[Any] | None:
-    """One ``engine.ReceiverPattern`` a receiver of the scene, or None when all are omni."""
+def receiver_patterns(scene: Scene, bands: slice | None = None,
+                      sofa_gains: dict[int, np.ndarray] | None = None) -> list[Any] | None:
+    """One ``engine.ReceiverPattern`` a receiver of the scene, or None when all are omni.
+    ``bands``: the patterns of those bands only (a level of detail's band group, whose tracer
+    sees its own bands: only SOFA channels depend on the band); ``sofa_gains``: the SOFA
+    channels' gains over every band, if already computed (:func:`banded_patterns`)."""
     rec = scene.receivers
     if not rec.channels:
         return None
-    edges = scene.settings.band_set.edges_hz
-    sofa_gains = {k: sofa_receiver_gains(c.sofa, edges)
-                  for k, c in enumerate(rec.channels) if c.pattern == "sofa"}
+    if sofa_gains is None:
+        edges = scene.settings.band_set.edges_hz
+        sofa_gains = {k: sofa_receiver_gains(c.sofa, edges)
+                      for k, c in enumerate(rec.channels) if c.pattern == "sofa"}
+    if bands is not None:  # each band's gains are its own (the band's mean |H|²): a slice
+        sofa_gains = {k: np.ascontiguousarray(g[:, :, bands]) for k, g in sofa_gains.items()}
     assert rec.channel_of is not None
     out = []
     for r, k in enumerate(rec.channel_of):
@@ -50,6 +58,24 @@ def receiver_patterns(scene: Scene) -> list[Any] | None:
         else:
             out.append(engine.ReceiverPattern.first_order(FIRST_ORDER[c.pattern], tuple(forward)))
     return out
+
+
+def banded_patterns(scene: Scene) -> Callable[[slice], list[Any]] | None:
+    """The receivers' patterns as a function of a band group (:func:`receiver_patterns` with
+    ``bands``), the SOFA gains computed once; None when no channel depends on the band (then the
+    patterns of every band serve every group)."""
+    rec = scene.receivers
+    if not rec.channels or not any(c.pattern == "sofa" for c in rec.channels):
+        return None
+    edges = scene.settings.band_set.edges_hz
+    gains = {k: sofa_receiver_gains(c.sofa, edges)
+             for k, c in enumerate(rec.channels) if c.pattern == "sofa"}
+
+    def of(bands: slice) -> list[Any]:
+        patterns = receiver_patterns(scene, bands, gains)
+        assert patterns is not None
+        return patterns
+    return of
 
 
 def channels_record(scene: Scene) -> dict[str, Any] | None:

@@ -18,7 +18,7 @@ from sonolux.scene.schema import Scene
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import levels as sound_levels
 from sonolux.sound.compact import CompactArray
-from sonolux.sound.receiver_patterns import receiver_patterns
+from sonolux.sound.receiver_patterns import banded_patterns, receiver_patterns
 from sonolux.sound.stats import combine_stats
 
 
@@ -48,6 +48,8 @@ def trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs:
     # Tiled, the nee estimator draws among all the bake's receivers (the untiled bits).
     whole = ({"bake_receivers": engine.Receivers(positions, scene.receivers.radius_m, patterns)}
              if memory.tiles > 1 and base.get("estimator") == "nee" else {})
+    # With levels, SOFA channels take each band group's own gains (per-level receivers).
+    banded = None if levels is None else banded_patterns(scene)
     for k, lo in enumerate(range(0, n, size)):
         hi = min(lo + size, n)
         receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),
@@ -56,9 +58,11 @@ def trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs:
         for j, only in enumerate(runs):
             step = k * len(runs) + j
             progress = None if callback is None else tile_progress(callback, step, steps, t0)
+            per_level = None if banded is None else _level_receivers(
+                banded, positions, scene.receivers.radius_m, (lo, hi), bool(whole))
             out = sound_levels.trace(levels, scene, acoustics, sources, receivers,
                                      dict(base, first_receiver=lo, only_source=only), progress,
-                                     early, parts, **whole)
+                                     early, parts, receivers_of=per_level, **whole)
             for key in per_tile:
                 per_tile[key] += int(out["stats"].get(key, 0))
             if k == 0:  # every tile retraces the same rays: the first tile's are the bake's
@@ -94,6 +98,21 @@ def trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs:
         out["bin_start_s"] = np.concatenate([start[:eb], late0 + fine * np.arange(n_late)])
         out["bin_width_s"] = np.concatenate([width[:eb], np.full(n_late, fine)])
     return out
+
+
+def _level_receivers(banded: Callable[[slice], list[Any]], positions: np.ndarray,
+                     radius_m: float, tile: tuple[int, int],
+                     whole: bool) -> Callable[[slice], tuple[Any, dict[str, Any]]]:
+    """(the tile's receivers, and the bake's for a tiled nee bake) with a band group's patterns."""
+    lo, hi = tile
+
+    def of(bands: slice) -> tuple[Any, dict[str, Any]]:
+        patterns = banded(bands)
+        tile_receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]), radius_m,
+                                          patterns[lo:hi])
+        return tile_receivers, ({"bake_receivers": engine.Receivers(positions, radius_m, patterns)}
+                                if whole else {})
+    return of
 
 
 def tile_progress(callback: Callable[[int, int, float], bool], tile: int, tiles: int,

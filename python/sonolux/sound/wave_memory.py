@@ -16,8 +16,10 @@ The waves' memory has phases that do not overlap, and one that does (the join):
   bins × 4 bytes, on top of the field the tracer holds.
 
 The peak is the largest of the first three plus the join. It is compared with the bake's
-``max_field_bytes``, else :func:`sonolux.memory.budget_bytes` (80% of what this machine has
-free): the limit the binning itself is held to.
+``max_field_bytes``, else its memory budget (``memory_bytes``, ``--memory``), else
+:func:`sonolux.memory.budget_bytes` (80% of what this machine has free: the limit the binning
+itself is held to). :func:`sonolux.sound.bake.check_waves` makes the estimate, with the
+clearance of directional sources, at every edge that traces rays (docs/waves.md).
 """
 
 from __future__ import annotations
@@ -62,20 +64,39 @@ class WaveMemory:
                 f"{gb(self.spheres_bytes)}, join {gb(self.join_bytes)}")
 
 
-def estimate(scene: Any, absorption: np.ndarray, *, duration_s: float, time_bins: int,
-             directions: int, crossover_hz: float | None, wave_time_budget_s: float | None,
+def field_axis(early_s: float, stored_late_bin_s: float, split: int, sample_rate_hz: float,
+               max_time_s: float) -> tuple[int, float]:
+    """(time bins, end in s) of a bake's field as the waves will see it, before any ray: the core's
+    layout (``SoundSettings::layout``: ``early_s`` rounded to samples, then late bins of
+    ``stored_late_bin_s`` to ``max_time_s``) shown at ``split`` view bins per stored late bin
+    (:func:`sonolux.sound.tiles.trace_tiles`), and the end that
+    :func:`sonolux.sound.bake.wave_part` takes for the waves' duration: the later of
+    ``max_time_s`` and the last bin's end, computed with the same floating-point operations as
+    the core and the tiles, so that the crossover chosen here is the one the waves will choose."""
+    early_bins = round(early_s * sample_rate_hz)
+    early = early_bins / sample_rate_hz
+    late_bins = math.ceil(max(max_time_s - early, 0.0) / stored_late_bin_s)
+    if late_bins == 0:  # early bins only: the last ends at its start + one sample
+        return early_bins, max(max_time_s, (early_bins - 1) / sample_rate_hz + 1.0 / sample_rate_hz
+                               if early_bins else 0.0)
+    if split > 1:
+        fine = stored_late_bin_s / split
+        n_late = late_bins * split
+        last_start = early + fine * float(n_late - 1)
+        return early_bins + n_late, max(max_time_s, last_start + fine)
+    last_start = early + float(late_bins - 1) * stored_late_bin_s
+    return early_bins + late_bins, max(max_time_s, last_start + stored_late_bin_s)
+
+
+def estimate(scene: Any, cross: Any, *, duration_s: float, time_bins: int, directions: int,
              max_field_bytes: int | None) -> WaveMemory:
-    """The estimate for a hybrid bake of ``scene`` whose field has ``time_bins`` bins over
-    ``duration_s`` and ``directions`` direction bins; the crossover is chosen as the bake will
-    (:func:`sonolux.sound.waves.choose_crossover`, without the timing run)."""
+    """The estimate for a hybrid bake of ``scene`` at the crossover ``cross`` (the one
+    :func:`sonolux.sound.waves.choose_crossover` chose for it, without the timing run), whose
+    field has ``time_bins`` bins over ``duration_s`` (:func:`field_axis`) and ``directions``
+    direction bins."""
     from sonolux.sound import wave_sources
     from sonolux.sound import waves as wave_sound
 
-    cross = wave_sound.choose_crossover(
-        scene, duration_s, crossover_hz=crossover_hz,
-        time_budget_s=wave_time_budget_s or wave_sound.DEFAULT_TIME_BUDGET_S,
-        absorption=absorption, memory_limit_bytes=max_field_bytes or wave_sound.GRID_MEMORY_BYTES,
-        measure=False)
     bands = np.asarray(scene.settings.bands_hz, float)
     c = scene.settings.speed_of_sound_m_s
     delay_s = 6.0 / (math.pi * cross.max_frequency_hz)
@@ -98,17 +119,29 @@ def estimate(scene: Any, absorption: np.ndarray, *, duration_s: float, time_bins
         time_bins=time_bins, crossover_hz=cross.crossover_hz)
 
 
-def check(memory: WaveMemory, max_field_bytes: int | None) -> None:
+def limit_bytes(max_field_bytes: int | None, memory_bytes: int | None) -> tuple[int, str]:
+    """The waves' limit and the setting it comes from: ``max_field_bytes`` (Python only), else
+    the bake's memory budget (``--memory``), else 80% of what this machine has free (the limit
+    the core's binning holds them to)."""
+    if max_field_bytes:
+        return int(max_field_bytes), f"SoundOptions.max_field_bytes = {int(max_field_bytes):,}"
+    if memory_bytes:
+        return int(memory_bytes), (f"--memory, SoundOptions.memory_bytes = "
+                                   f"{int(memory_bytes):,}")
+    return budget_bytes(), "80% of the memory this machine has free"
+
+
+def check(memory: WaveMemory, max_field_bytes: int | None, memory_bytes: int | None = None,
+          ) -> None:
     """Refuses (:class:`MemoryLimitError`) waves that would not fit, naming the parts, the
-    estimate, the limit and what to change."""
-    limit = int(max_field_bytes) if max_field_bytes else budget_bytes()
+    estimate, the limit and the setting it comes from, and what to change."""
+    limit, given = limit_bytes(max_field_bytes, memory_bytes)
     if memory.total_bytes <= limit:
         return
-    given = ("max_field_bytes" if max_field_bytes else
-             "80% of the memory this machine has free")
     raise MemoryLimitError(
         f"the waves of this hybrid bake (--waves) would need about {gb(memory.total_bytes)} "
         f"({memory.describe()}), more than the limit of {gb(limit)} ({given}); refused before "
         f"any ray is traced: use fewer receivers (a wider grid spacing), a lower crossover "
         f"(--crossover-hz, now {memory.crossover_hz:.0f} Hz), fewer directions, a shorter "
-        "max_time_s, or (from Python) a larger SoundOptions.max_field_bytes on a machine that has it")
+        f"max_time_s, or a limit of at least {gb(memory.total_bytes)} (--memory, or "
+        "SoundOptions.max_field_bytes) on a machine that has it")

@@ -118,15 +118,22 @@ impl Receivers {
             cells.push(items.len() as u32);
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
-        let lattice = lattice.map(|(lo, cell, dims)| {
+        // A lattice point holds one receiver: several at one point (a receiver's channels:
+        // an omni and a figure-of-eight at the same place) take the cell walk, which lists
+        // every sphere of a cell (the lattice kept the last one only, and the others got no
+        // deposit).
+        let lattice = lattice.and_then(|(lo, cell, dims)| {
             let (x0, y0) = (lo.x + 0.5 * cell.x, lo.y + 0.5 * cell.y);
             let mut point = vec![u32::MAX; dims[0] * dims[1]];
             for (k, c) in centres.iter().enumerate() {
                 let i = (((c.x - x0) / cell.x).round() as usize).min(dims[0] - 1);
                 let j = (((c.y - y0) / cell.y).round() as usize).min(dims[1] - 1);
+                if point[j * dims[0] + i] != u32::MAX {
+                    return None;
+                }
                 point[j * dims[0] + i] = k as u32;
             }
-            Lattice { x0, y0, sx: cell.x, sy: cell.y, nx: dims[0], ny: dims[1], z: lo.z + radius_m, tol: lattice_tolerance(&centres), point }
+            Some(Lattice { x0, y0, sx: cell.x, sy: cell.y, nx: dims[0], ny: dims[1], z: lo.z + radius_m, tol: lattice_tolerance(&centres), point })
         });
         Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells, items, lattice }
     }
@@ -517,8 +524,13 @@ mod tests {
         assert_eq!(rc.max_per_cell(), 1);
         assert_eq!(rc.dims, [10, 6, 1]);
         assert!(Receivers::new(overlapping.clone(), 0.4).max_per_cell() > 1);
+        // Two receivers at every lattice point (a receiver's channels): no lattice, every
+        // sphere found (the lattice kept one receiver a point).
+        let doubled: Vec<DVec3> = lattice.iter().flat_map(|c| [*c, *c]).collect();
+        assert!(Receivers::new(doubled.clone(), 0.35).lattice.is_none());
+        assert!(Receivers::new(lattice.clone(), 0.35).lattice.is_some());
         // 0.4: spheres that touch the cells' sides (listed in two cells, counted once).
-        for (centres, radius) in [(overlapping, 0.4), (lattice.clone(), 0.35), (lattice, 0.4), (vec![DVec3::new(1.0, 2.0, 1.5)], 0.25)] {
+        for (centres, radius) in [(overlapping, 0.4), (lattice.clone(), 0.35), (lattice, 0.4), (doubled, 0.35), (vec![DVec3::new(1.0, 2.0, 1.5)], 0.25)] {
             check_against_brute_force(&centres, radius);
         }
     }
