@@ -132,6 +132,12 @@ def test_a_wall_caps_the_orders_to_the_cluster_that_fits(clearance_cells, orders
         assert f"orders above {orders} left out: a wall" in fitted.note, fitted.note
     line = wave_sources.describe("cone (cone)", fitted, 10, 3)
     assert line.endswith(fitted.note)
+    # The memory plan at the edge (before any fit) assumes the longest pulse delay: never
+    # shorter than the fit's own, equal when the fit radiates order 2 or 3.
+    planned = wave_sources.longest_pulse_delay_s(BANDS, 500.0)
+    delay = wave_sources.pulse_delay_s(BANDS, 500.0, fitted)
+    assert delay <= planned
+    assert (delay == planned) == (orders >= 2)
 
 
 def test_the_talker_radiates_its_model_s_phase_from_its_acoustic_centre():

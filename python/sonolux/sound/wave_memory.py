@@ -101,7 +101,7 @@ def estimate(scene: Any, cross: Any, *, duration_s: float, time_bins: int, direc
     c = scene.settings.speed_of_sound_m_s
     delay_s = 6.0 / (math.pi * cross.max_frequency_hz)
     if any(s.directivity != "omni" for s in scene.sources):
-        delay_s = max(delay_s, wave_sources.pulse_delay_s(bands, cross.max_frequency_hz))
+        delay_s = max(delay_s, wave_sources.longest_pulse_delay_s(bands, cross.max_frequency_hz))
     settings = wave_sound.wave_settings(cross.max_frequency_hz, duration_s + delay_s, c,
                                         scene.settings.threads,
                                         wave_sound.memory_limit(max_field_bytes))

@@ -409,6 +409,12 @@ def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
     return 6.0 / (math.pi * max_frequency_hz) + PRE_PERIODS / lowest
 
 
+def longest_pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float) -> float:
+    """The longest delay :func:`pulse_delay_s` can give for these bands (a fit radiating order 2
+    or 3): what a plan made before the fit (the memory check at the edge) must assume."""
+    return 6.0 / (math.pi * max_frequency_hz) + PRE_PERIODS / (0.5 * lowest_filter_hz(bands_hz))
+
+
 def edge_blends(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
     """float64[edge, frequency]: how much of the band above each edge (between centres i and
     i + 1, at their geometric mean) a frequency takes: 0 below a quarter band under the edge, 1
