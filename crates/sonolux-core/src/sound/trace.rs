@@ -9,7 +9,7 @@ use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
 use super::{Directivity, Estimator, Scene, SoundSource};
 use crate::geometry::Ray;
-use crate::rng::{keyed_uniform, Stream};
+use crate::rng::{keyed_uniform, keyed_uniform_of_ray, ray_key, Stream};
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
 /// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
@@ -45,6 +45,8 @@ type SurfaceHit = Option<(f64, usize, DVec3)>;
 pub(crate) struct RayState {
     source: usize,
     index: u64,
+    /// [`ray_key`] of (seed, source, index): the deposits' rounding keys start from it.
+    key: u64,
     rng: Stream,
     pos: DVec3,
     dir: DVec3,
@@ -82,7 +84,7 @@ pub(crate) struct RayState {
 impl RayState {
     fn new(n_bands: usize) -> RayState {
         RayState {
-            source: 0, index: 0, rng: Stream::new(0, 0, 0), pos: DVec3::ZERO, dir: DVec3::X,
+            source: 0, index: 0, key: 0, rng: Stream::new(0, 0, 0), pos: DVec3::ZERO, dir: DVec3::X,
             share: 0.0, path: 0.0, wave_radius: 0.0, reflections: 0, segments: 0,
             free_n: 0, free_sum: 0.0, free_sq: 0.0,
             spheres: false, specular_only: true, next_known: false, next: None,
@@ -244,6 +246,7 @@ fn start_ray<const NB: usize>(scene: &Scene, limits: &Limits<NB>, s: usize, inde
     let (dir, share) = emit(&scene.sources[s], set.rays, &mut ray.rng, &mut ray.energy[..nb]);
     ray.source = s;
     ray.index = index;
+    ray.key = ray_key(set.seed, s as u64, index);
     ray.dir = dir;
     ray.share = share;
     ray.pos = scene.sources[s].position;
@@ -409,7 +412,7 @@ fn deposit_crossings<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &
         }
         scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
         let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
-        let u = keyed_uniform(set.seed, ray.source as u64, ray.index, set.first_receiver + c.receiver as u64, 2 * ray.segments);
+        let u = keyed_uniform_of_ray(ray.key, set.first_receiver + c.receiver as u64, 2 * ray.segments);
         acc.deposit(buf, base, &deposit[..nb], u);
         deposits += 1;
     });
