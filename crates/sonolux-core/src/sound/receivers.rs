@@ -47,8 +47,7 @@ struct Lattice {
     /// How far a centre may lie off the lattice and still be taken as on it.
     tol: f64,
     point: Vec<u32>,
-    /// 1 / sx and 1 / sy: the block test's indices by products (they only pick which spheres
-    /// get the exact chord test, so their rounding moves no bits: the reach is padded).
+    /// 1 / sx and 1 / sy: indices by products (they pick which spheres get the exact chord test).
     inv_sx: f64,
     inv_sy: f64,
 }
@@ -254,32 +253,20 @@ impl Receivers {
             return;
         }
         let (pa, pb) = (origin + dir * t0, origin + dir * t1);
-        // Most stretches are short (a segment crossing the slab at a slant): the spheres whose
-        // centres lie within pad of the stretch's box fit a block of 2 × 2 lattice points,
-        // all tested. Only the index of the block's corner depends on the segment: no loop
-        // whose length changes from segment to segment, and so fewer mispredicted branches
-        // than the walk along the columns below (half of paper-large's segments reach here,
-        // testing 0.7 spheres on average: the walk's set-up and branches cost more than its
-        // tests).
+        // Most stretches are short (the segment crosses the slab at a slant): the lattice points
+        // within pad of the stretch's box are at most 2 × 2, tested without the column walk's
+        // set-up and its loops of varying length (half of paper-large's segments reach here and
+        // test 0.7 spheres on average: the walk's branches cost more than its tests).
         let span = |a: f64, b: f64, p0: f64, inv: f64, n: usize| index_span((a.min(b) - pad - p0) * inv, (a.max(b) + pad - p0) * inv, n);
-        let (i0, i1) = span(pa.x, pb.x, lat.x0, lat.inv_sx, lat.nx);
-        let (j0, j1) = span(pa.y, pb.y, lat.y0, lat.inv_sy, lat.ny);
+        let ((i0, i1), (j0, j1)) = (span(pa.x, pb.x, lat.x0, lat.inv_sx, lat.nx), span(pa.y, pb.y, lat.y0, lat.inv_sy, lat.ny));
         if i0 > i1 || j0 > j1 {
             return;
         }
         if i1 - i0 <= 1 && j1 - j0 <= 1 {
-            for j in j0..j0 + 2 {
-                for i in i0..i0 + 2 {
-                    if i > i1 || j > j1 {
-                        continue;
-                    }
-                    let k = lat.point[j * lat.nx + i];
-                    if k == u32::MAX {
-                        continue;
-                    }
-                    if let Some(crossing) = self.chord(k, self.centres[k as usize], origin, dir, length) {
-                        f(crossing);
-                    }
+            for (i, j) in [(i0, j0), (i0 + 1, j0), (i0, j0 + 1), (i0 + 1, j0 + 1)] {
+                let k = if i <= i1 && j <= j1 { lat.point[j * lat.nx + i] } else { u32::MAX };
+                if let Some(crossing) = (k != u32::MAX).then(|| self.chord(k, self.centres[k as usize], origin, dir, length)).flatten() {
+                    f(crossing);
                 }
             }
             return;
