@@ -139,7 +139,7 @@ impl Worker {
 /// The bake's values every segment reads, computed once a batch of rays. `NB` is the number
 /// of bands when the kernel was compiled for it (0: any, read from the scene): with the count
 /// known to the compiler every band loop is unrolled and vectorised and its bounds checks go
-/// (paper-large, one receiver, seven octaves: 580 → 506 instructions a segment, callgrind).
+/// (paper-large, one receiver, seven octaves: 578 → 506 instructions a segment, callgrind).
 struct Limits<const NB: usize> {
     n_bands: usize,
     /// A ray stops when every band's relative energy is below this.
