@@ -1,13 +1,14 @@
 //! The sound tracer's kernel on the paper's rooms without Python around it: for profiling
 //! (`perf record`) and for checking that a change keeps the bits of a bake.
 //!
-//!   cargo run --release -p sonolux-core --example sound_kernel -- [ROOM] [one|grid] [air|noair] [RAYS] [THREADS] [REPEATS]
+//!   cargo run --release -p sonolux-core --example sound_kernel -- [ROOM] [one|grid] [air|noair] [RAYS] [THREADS] [REPEATS] [BANDS]
 //!
 //! ROOM is paper-small, paper-medium or paper-large (default large), built as the scene files
 //! under python/sonolux/data/scenes build them: walls and ceiling absorb 5 %, the floor 30 %,
 //! scattering 0.1, the talker at the centre 1.5 m high, receivers every metre at 1.5 m (radius
 //! 0.25 m) or the one receiver `benchmarks/sound.py` gives the peer. The settings (seven
-//! octaves, 48 kHz, the early part and the maximum time, the air at 20 °C and 50 %) are those
+//! octaves, 48 kHz, the early part, the stored late bins of 10 ms (compact storage) and the
+//! maximum time, the air at 20 °C and 50 %) are those
 //! the library hands the core for these scenes. Prints the time per ray and per segment (the
 //! best of REPEATS bakes) and a hash of the field's counts and the statistics.
 
@@ -51,12 +52,14 @@ fn main() {
     let rays: u64 = arg(3, "200000").parse().expect("RAYS");
     let threads: usize = arg(4, "1").parse().expect("THREADS");
     let repeats: usize = arg(5, "3").parse().expect("REPEATS");
+    // BANDS other than 7 (the kernel is compiled for 6, 7 and 18, any other count at run time):
+    // the octaves' air repeated, the same materials in every band.
+    let nb: usize = arg(6, "7").parse().expect("BANDS");
     let r = room(&name);
     let [l, w, h] = r.size;
     // Materials: 0 the floor, 1 walls and ceiling (tests/common's order: floor, ceiling, 4 walls).
     let mesh = common::shoebox(l as f32, w as f32, h as f32, [0, 1, 1, 1, 1, 1]);
     let bvh = Bvh::build(&mesh).expect("bvh");
-    let nb = 7;
     let acoustics = Acoustics {
         n_bands: nb,
         absorption: [vec![0.3; nb], vec![0.05; nb]].concat(),
@@ -82,7 +85,7 @@ fn main() {
     let receivers = Receivers::new(centres, 0.25);
     // ISO 9613-1 energy attenuation at 20 °C, 50 %, 101.325 kPa, octaves 125 Hz–8 kHz (1/m):
     // what python/sonolux/scene/summary.py hands the core for these scenes.
-    let air_per_m = [0.00010254490270413848, 0.0003034917968652891, 0.0006294033499920638, 0.001074094207547551, 0.0022692532644438272, 0.006774032137364035, 0.023926674578535357];
+    let octaves_air_per_m = [0.00010254490270413848, 0.0003034917968652891, 0.0006294033499920638, 0.001074094207547551, 0.0022692532644438272, 0.006774032137364035, 0.023926674578535357];
     let settings = SoundSettings {
         rays,
         first_ray: 0,
@@ -93,12 +96,12 @@ fn main() {
         threads,
         estimator: Estimator::Paper,
         speed_of_sound_m_s: 343.21462268256795,
-        air_attenuation_per_m: if air { air_per_m.to_vec() } else { vec![0.0; nb] },
+        air_attenuation_per_m: if air { (0..nb).map(|b| octaves_air_per_m[b % 7]).collect() } else { vec![0.0; nb] },
         energy_drop_db: 60.0,
         max_time_s: r.max_time_s,
         sample_rate_hz: 48_000.0,
         early_s: r.early_bins / 48_000.0,
-        late_bin_s: 0.001,
+        late_bin_s: 0.01,
         n_azimuth: 8,
         n_elevation: 1,
         max_field_bytes: 1 << 34,

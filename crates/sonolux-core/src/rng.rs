@@ -21,7 +21,21 @@ fn mix(mut z: u64) -> u64 {
 /// gives every receiver the bits of the bake of all of them at once.
 #[inline]
 pub fn keyed_uniform(seed: u64, source: u64, ray: u64, receiver: u64, event: u64) -> f64 {
-    let k = mix(mix(mix(mix(seed ^ 0x0de9_0517_u64) ^ source.wrapping_mul(0x9e37_79b9_7f4a_7c15)) ^ ray) ^ receiver.wrapping_mul(0xd1b5_4a32_d192_ed03));
+    keyed_uniform_of_ray(ray_key(seed, source, ray), receiver, event)
+}
+
+/// The part of [`keyed_uniform`]'s key that one ray's deposits share: a tracer computes it
+/// once a ray and hands it to [`keyed_uniform_of_ray`] (the same numbers, two mixes a deposit
+/// instead of five).
+#[inline]
+pub fn ray_key(seed: u64, source: u64, ray: u64) -> u64 {
+    mix(mix(mix(seed ^ 0x0de9_0517_u64) ^ source.wrapping_mul(0x9e37_79b9_7f4a_7c15)) ^ ray)
+}
+
+/// [`keyed_uniform`] from the ray's [`ray_key`].
+#[inline]
+pub fn keyed_uniform_of_ray(ray_key: u64, receiver: u64, event: u64) -> f64 {
+    let k = mix(ray_key ^ receiver.wrapping_mul(0xd1b5_4a32_d192_ed03));
     (mix(k ^ event) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 

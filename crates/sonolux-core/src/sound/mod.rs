@@ -13,6 +13,7 @@
 //!   bounded number of receivers drawn by importance and weighted by 1/(M p) ([`nee`]).
 //!   All three estimate the same mean over each receiver's sphere.
 
+mod direct;
 pub mod field;
 pub mod nee;
 pub mod pattern;
@@ -518,7 +519,7 @@ pub fn trace_sound_with(
     for w in &workers {
         stats.merge(&w.stats);
     }
-    // (The rains' exact direct sound is deposited by the rays, a share a block: trace::direct_share.)
+    // (The rains' exact direct sound is deposited by the rays, a share a block: direct::direct_share.)
     stats.finish();
     Ok(SoundResult { layout, field, stats, cancelled })
 }

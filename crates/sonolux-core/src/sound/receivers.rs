@@ -47,6 +47,9 @@ struct Lattice {
     /// How far a centre may lie off the lattice and still be taken as on it.
     tol: f64,
     point: Vec<u32>,
+    /// 1 / sx and 1 / sy: indices by products (they pick which spheres get the exact chord test).
+    inv_sx: f64,
+    inv_sy: f64,
 }
 
 /// A sphere crossed by a segment.
@@ -118,10 +121,8 @@ impl Receivers {
             cells.push(items.len() as u32);
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
-        // A lattice point holds one receiver: several at one point (a receiver's channels:
-        // an omni and a figure-of-eight at the same place) take the cell walk, which lists
-        // every sphere of a cell (the lattice kept the last one only, and the others got no
-        // deposit).
+        // A lattice point holds one receiver: several at one point (a receiver's channels) take
+        // the cell walk, which lists every sphere of a cell (a lattice would keep only the last).
         let lattice = lattice.and_then(|(lo, cell, dims)| {
             let (x0, y0) = (lo.x + 0.5 * cell.x, lo.y + 0.5 * cell.y);
             let mut point = vec![u32::MAX; dims[0] * dims[1]];
@@ -133,7 +134,7 @@ impl Receivers {
                 }
                 point[j * dims[0] + i] = k as u32;
             }
-            Some(Lattice { x0, y0, sx: cell.x, sy: cell.y, nx: dims[0], ny: dims[1], z: lo.z + radius_m, tol: lattice_tolerance(&centres), point })
+            Some(Lattice { x0, y0, sx: cell.x, sy: cell.y, nx: dims[0], ny: dims[1], z: lo.z + radius_m, tol: lattice_tolerance(&centres), point, inv_sx: 1.0 / cell.x, inv_sy: 1.0 / cell.y })
         });
         Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells, items, lattice }
     }
@@ -257,6 +258,24 @@ impl Receivers {
             return;
         }
         let (pa, pb) = (origin + dir * t0, origin + dir * t1);
+        // Most stretches are short (the segment crosses the slab at a slant): the lattice points
+        // within pad of the stretch's box are at most 2 × 2, tested without the column walk's
+        // set-up and its loops of varying length (half of paper-large's segments reach here and
+        // test 0.7 spheres on average: the walk's branches cost more than its tests).
+        let span = |a: f64, b: f64, p0: f64, inv: f64, n: usize| index_span((a.min(b) - pad - p0) * inv, (a.max(b) + pad - p0) * inv, n);
+        let ((i0, i1), (j0, j1)) = (span(pa.x, pb.x, lat.x0, lat.inv_sx, lat.nx), span(pa.y, pb.y, lat.y0, lat.inv_sy, lat.ny));
+        if i0 > i1 || j0 > j1 {
+            return;
+        }
+        if i1 - i0 <= 1 && j1 - j0 <= 1 {
+            for (i, j) in [(i0, j0), (i0 + 1, j0), (i0, j0 + 1), (i0 + 1, j0 + 1)] {
+                let k = if i <= i1 && j <= j1 { lat.point[j * lat.nx + i] } else { u32::MAX };
+                if let Some(crossing) = (k != u32::MAX).then(|| self.chord(k, self.centres[k as usize], origin, dir, length)).flatten() {
+                    f(crossing);
+                }
+            }
+            return;
+        }
         let h = (dir.x * dir.x + dir.y * dir.y).sqrt();
         // Along x (columns) when the 2D direction leans to x, else along y: swap the axes.
         let x_major = dir.x.abs() >= dir.y.abs();
@@ -360,10 +379,11 @@ fn index_span(a: f64, b: f64, n: usize) -> (usize, usize) {
         return (1, 0);
     }
     let (a, b) = (a.max(0.0), b.min(top));
-    // a ≥ 0: truncation is the floor; b ≥ 0 likewise.
-    let first = a as usize + usize::from(a > (a as usize) as f64);
-    let last = b as usize;
-    (first, last)
+    // a ≥ 0: truncation is the floor; b ≥ 0 likewise. Through i64 (n ≤ 4096): one
+    // instruction each way, where usize's conversions are a branch and several.
+    let first = a as i64 + i64::from(a > (a as i64) as f64);
+    let last = b as i64;
+    (first as usize, last as usize)
 }
 
 /// Up to this many receivers, a segment tests every sphere instead of walking the grid's cells.
