@@ -37,7 +37,7 @@ How (docs/progressive.md has the derivation and the checks):
   not assumed, and ranked by counted work (segments, visibility tests, deposits, draws: the
   same on any machine), not by wall time; the chosen pilot is the bake's first round.
 - **The direct sound** of the rain and nee estimators is exact (no noise); the rays deposit it a
-  share per block of 256 (``trace::direct_share`` in the core), so each group holds its share
+  share per block of 256 (``direct::direct_share`` in the core), so each group holds its share
   and every leave-out estimate the same direct sound (:mod:`sonolux.sound.accuracy`).
 - **The next round.** A standard error falls as 1/√n, so the rays that the worst
   receiver and band need are n · (SE / target)²; the next round goes to 1.1 × that, at least
