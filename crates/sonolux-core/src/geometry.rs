@@ -6,7 +6,7 @@
 //! A ray through a shared edge or vertex therefore hits at least one of the triangles: sound
 //! and light cannot leak through the seams of a closed mesh.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A ray with the values that every triangle test of it needs, computed once.
 #[derive(Clone, Copy, Debug)]
@@ -43,11 +43,15 @@ impl Ray {
         let (next, after) = ((kz + 1) % 3, (kz + 2) % 3);
         let swap = (pick(d, kz) < 0.0) as usize;
         let (kx, ky) = (next ^ ((next ^ after) * swap), after ^ ((next ^ after) * swap));
-        let sz = 1.0 / pick(d, kz);
+        // The three reciprocals in one SIMD division; 1/d[kz] is among them (d[kz], the largest
+        // |component|, is zero only for a zero direction, which no query asks about).
+        let safe = Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::splat(1e-30).copysign(dir), dir);
+        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(safe));
+        let sz = pick(inv_dir.to_array(), kz);
         Ray {
             origin,
             dir,
-            inv_dir: Vec3::ONE / Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::splat(1e-30).copysign(dir), dir),
+            inv_dir,
             kx,
             ky,
             kz,
