@@ -8,7 +8,7 @@ use super::field::{Accumulator, Deposits};
 use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
 use super::{Directivity, Estimator, Scene, SoundSource};
-use crate::geometry::Ray;
+use crate::geometry::{offset_origin, Ray};
 use crate::rng::{keyed_uniform, Stream};
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
@@ -297,7 +297,7 @@ fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, 
     if normal.dot(ray.dir) > 0.0 {
         normal = -normal;
     }
-    let point = ray.pos + ray.dir * length;
+    let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = scene.mesh.material[tri] as usize;
     let m = material * nb;
     absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb], &mut scratch.absorption[..nb]);
@@ -308,7 +308,7 @@ fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, 
         // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
         // and after (along the specular direction) the reflection, as the image sources do.
         let mirror = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
-        let next = scene.surfaces.nearest(point + normal * scene.epsilon, mirror);
+        let next = scene.surfaces.nearest(offset_origin(point, normal, ray.pos), mirror);
         lod.specular_shares(tri, ray.dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut scratch.shares[..nb]);
         for b in 0..nb {
             scratch.scattering[b] = crate::early::lod::effective_scattering(scat[b], scratch.shares[b]);
@@ -340,13 +340,25 @@ fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, 
         ray.dir = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
         ray.spheres = true;
     }
-    ray.pos = point + normal * scene.epsilon;
+    ray.pos = offset_origin(point, normal, ray.pos);
 
     if ray.energy[..nb].iter().all(|&x| x < limits.floor) {
         keep_remaining(ray, nb);
         return false;
     }
     true
+}
+
+/// The hit point `point` (the ray's origin + t · direction) put back on the plane of mesh
+/// triangle `tri` (unit `normal`), in f64: t comes from the BVH's f32 test, whose error grows
+/// with the distance travelled, and [`offset_origin`] needs the point on its surface to within
+/// a few ulps (Wächter and Binder 2019 compute it from barycentrics for the same reason). (A
+/// convex room's hits, computed in f64 on its planes, move by no more than the f32 rounding of
+/// the triangle's corner.)
+#[inline(always)]
+fn on_surface(scene: &Scene, point: DVec3, normal: DVec3, tri: usize) -> DVec3 {
+    let corner = scene.mesh.vertices[scene.mesh.triangles[tri][0] as usize].as_dvec3();
+    point - normal * normal.dot(point - corner)
 }
 
 /// Deposits into every receiver sphere the ray's current segment (of `length`, from `ray.pos`
@@ -487,7 +499,7 @@ pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal
     }
     let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { return };
     if !scene.convex {
-        let from = point + normal * scene.epsilon;
+        let from = offset_origin(point, normal, point + normal);
         let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
         st.shadow_rays += 1;
         if scene.bvh.occluded(&ray, 0.0, 1.0) {
