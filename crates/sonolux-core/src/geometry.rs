@@ -223,25 +223,24 @@ const OFFSET_ULPS: f32 = 256.0;
 /// moves only the coordinates the normal has; rounded to the nearest, a hit a fraction of an
 /// ulp from a neighbouring wall (a corner, an edge) could land on that wall's plane, and a ray
 /// that starts on a plane and leaves through it is not stopped by it (t = 0 is not a hit).
+/// Written without branches (every condition is a 0/1 integer or a select): which way a
+/// coordinate rounds is a coin toss, and this is on the path from one query to the next.
 #[inline]
 pub fn offset_origin(point: glam::DVec3, normal: glam::DVec3, towards: glam::DVec3) -> glam::DVec3 {
     let n = normal.as_vec3().to_array();
     glam::DVec3::from_array(std::array::from_fn(|i| {
         let (x, to) = (point[i], towards[i]);
         let p = x as f32;
-        let p = if to > x && f64::from(p) <= x {
-            p.next_up()
-        } else if to < x && f64::from(p) >= x {
-            p.next_down()
-        } else {
-            p
-        };
-        let ulps = (OFFSET_ULPS * n[i]) as i32;
+        let back = f64::from(p);
+        // Ulps toward +∞: one when `towards` is above x and p is not, minus one when below,
+        // plus the normal's 256 × n.
+        let step = ((to > x) & (back <= x)) as i32 - ((to < x) & (back >= x)) as i32;
+        let ulps = (OFFSET_ULPS * n[i]) as i32 + step;
         // Adding to the bits moves away from 0: a negative coordinate takes the opposite count.
-        let ulps = if p < 0.0 { -ulps } else { ulps };
-        let by_ulps = f32::from_bits((p.to_bits() as i32).wrapping_add(ulps) as u32);
+        let sign = (p.to_bits() as i32) >> 31; // 0, or −1 when negative
+        let by_ulps = f32::from_bits((p.to_bits() as i32).wrapping_add((ulps ^ sign) - sign) as u32);
         let fixed = p + OFFSET_FIXED * n[i];
-        f64::from(if p.abs() < OFFSET_NEAR_ZERO { fixed } else { by_ulps })
+        f64::from(std::hint::select_unpredictable(p.abs() < OFFSET_NEAR_ZERO, fixed, by_ulps))
     }))
 }
 

@@ -352,11 +352,13 @@ fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, 
 /// The hit point `point` (the ray's origin + t · direction) put back on the plane of mesh
 /// triangle `tri` (unit `normal`), in f64: t comes from the BVH's f32 test, whose error grows
 /// with the distance travelled, and [`offset_origin`] needs the point on its surface to within
-/// a few ulps (Wächter and Binder 2019 compute it from barycentrics for the same reason). (A
-/// convex room's hits, computed in f64 on its planes, move by no more than the f32 rounding of
-/// the triangle's corner.)
+/// a few ulps (Wächter and Binder 2019 compute it from barycentrics for the same reason). A
+/// convex room's hits are computed in f64 on its planes already.
 #[inline(always)]
 fn on_surface(scene: &Scene, point: DVec3, normal: DVec3, tri: usize) -> DVec3 {
+    if scene.surfaces.traces_planes() {
+        return point;
+    }
     let corner = scene.mesh.vertices[scene.mesh.triangles[tri][0] as usize].as_dvec3();
     point - normal * normal.dot(point - corner)
 }
