@@ -240,7 +240,8 @@ pub fn offset_origin(point: glam::DVec3, normal: glam::DVec3, towards: glam::DVe
         let sign = (p.to_bits() as i32) >> 31; // 0, or −1 when negative
         let by_ulps = f32::from_bits((p.to_bits() as i32).wrapping_add((ulps ^ sign) - sign) as u32);
         let fixed = p + OFFSET_FIXED * n[i];
-        f64::from(std::hint::select_unpredictable(p.abs() < OFFSET_NEAR_ZERO, fixed, by_ulps))
+        let near_zero = ((p.abs() < OFFSET_NEAR_ZERO) as u32).wrapping_neg(); // all ones or 0
+        f64::from(f32::from_bits((fixed.to_bits() & near_zero) | (by_ulps.to_bits() & !near_zero)))
     }))
 }
 
