@@ -308,7 +308,7 @@ fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, 
         // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
         // and after (along the specular direction) the reflection, as the image sources do.
         let mirror = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
-        let next = scene.surfaces.nearest(offset_origin(point, normal, ray.pos), mirror);
+        let next = scene.surfaces.nearest(leave(scene, point, normal, ray.pos), mirror);
         lod.specular_shares(tri, ray.dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut scratch.shares[..nb]);
         for b in 0..nb {
             scratch.scattering[b] = crate::early::lod::effective_scattering(scat[b], scratch.shares[b]);
@@ -340,7 +340,7 @@ fn advance(scene: &Scene, limits: &Limits, ray: &mut RayState, hit: SurfaceHit, 
         ray.dir = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
         ray.spheres = true;
     }
-    ray.pos = offset_origin(point, normal, ray.pos);
+    ray.pos = leave(scene, point, normal, ray.pos);
 
     if ray.energy[..nb].iter().all(|&x| x < limits.floor) {
         keep_remaining(ray, nb);
@@ -361,6 +361,17 @@ fn on_surface(scene: &Scene, point: DVec3, normal: DVec3, tri: usize) -> DVec3 {
     }
     let corner = scene.mesh.vertices[scene.mesh.triangles[tri][0] as usize].as_dvec3();
     point - normal * normal.dot(point - corner)
+}
+
+/// The origin of the ray that leaves the surface at `point` (coming from `from`): the offset
+/// of [`offset_origin`] for the BVH; the point itself for a convex room's planes, whose query
+/// (f64) only looks at the planes ahead of the ray, so the one it leaves cannot be hit again.
+#[inline(always)]
+fn leave(scene: &Scene, point: DVec3, normal: DVec3, from: DVec3) -> DVec3 {
+    if scene.surfaces.traces_planes() {
+        return point;
+    }
+    offset_origin(point, normal, from)
 }
 
 /// Deposits into every receiver sphere the ray's current segment (of `length`, from `ray.pos`
