@@ -20,6 +20,7 @@ pub mod receiver_pattern;
 pub mod receivers;
 pub mod reflectance;
 pub mod stats;
+mod leave;
 mod trace;
 
 use std::sync::Arc;
