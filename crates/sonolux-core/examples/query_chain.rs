@@ -10,6 +10,7 @@
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
+use sonolux_core::geometry::offset_origin;
 use sonolux_core::mesh::Mesh;
 use sonolux_core::rng::Stream;
 use sonolux_core::sampling::{cosine_hemisphere, Frame};
@@ -48,7 +49,7 @@ struct Walker { pos: DVec3, dir: DVec3, rng: Stream, n: u32 }
 
 impl Walker {
     #[inline(always)]
-    fn update(&mut self, hit: Option<(f64, usize, DVec3)>, src: DVec3, eps: f64) {
+    fn update(&mut self, hit: Option<(f64, usize, DVec3)>, src: DVec3) {
         self.n += 1;
         match hit {
             Some((t, _, mut normal)) if self.n < 30 => {
@@ -59,7 +60,7 @@ impl Walker {
                 } else {
                     self.dir = self.dir - 2.0 * self.dir.dot(normal) * normal;
                 }
-                self.pos = point + normal * eps;
+                self.pos = offset_origin(point, normal, self.pos);
             }
             _ => {
                 self.pos = src;
@@ -79,33 +80,32 @@ fn main() {
     let bvh = Bvh::build(&mesh).unwrap();
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
-    let eps = 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };
     for round in 0..3 {
         // one chain
         let mut a = mk(1);
         let t0 = cpu_ns();
-        for _ in 0..n { let h = surf.nearest(a.pos, a.dir); a.update(h, src, eps); }
+        for _ in 0..n { let h = surf.nearest(a.pos, a.dir); a.update(h, src); }
         let one = (cpu_ns() - t0) as f64 / n as f64;
         // two chains, both queries first
         let (mut a, mut b) = (mk(1), mk(2));
         let t0 = cpu_ns();
-        for _ in 0..n / 2 { let ha = surf.nearest(a.pos, a.dir); let hb = surf.nearest(b.pos, b.dir); a.update(ha, src, eps); b.update(hb, src, eps); }
+        for _ in 0..n / 2 { let ha = surf.nearest(a.pos, a.dir); let hb = surf.nearest(b.pos, b.dir); a.update(ha, src); b.update(hb, src); }
         let two = (cpu_ns() - t0) as f64 / n as f64;
         // two chains, query+update each
         let (mut a, mut b) = (mk(1), mk(2));
         let t0 = cpu_ns();
-        for _ in 0..n / 2 { let ha = surf.nearest(a.pos, a.dir); a.update(ha, src, eps); let hb = surf.nearest(b.pos, b.dir); b.update(hb, src, eps); }
+        for _ in 0..n / 2 { let ha = surf.nearest(a.pos, a.dir); a.update(ha, src); let hb = surf.nearest(b.pos, b.dir); b.update(hb, src); }
         let two_b = (cpu_ns() - t0) as f64 / n as f64;
         // four chains
         let mut w = [mk(1), mk(2), mk(3), mk(4)];
         let t0 = cpu_ns();
-        for _ in 0..n / 4 { let h: [_; 4] = std::array::from_fn(|i| surf.nearest(w[i].pos, w[i].dir)); for i in 0..4 { w[i].update(h[i], src, eps); } }
+        for _ in 0..n / 4 { let h: [_; 4] = std::array::from_fn(|i| surf.nearest(w[i].pos, w[i].dir)); for i in 0..4 { w[i].update(h[i], src); } }
         let four = (cpu_ns() - t0) as f64 / n as f64;
         // the first chain's rays, recorded, then queried independently
         let mut a = mk(1);
         let mut rec = Vec::with_capacity(n);
-        for _ in 0..n { rec.push((a.pos, a.dir)); let h = surf.nearest(a.pos, a.dir); a.update(h, src, eps); }
+        for _ in 0..n { rec.push((a.pos, a.dir)); let h = surf.nearest(a.pos, a.dir); a.update(h, src); }
         let t0 = cpu_ns();
         let mut acc = 0.0;
         for &(p, d) in &rec { acc += surf.nearest(p, d).map_or(0.0, |h| h.0); }

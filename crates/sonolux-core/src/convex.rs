@@ -350,6 +350,12 @@ impl<'a> Surfaces<'a> {
         }
     }
 
+    /// Whether the nearest surface comes from the convex room's planes (in f64), not the BVH.
+    #[inline(always)]
+    pub fn traces_planes(&self) -> bool {
+        self.room.is_some()
+    }
+
     #[inline(never)]
     fn nearest_in_bvh(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
         let hit = self.bvh.closest_hit_from(origin.as_vec3(), dir.as_vec3())?;

@@ -6,7 +6,7 @@
 //! A ray through a shared edge or vertex therefore hits at least one of the triangles: sound
 //! and light cannot leak through the seams of a closed mesh.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A ray with the values that every triangle test of it needs, computed once.
 #[derive(Clone, Copy, Debug)]
@@ -43,11 +43,15 @@ impl Ray {
         let (next, after) = ((kz + 1) % 3, (kz + 2) % 3);
         let swap = (pick(d, kz) < 0.0) as usize;
         let (kx, ky) = (next ^ ((next ^ after) * swap), after ^ ((next ^ after) * swap));
-        let sz = 1.0 / pick(d, kz);
+        // The three reciprocals in one SIMD division; 1/d[kz] is among them (d[kz], the largest
+        // |component|, is zero only for a zero direction, which no query asks about).
+        let safe = Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::splat(1e-30).copysign(dir), dir);
+        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(safe));
+        let sz = pick(inv_dir.to_array(), kz);
         Ray {
             origin,
             dir,
-            inv_dir: Vec3::ONE / Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::splat(1e-30).copysign(dir), dir),
+            inv_dir,
             kx,
             ky,
             kz,
@@ -194,6 +198,53 @@ impl Aabb {
     }
 }
 
+/// Points this close to 0 in a coordinate are offset by a fixed distance in it, not in ulps
+/// (Wächter and Binder 2019, `origin()`): near 0 the ulps of f32 are too fine to cover the
+/// absolute rounding error of a hit point.
+const OFFSET_NEAR_ZERO: f32 = 1.0 / 32.0;
+/// The fixed distance (times the normal's component) used there (`float_scale()`).
+const OFFSET_FIXED: f32 = 1.0 / 65536.0;
+/// Elsewhere the offset in ulps of the coordinate (times the normal's component: `int_scale()`).
+const OFFSET_ULPS: f32 = 256.0;
+
+/// The origin of a ray that leaves a surface at `point` on the side `normal` (unit) faces: the
+/// point rounded to f32 (the BVH's precision) and moved off the surface by a number of ulps of
+/// each coordinate proportional to the normal's component, so that the new ray cannot hit the
+/// surface it leaves at t ≈ 0. Wächter and Binder, "A Fast and Robust Method for Avoiding
+/// Self-Intersection", *Ray Tracing Gems* ch. 6 (2019), `offset_ray`, with their constants: the
+/// offset scales with the coordinates' own rounding error, where a fixed fraction of the
+/// scene's size (what the tracers did before) is too large for thin parts of large scenes and
+/// lost in the rounding far from the origin. It assumes `point` lies on the surface to within a
+/// few ulps (the paper computes it from barycentrics; the sound tracer puts it back on the
+/// triangle's plane in f64).
+///
+/// One addition of ours: each coordinate is rounded to the f32 strictly on the side of
+/// `towards` (a point the ray came from, in the air), not to the nearest. The normal offset
+/// moves only the coordinates the normal has; rounded to the nearest, a hit a fraction of an
+/// ulp from a neighbouring wall (a corner, an edge) could land on that wall's plane, and a ray
+/// that starts on a plane and leaves through it is not stopped by it (t = 0 is not a hit).
+/// Written without branches (every condition is a 0/1 integer or a select): which way a
+/// coordinate rounds is a coin toss, and this is on the path from one query to the next.
+#[inline]
+pub fn offset_origin(point: glam::DVec3, normal: glam::DVec3, towards: glam::DVec3) -> glam::DVec3 {
+    let n = normal.as_vec3().to_array();
+    glam::DVec3::from_array(std::array::from_fn(|i| {
+        let (x, to) = (point[i], towards[i]);
+        let p = x as f32;
+        let back = f64::from(p);
+        // Ulps toward +∞: one when `towards` is above x and p is not, minus one when below,
+        // plus the normal's 256 × n.
+        let step = ((to > x) & (back <= x)) as i32 - ((to < x) & (back >= x)) as i32;
+        let ulps = (OFFSET_ULPS * n[i]) as i32 + step;
+        // Adding to the bits moves away from 0: a negative coordinate takes the opposite count.
+        let sign = (p.to_bits() as i32) >> 31; // 0, or −1 when negative
+        let by_ulps = f32::from_bits((p.to_bits() as i32).wrapping_add((ulps ^ sign) - sign) as u32);
+        let fixed = p + OFFSET_FIXED * n[i];
+        let near_zero = ((p.abs() < OFFSET_NEAR_ZERO) as u32).wrapping_neg(); // all ones or 0
+        f64::from(f32::from_bits((fixed.to_bits() & near_zero) | (by_ulps.to_bits() & !near_zero)))
+    }))
+}
+
 /// Twice the area vector of a triangle: its direction is the normal (v1 − v0) × (v2 − v0).
 #[inline]
 pub fn triangle_cross(v0: Vec3, v1: Vec3, v2: Vec3) -> Vec3 {
@@ -203,6 +254,37 @@ pub fn triangle_cross(v0: Vec3, v1: Vec3, v2: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The offset of Wächter and Binder 2019: 256 ulps times the normal's component away from 0
+    /// along the normal, a fixed 2⁻¹⁶ times it within 1/32 of 0, and always to the normal's side.
+    #[test]
+    fn offset_origin_moves_by_ulps_to_the_normals_side() {
+        use glam::DVec3;
+        let ulp = |x: f32| f32::from_bits(x.to_bits() + 1) - x;
+        // A wall at x = 10 facing −x, one at y = −3 facing +y, the floor z = 0 facing +z.
+        let o = offset_origin(DVec3::new(10.0, -3.0, 0.0), DVec3::new(-1.0, 0.0, 0.0), DVec3::new(10.0, -3.0, 0.0));
+        assert_eq!(o.x as f32, 10.0 - 256.0 * ulp(9.99999)); // below 10: the ulp of [8, 16)
+        assert_eq!((o.y, o.z), (-3.0, 0.0));
+        let o = offset_origin(DVec3::new(10.0, -3.0, 0.0), DVec3::new(0.0, 1.0, 0.0), DVec3::new(10.0, -3.0, 0.0));
+        assert_eq!(o.y as f32, -3.0 + 256.0 * ulp(2.0));
+        let o = offset_origin(DVec3::new(10.0, -3.0, 0.0), DVec3::new(0.0, 0.0, 1.0), DVec3::new(10.0, -3.0, 0.0));
+        assert_eq!(o.z as f32, 1.0 / 65536.0);
+        // Tilted normals: every coordinate moves to the normal's side (or stays when the
+        // component is below 1/256), and the point moves off the plane through it.
+        for (p, n) in [([0.5, 7.0, -40.0], [0.6, -0.8, 0.0]), ([-0.01, 0.2, 3.0], [-0.48, 0.6, 0.64])] {
+            let (p, n) = (DVec3::from_array(p), DVec3::from_array(n));
+            let o = offset_origin(p, n, p + n);
+            for i in 0..3 {
+                assert!((o[i] - p[i]) * n[i] >= 0.0 && (n[i].abs() < 1.0 / 256.0 || o[i] != p[i]), "{p} {n} → {o}");
+            }
+            assert!(n.dot(o - p) > 0.0);
+        }
+        // A point a tenth of an ulp inside a wall x = 6010 (on the floor, near the corner)
+        // rounds to the f32 on the side it came from, not onto the wall's plane.
+        let p = DVec3::new(6010.0 - 0.1 * f64::from(ulp(6009.0)), 2.0, 0.0);
+        let o = offset_origin(p, DVec3::Z, DVec3::new(6005.0, 2.0, 1.0));
+        assert!(o.x < 6010.0 && o.x > 6009.99 && o.z > 0.0, "{o}");
+    }
 
     #[test]
     fn hits_the_middle_of_a_triangle_at_the_right_distance() {

@@ -21,6 +21,7 @@ pub mod receiver_pattern;
 pub mod receivers;
 pub mod reflectance;
 pub mod stats;
+mod leave;
 mod trace;
 
 use std::sync::Arc;
@@ -348,8 +349,6 @@ pub(crate) struct Scene<'a> {
     pub p_diffuse: Vec<f64>,
     /// Whether every material scatters every band alike (then no re-weighting is needed).
     pub uniform_scattering: bool,
-    /// Offset from a surface for the next ray's origin.
-    pub epsilon: f64,
     /// Specular-only paths counted elsewhere (None: the tracer counts everything).
     pub covered: Option<SpecularCoverage>,
     /// The receivers' tree of the sampled rain estimator (None for the others), over
@@ -488,7 +487,6 @@ pub fn trace_sound_with(
         air: settings.air_attenuation_per_m.iter().any(|&a| a > 0.0),
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),
-        epsilon: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
         covered,
         receiver_tree: receiver_tree.as_ref(),
         tree_centres,

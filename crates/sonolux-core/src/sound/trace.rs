@@ -8,7 +8,8 @@ use super::field::{Accumulator, Deposits};
 use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
 use super::{Directivity, Estimator, Scene, SoundSource};
-use crate::geometry::Ray;
+use super::leave::{leave, on_surface};
+use crate::geometry::{offset_origin, Ray};
 use crate::rng::{keyed_uniform, keyed_uniform_of_ray, ray_key, Stream};
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
@@ -324,7 +325,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
     if normal.dot(ray.dir) > 0.0 {
         normal = -normal;
     }
-    let point = ray.pos + ray.dir * length;
+    let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = scene.mesh.material[tri] as usize;
     let m = material * nb;
     absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb], &mut scratch.absorption[..nb]);
@@ -335,7 +336,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
         // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
         // and after (along the specular direction) the reflection, as the image sources do.
         let mirror = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
-        let next = scene.surfaces.nearest(point + normal * scene.epsilon, mirror);
+        let next = scene.surfaces.nearest(leave(scene, point, normal, ray.pos), mirror);
         lod.specular_shares(tri, ray.dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut scratch.shares[..nb]);
         for b in 0..nb {
             scratch.scattering[b] = crate::early::lod::effective_scattering(scat[b], scratch.shares[b]);
@@ -369,7 +370,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
         ray.dir = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
         ray.spheres = true;
     }
-    ray.pos = point + normal * scene.epsilon;
+    ray.pos = leave(scene, point, normal, ray.pos);
 
     if ray.energy[..nb].iter().all(|&x| x < limits.floor) {
         keep_remaining(ray, nb);
@@ -516,7 +517,7 @@ pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal
     }
     let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { return };
     if !scene.convex {
-        let from = point + normal * scene.epsilon;
+        let from = offset_origin(point, normal, point + normal);
         let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
         st.shadow_rays += 1;
         if scene.bvh.occluded(&ray, 0.0, 1.0) {
