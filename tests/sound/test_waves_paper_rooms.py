@@ -26,8 +26,8 @@ from sonolux.scene import builtin
 from sonolux.sound.bake import bake
 from tests.sound.test_waves_paper_room import (
     FLOOR,
-    JND,
     WALLS,
+    WAVES_MODES,
     admittance_from_random,
     iso_3382_2_sigma,
     locally_reacting_modal_decay,
@@ -109,11 +109,13 @@ def test_paper_rooms_edt_continuous_across_the_crossover(name):
 @pytest.mark.parametrize("name", list(ROOMS))
 def test_paper_rooms_waves_follow_the_exact_modes(name):
     """The waves' T30 and EDT in every wave band against the room's exact modes summed
-    coherently at the same points through the same band filters, within one just noticeable
-    difference (5 %, ISO 3382-1 table A.1; deterministic models of one room, as in
+    coherently at the same points through the same band filters: EDT within one just noticeable
+    difference (5 %, ISO 3382-1 table A.1), T30 within 2 % (``WAVES_MODES``, as in
     paper-small's ``test_the_waves_follow_the_modes_of_the_locally_reacting_room``). Measured
-    (2026-11-27): paper-medium T30 −2.5/−3.5 %, EDT −0.7/−1.9 % at 125/250 Hz; paper-large
-    T30 −4.2 %, EDT −4.1 % at 125 Hz. The modes summed incoherently put paper-large's EDT at
+    (2026-11-27, session 9, the walls meeting the grid's diffuse-field absorption):
+    paper-medium T30 +0.1/−0.7 %, EDT +2.6/+0.5 % at 125/250 Hz; paper-large T30 −0.8 %, EDT
+    −1.1 % at 125 Hz (session 8: T30 −2.5/−3.5 % and −4.2 %, EDT −0.7/−1.9 % and −4.1 %).
+    The modes summed incoherently put paper-large's EDT at
     2.55 s, the waves +14.6 % above it: that was the reference's, not the waves' (the coherent
     modes give 3.05 s; tests/sound/test_waves_paper_room.py
     ``test_coherent_modes_are_incoherent_over_the_volume_but_not_at_one_height``)."""
@@ -121,7 +123,7 @@ def test_paper_rooms_waves_follow_the_exact_modes(name):
     for key in ("t30_s", "edt_s"):
         ratio = h[key][:nb] / modes[key][:nb] - 1
         print(name, key, "waves/modes - 1", ratio)
-        assert np.all(np.abs(ratio) < JND[key]), (key, ratio)
+        assert np.all(np.abs(ratio) < WAVES_MODES[key]), (key, ratio)
 
 
 @pytest.mark.slow
