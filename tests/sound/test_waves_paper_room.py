@@ -242,7 +242,8 @@ def test_paper_room_decay_continuous_across_the_crossover():
     −2.7 % against the room's −9.4 %, 7.5 % apart (with angle-independent walls +34 % apart,
     which the test asserts would fail; their 1 kHz EDT is +28 % off the room's); the rays' 1 kHz
     EDT +3.1 % off the room's. (The modes summed incoherently gave 0.665 and 0.650: the room's
-    step −2.3 %, the rays −6.6 % off it.) T30 is
+    step −2.3 %, the rays −6.6 % off it.) Session 9, the walls meeting the grid's diffuse-field
+    absorption: the hybrid's step 4.3 % from the room's. T30 is
     ``test_paper_room_t30_step_across_the_crossover_is_the_rooms`` (a strict xfail) and
     ``test_the_rays_t30_in_this_room_is_their_scattering``."""
     h, plain, modal = _paper_room_decays()
