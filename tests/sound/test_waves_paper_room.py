@@ -242,7 +242,8 @@ def test_paper_room_decay_continuous_across_the_crossover():
     −2.7 % against the room's −9.4 %, 7.5 % apart (with angle-independent walls +34 % apart,
     which the test asserts would fail; their 1 kHz EDT is +28 % off the room's); the rays' 1 kHz
     EDT +3.1 % off the room's. (The modes summed incoherently gave 0.665 and 0.650: the room's
-    step −2.3 %, the rays −6.6 % off it.) T30 is
+    step −2.3 %, the rays −6.6 % off it.) Session 9, the walls meeting the grid's diffuse-field
+    absorption: the hybrid's step 4.3 % from the room's. T30 is
     ``test_paper_room_t30_step_across_the_crossover_is_the_rooms`` (a strict xfail) and
     ``test_the_rays_t30_in_this_room_is_their_scattering``."""
     h, plain, modal = _paper_room_decays()
@@ -312,12 +313,16 @@ def _paper_room_decays():
 def test_the_waves_follow_the_modes_of_the_locally_reacting_room():
     """The waves against the exact modes of the same locally reacting room, summed coherently
     (``coherent_s``: the receivers share the source's height), at the same cubature points
-    through the same band filters: T30 and EDT per octave within 5 %, the just noticeable
-    difference of both (ISO 3382-1:2009 table A.1). Both are deterministic models of one room
-    at the same points, so no measurement noise applies; what separates them is the scheme's
+    through the same band filters: EDT per octave within 5 %, the just noticeable difference
+    (ISO 3382-1:2009 table A.1), T30 within 2 % (``WAVES_MODES``: what the grid's wall leaves
+    once its fit meets the grid's diffuse-field absorption). Both are deterministic models of one
+    room at the same points, so no measurement noise applies; what separates them is the scheme's
     discretisation (walls rounded to cells, the boundary's numerical reflectance), which should
-    not be audible. Measured (2026-11-27): T30 −2.9/−2.5/−2.5 %, EDT −0.5/−1.4/−4.1 % at
-    125/250/500 Hz (the incoherent modes, whose EDT is not this room's: EDT −1.3/−1.9/−6.2 %).
+    not be audible. Measured (2026-11-27, session 9): T30 −0.7/−0.3/−0.7 %, EDT +1.5/+0.4/−1.1 %
+    at 125/250/500 Hz; before the fit met the grid's diffuse field (session 8, its conductance
+    fitted to the normal level up to f_max, the first ray band included): T30 −2.9/−2.5/−2.5 %,
+    EDT −0.5/−1.4/−4.1 % (the incoherent modes, whose EDT is not this room's: EDT
+    −1.3/−1.9/−6.2 %).
     First-order perturbation (the modes' rates c·Σ g·ε/L, Morse and Bolt's ε = 1 along an axis
     without a node) is not valid here for the floor's grazing modes (k(β₀ + β_L)L = 1.0 at
     500 Hz): it put the room's 500 Hz T30 at 0.769 s, the waves +8.3 % above it; the exact
@@ -331,11 +336,23 @@ def test_the_waves_follow_the_modes_of_the_locally_reacting_room():
     print("waves", h, "modes", modal)
     for key in ("t30_s", "edt_s"):
         ratio = h[key][:3] / modal[key] - 1
-        assert np.all(np.abs(ratio) < JND[key]), (key, ratio)
+        assert np.all(np.abs(ratio) < WAVES_MODES[key]), (key, ratio)
 
 
 #: Just noticeable differences, relative (ISO 3382-1:2009 table A.1).
 JND = {"t30_s": 0.05, "edt_s": 0.05}
+
+#: The waves against the exact modes, relative. EDT: one JND (above; no tighter bound is derived:
+#: the early decay at a point follows the first reflections off walls rounded to cells). T30:
+#: 2 %, what is left once the walls meet the grid's diffuse-field absorption (``fit.rs``, session
+#: 9): (a) the grid's wall still depends on angle, and in the wave bands the conductance one
+#: direction wants differs from the diffuse field's by at most 0.7 % (at f_max/2: grazing +0.4 %,
+#: diffuse +1.1 %, normal +1.7 % over Paris' g; the paper rooms' T30 is set by sound grazing the
+#: floor, T ∝ 1/g), and (b) ``mean_times`` averages the receivers' decay times where the modes
+#: decay the points' summed energy (0.6-1 % on paper-large, i18low). 0.7 + 1 rounded up to 2 %.
+#: Measured (2026-11-27): worst 0.8 % (paper-large 125 Hz, −0.8 %; before the fit met the grid's
+#: diffuse field: 4.2 %).
+WAVES_MODES = {"t30_s": 0.02, "edt_s": JND["edt_s"]}
 
 
 @pytest.mark.slow

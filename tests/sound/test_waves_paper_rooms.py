@@ -26,8 +26,8 @@ from sonolux.scene import builtin
 from sonolux.sound.bake import bake
 from tests.sound.test_waves_paper_room import (
     FLOOR,
-    JND,
     WALLS,
+    WAVES_MODES,
     admittance_from_random,
     iso_3382_2_sigma,
     locally_reacting_modal_decay,
@@ -92,7 +92,9 @@ def test_paper_rooms_edt_continuous_across_the_crossover(name):
     (250 → 500 Hz) hybrid −8.5 %, room −8.7 %, +0.2 % apart; rays −1.7 % off the modes.
     paper-large (125 → 250 Hz) hybrid −13.2 %, room −21.3 %, +10.2 % apart (3σ 13.7 %); rays
     +5.7 % off the modes. (With the modes summed incoherently, whose EDT is not this room's at
-    receivers on the source's height, the room's steps were −6.6 % and −8.4 %.)"""
+    receivers on the source's height, the room's steps were −6.6 % and −8.4 %.) Session 9, the
+    walls meeting the grid's diffuse-field absorption: paper-medium −2.2 % apart, paper-large
+    +6.9 % (the waves' EDT rose to the modes')."""
     h, modes, nb, (b_wave, b_ray) = room_decays(name)
     tol = 3 * iso_3382_2_sigma("edt_s", modes["edt_s"][nb - 1], b_wave, 4)
     assert 0.13 < tol < 0.16
@@ -109,11 +111,13 @@ def test_paper_rooms_edt_continuous_across_the_crossover(name):
 @pytest.mark.parametrize("name", list(ROOMS))
 def test_paper_rooms_waves_follow_the_exact_modes(name):
     """The waves' T30 and EDT in every wave band against the room's exact modes summed
-    coherently at the same points through the same band filters, within one just noticeable
-    difference (5 %, ISO 3382-1 table A.1; deterministic models of one room, as in
+    coherently at the same points through the same band filters: EDT within one just noticeable
+    difference (5 %, ISO 3382-1 table A.1), T30 within 2 % (``WAVES_MODES``, as in
     paper-small's ``test_the_waves_follow_the_modes_of_the_locally_reacting_room``). Measured
-    (2026-11-27): paper-medium T30 −2.5/−3.5 %, EDT −0.7/−1.9 % at 125/250 Hz; paper-large
-    T30 −4.2 %, EDT −4.1 % at 125 Hz. The modes summed incoherently put paper-large's EDT at
+    (2026-11-27, session 9, the walls meeting the grid's diffuse-field absorption):
+    paper-medium T30 +0.1/−0.7 %, EDT +2.6/+0.5 % at 125/250 Hz; paper-large T30 −0.8 %, EDT
+    −1.1 % at 125 Hz (session 8: T30 −2.5/−3.5 % and −4.2 %, EDT −0.7/−1.9 % and −4.1 %).
+    The modes summed incoherently put paper-large's EDT at
     2.55 s, the waves +14.6 % above it: that was the reference's, not the waves' (the coherent
     modes give 3.05 s; tests/sound/test_waves_paper_room.py
     ``test_coherent_modes_are_incoherent_over_the_volume_but_not_at_one_height``)."""
@@ -121,7 +125,7 @@ def test_paper_rooms_waves_follow_the_exact_modes(name):
     for key in ("t30_s", "edt_s"):
         ratio = h[key][:nb] / modes[key][:nb] - 1
         print(name, key, "waves/modes - 1", ratio)
-        assert np.all(np.abs(ratio) < JND[key]), (key, ratio)
+        assert np.all(np.abs(ratio) < WAVES_MODES[key]), (key, ratio)
 
 
 @pytest.mark.slow
@@ -136,7 +140,8 @@ def test_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
     points). Measured (2026-11-27, modes summed coherently over the first second): paper-medium
     250 → 500 Hz hybrid 1.606 → 1.290 s (−19.7 %), modes 1.664 → 1.662 (−0.1 %), −19.6 % apart;
     paper-large 125 → 250 Hz hybrid 3.107 → 2.539 (−18.3 %), modes 3.243 → 3.029 (−6.6 %),
-    −12.5 % apart."""
+    −12.5 % apart. Session 9 (the waves' T30 within 1 % of the modes): −21.9 % and −15.5 % apart:
+    the step is the rays' scattering, not the waves'."""
     h, modes, nb, (b_wave, b_ray) = room_decays(name)
     tol = 3 * math.hypot(iso_3382_2_sigma("t30_s", modes["t30_s"][nb - 1], b_wave, 4),
                          iso_3382_2_sigma("t30_s", modes["t30_s"][nb], b_ray, 4))

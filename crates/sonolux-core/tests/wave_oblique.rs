@@ -12,7 +12,8 @@ mod common;
 use glam::DVec3;
 use num_complex::Complex64 as C64;
 use sonolux_core::wave::admittance::band_edges;
-use sonolux_core::wave::{build_solver, AbsorptionKind, Admittance, WaveMaterials, WaveSettings};
+use sonolux_core::wave::fit::grid_random_absorption_in_band;
+use sonolux_core::wave::{build_solver, AbsorptionKind, Admittance, Discretisation, WaveMaterials, WaveSettings};
 
 const C: f64 = 343.0;
 
@@ -158,37 +159,41 @@ fn oblique_plane_waves_reflect_as_off_a_locally_reacting_wall() {
     assert!(worst_cont < 0.5, "{worst_cont}");
 }
 
-/// The fitted walls' random-incidence absorption, α_st = ∫₀^{π/2} (1 − |R(θ)|²) sin 2θ dθ with the
-/// locally reacting R(θ) of the fitted admittance (the duct test above shows the grid's wall
-/// reflects so), averaged over each band in log frequency, against the material's coefficient,
-/// for random-incidence materials: flat (a conductance), rising and resonant (fits with
-/// reactive branches). Tolerance: the fit meets each band's normal-incidence reflected level
-/// within 0.15 dB (`fit.rs`), 3.4% of the reflected energy 1 − α_n; for a small admittance
-/// α_st ≈ 8g and α_n ≈ 4g, so α_st moves by twice what α_n does: |α_st − α| ≤ 2·0.034·(1 − α_n),
-/// plus 0.01 for the part of a fit's reactance that the phase term leaves (measured below).
-/// And since a reactive fit's α_st is a residual of its Levenberg–Marquardt step (`fit.rs`,
-/// 2026-11-27, session 8): every reactive band within `fit::RANDOM_TOLERANCE` (0.003) of its
-/// coefficient (measured: worst 0.0024, panel at 500 Hz; the rising material's 125 Hz 0.0500
-/// for 0.05, which refits of the targets left at 0.025; 0.031 off with no correction), the
-/// conductances within 2% (0.0509 for 0.05, 0.3043 for 0.3: not corrected, Paris' formula is
-/// theirs; the rest is the half cell of air the fit gives the grid's normal reflection).
+/// The fitted walls' random-incidence absorption against the material's coefficient, for
+/// random-incidence materials: flat (a conductance), rising and resonant (fits with reactive
+/// branches). Since 2026-11-27 (session 9) the fit meets what the waves deliver
+/// (`fit.rs`, "What the waves deliver"): the grid's diffuse-field absorption, the mean of
+/// 1 − |R|² over directions with Paris' weights sin 2θ, R the grid's reflection above
+/// (`grid_reflection`, measured in the duct within 0.1 dB) with k from the scheme's dispersion
+/// (`fit::grid_random_absorption_in_band`), in the bands below the crossover f_max/√2, and in the
+/// band above it as far as the hybrid keeps the waves' pressure there. So:
+/// - in the wave bands the grid's α_st is asserted within `fit::RANDOM_TOLERANCE` (0.003) of the
+///   coefficient for every fit (reactive ones carry it as a residual; a conductance is chosen for
+///   it and errs only by the wave bands' slightly different needs);
+/// - the continuous wall's α_st (London 1950; Kuttruff eq. 2.42, 400 angles × 32 frequencies) is
+///   above it by what the grid's wall takes away (the half cell of air and cos(ωΔt/2), growing
+///   with frequency): asserted within 2 % of the coefficient in the wave bands (the grid's
+///   correction there is ≤ 1.1 % in g), and printed for the band above.
 #[test]
 fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
     let h = 0.05;
     let centres = [125.0, 250.0, 500.0, 1000.0];
     let materials: [(&str, [f64; 4]); 4] =
         [("flat 0.05", [0.05; 4]), ("flat 0.3", [0.3; 4]), ("rising", [0.05, 0.15, 0.45, 0.8]), ("panel", [0.3, 0.6, 0.25, 0.1])];
-    let mut worst = 0.0f64;
-    let mut worst_abs = 0.0f64;
-    let mut worst_reactive = 0.0f64;
+    let mut worst_grid = 0.0f64;
+    let mut worst_cont = 0.0f64;
+    let mut reactive = false;
     for (name, alpha) in materials {
         let mut absorption = vec![0.0; 4];
         absorption.extend_from_slice(&alpha);
         let wm = WaveMaterials { band_centres_hz: centres.to_vec(), absorption };
         let mesh = common::shoebox(0.5, 0.4, 0.3, [1; 6]);
         let s = WaveSettings { absorption_kind: AbsorptionKind::RandomIncidence, ..common::wave_settings(h, 0.01) };
-        let (_, stats) = build_solver(&mesh, &wm, &s, 0).unwrap();
+        let (solver, stats) = build_solver(&mesh, &wm, &s, 0).unwrap();
+        let scheme = Discretisation { time_step_s: s.time_step_s(), courant: (solver.a2() as f64).sqrt() };
+        let crossover = s.max_frequency_hz / std::f64::consts::SQRT_2;
         let fit = &stats.fits[1];
+        reactive |= !fit.admittance.branches.is_empty();
         let edges = band_edges(&centres);
         for b in 0..fit.n_bands_fitted {
             let (lo, hi) = edges[b];
@@ -206,25 +211,24 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
                 mean += a * std::f64::consts::FRAC_PI_2 / n_theta as f64;
             }
             mean /= n_f as f64;
-            let alpha_n = fit.target_normal[b];
-            let allowed = 2.0 * (1.0 - 10f64.powf(-0.015)) * (1.0 - alpha_n) + 0.01;
-            println!("{name:>9} {:6.1} Hz: α {:.3}, fitted wall's α_st {mean:.4} ({:+.4}; allowed ±{allowed:.3}), α_n {alpha_n:.3}", centres[b], alpha[b], mean - alpha[b]);
-            worst = worst.max((mean - alpha[b]).abs() / allowed);
-            worst_abs = worst_abs.max((mean - alpha[b]).abs());
-            if fit.admittance.branches.is_empty() {
-                assert!((mean - alpha[b]).abs() <= 0.02 * alpha[b], "{name} band {b}: {mean}");
-            } else {
-                // The residual's own integral (90 angles, 16 frequencies) against this one's
-                // (400, 32): 1e-4 of quadrature.
-                let reactive = (mean - alpha[b]).abs();
-                assert!(reactive <= sonolux_core::wave::fit::RANDOM_TOLERANCE + 1e-4, "{name} band {b}: {mean}");
-                worst_reactive = worst_reactive.max(reactive);
+            let grid = grid_random_absorption_in_band(&fit.admittance, edges[b], Some(scheme));
+            let wave_band = centres[b] < crossover;
+            println!(
+                "{name:>9} {:6.1} Hz ({}): α {:.3}, the grid's α_st {grid:.4} ({:+.4}), the continuous wall's {mean:.4} ({:+.4})",
+                centres[b],
+                if wave_band { "wave band" } else { "above the crossover" },
+                alpha[b],
+                grid - alpha[b],
+                mean - alpha[b]
+            );
+            if wave_band {
+                worst_grid = worst_grid.max((grid - alpha[b]).abs());
+                worst_cont = worst_cont.max((mean - alpha[b]).abs() / alpha[b]);
             }
         }
     }
-    println!("worst: {worst:.2} of the allowance, {worst_abs:.4} absolute");
-    assert!(worst < 1.0, "{worst}");
-    println!("worst reactive band: {worst_reactive:.4}");
-    assert!(worst_reactive > 0.0, "no reactive fit was checked");
-    assert!(worst_abs < 0.005, "{worst_abs}");
+    println!("worst wave band: the grid's α_st {worst_grid:.4} off, the continuous wall's {:.2} %", 100.0 * worst_cont);
+    assert!(reactive, "no reactive fit was checked");
+    assert!(worst_grid <= sonolux_core::wave::fit::RANDOM_TOLERANCE, "{worst_grid}");
+    assert!(worst_cont <= 0.02, "{worst_cont}");
 }

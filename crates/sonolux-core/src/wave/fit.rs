@@ -46,8 +46,9 @@
 
 use num_complex::Complex64 as C64;
 
-use super::admittance::{admittance_from_normal, admittance_from_random, band_edges, band_frequencies, normal_absorption_of, paris_absorption, random_absorption, Admittance, Branch, Discretisation, Plane, RANDOM_FREQUENCIES};
-pub use super::admittance::random_absorption_in_band;
+use super::admittance::{admittance_from_normal, admittance_from_random, band_edges, band_frequencies, diffuse_absorption, incidences, normal_absorption_of, paris_absorption, Admittance, Branch, Discretisation, Incidence, Plane, RANDOM_FREQUENCIES};
+pub use super::admittance::{grid_random_absorption_in_band, random_absorption_in_band};
+use super::lsq::{nnls, solve_dense};
 use super::settings::AbsorptionKind;
 use crate::error::CoreError;
 
@@ -120,24 +121,37 @@ pub fn fit_material(
             normal_absorption_of(g)
         }
     };
-    let target_all: Vec<f64> = absorption.iter().map(|&a| normal_of(a, &mut clamped)).collect();
     let n_fit = super::settings::bands_fitted(centres_hz, max_frequency_hz).max(1);
-    let target = target_all[..n_fit].to_vec();
     let edges = band_edges(centres_hz);
-    let problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
+    let random = kind == AbsorptionKind::RandomIncidence;
+    let target: Vec<f64> = match scheme {
+        // On a grid a random-incidence band is given the conductance whose diffuse-field
+        // absorption *on the grid* is the coefficient, and asks that conductance's normal level
+        // on the grid (the module's doc, "What the waves deliver").
+        Some(d) if random => absorption[..n_fit]
+            .iter()
+            .zip(&edges[..n_fit])
+            .map(|(&a, &e)| {
+                let (g, c) = admittance_from_random(a);
+                clamped |= c;
+                grid_normal_target(paris_absorption(g), e, d)
+            })
+            .collect(),
+        _ => absorption[..n_fit].iter().map(|&a| normal_of(a, &mut clamped)).collect(),
+    };
+    let weights = |f: f64| if random && scheme.is_some() { delivered(f, centres_hz, max_frequency_hz) } else { 1.0 };
+    let problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme, &weights);
     let rigid = target.iter().all(|&a| a <= 0.0);
     let mut admittance = if rigid { Admittance::default() } else { problem.solve() };
-    if kind == AbsorptionKind::RandomIncidence && !rigid && !admittance.branches.is_empty() {
+    if random && !rigid && !admittance.branches.is_empty() {
         // A reactive fit: fitted again with each band's α_st inside the Levenberg–Marquardt
         // residuals (see the module's doc); kept if its worst band is no farther.
         let top = paris_absorption(admittance_from_random(1.0).0);
         let wanted: Vec<f64> = absorption[..n_fit].iter().map(|&a| a.min(top)).collect();
-        let worst = |y: &Admittance| -> f64 {
-            edges[..n_fit].iter().zip(&wanted).map(|(&e, w)| (random_absorption_in_band(y, e) - w).abs()).fold(0.0, f64::max)
-        };
-        let mut random = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme);
-        random.random = Some(RandomTarget::new(&edges[..n_fit], wanted.clone()));
-        let candidate = random.solve();
+        let mut refit = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme, &weights);
+        refit.random = Some(RandomTarget::new(&edges[..n_fit], wanted, scheme, &refit));
+        let candidate = refit.solve();
+        let worst = |y: &Admittance| refit.random.as_ref().map_or(0.0, |r| r.worst_of(y));
         if worst(&candidate) <= worst(&admittance) {
             admittance = candidate;
         }
@@ -148,15 +162,78 @@ pub fn fit_material(
     Ok(MaterialFit { admittance, n_bands_fitted: n_fit, target_normal: target, fitted_normal, error_db, clamped })
 }
 
-/// What a reactive random-incidence fit asks of each band's α_st, and where it is sampled.
+/// What the waves deliver at `f` Hz, as a weight in the fit: all of it below the hybrid's
+/// crossover f_max/√2 (the energy of the wave bands; the grid is made for f_max = crossover·√2,
+/// docs/waves.md "The hybrid"), and above it the share of power the join keeps of the waves'
+/// pressure, G² = H(2 − H), H = cos²(π/2 · lg(f/f_w)/lg(f_r/f_w)) from the last wave band's
+/// centre f_w to the first ray band's f_r (`synthesis.band_split_weights`); nothing above f_r.
+/// With no band on one side of the crossover there is nothing to weigh: 1.
+fn delivered(f: f64, centres_hz: &[f64], max_frequency_hz: f64) -> f64 {
+    let crossover = max_frequency_hz / std::f64::consts::SQRT_2;
+    let below = centres_hz.iter().copied().filter(|&c| c < crossover).fold(f64::NAN, f64::max);
+    let above = centres_hz.iter().copied().filter(|&c| c >= crossover).fold(f64::NAN, f64::min);
+    if f < crossover || below.is_nan() || above.is_nan() {
+        return 1.0;
+    }
+    if f >= above {
+        return 0.0;
+    }
+    let h = (0.5 * std::f64::consts::PI * (f / below).ln() / (above / below).ln()).cos().powi(2);
+    h * (2.0 - h)
+}
+
+/// The normal-incidence absorption a random-incidence band asks of the grid's wall: the band mean
+/// of 1 − |R|² at normal incidence on the grid of the conductance whose band-mean diffuse-field
+/// absorption on the grid is `alpha` (bisection; the absorption grows with g up to the peak
+/// beyond which Paris' clamp keeps it).
+fn grid_normal_target(alpha: f64, (lo, hi): (f64, f64), scheme: Discretisation) -> f64 {
+    let freqs: Vec<(f64, Vec<Incidence>)> = band_frequencies(lo, hi, RANDOM_FREQUENCIES).into_iter().map(|f| incidences(f, Some(scheme))).collect();
+    let absorbs = |g: f64| freqs.iter().map(|(_, dirs)| diffuse_absorption(C64::new(g, 0.0), dirs).0).sum::<f64>() / freqs.len() as f64;
+    if alpha <= 0.0 {
+        return 0.0;
+    }
+    let (mut a, mut b) = (0.0, 1.25 * admittance_from_random(alpha).0);
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        if absorbs(m) < alpha {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    let g = 0.5 * (a + b);
+    let planes = band_frequencies(lo, hi, POINTS_PER_BAND);
+    1.0 - planes.iter().map(|&f| Plane::new(f, Some(scheme)).reflection(C64::new(g, 0.0)).norm_sqr()).sum::<f64>() / planes.len() as f64
+}
+
+/// What a reactive random-incidence fit asks of each band's α_st, where it is sampled (each
+/// frequency's f̃ and the diffuse field's directions on the grid), and how much of each band the
+/// waves deliver (the mean of [`delivered`] over its curve samples).
 struct RandomTarget {
     wanted: Vec<f64>,
-    freqs: Vec<Vec<f64>>,
+    freqs: Vec<Vec<(f64, Vec<Incidence>)>>,
+    band_weights: Vec<f64>,
 }
 
 impl RandomTarget {
-    fn new(edges: &[(f64, f64)], wanted: Vec<f64>) -> RandomTarget {
-        RandomTarget { wanted, freqs: edges.iter().map(|&(lo, hi)| band_frequencies(lo, hi, RANDOM_FREQUENCIES)).collect() }
+    fn new(edges: &[(f64, f64)], wanted: Vec<f64>, scheme: Option<Discretisation>, problem: &Problem) -> RandomTarget {
+        let freqs = edges.iter().map(|&(lo, hi)| band_frequencies(lo, hi, RANDOM_FREQUENCIES).into_iter().map(|f| incidences(f, scheme)).collect()).collect();
+        let band_weights = problem.band_samples.iter().map(|r| problem.weights[r.clone()].iter().sum::<f64>() / r.len() as f64).collect();
+        RandomTarget { wanted, freqs, band_weights }
+    }
+
+    /// The worst band's |α_st − asked| of an admittance, weighted by what the waves deliver of it.
+    fn worst_of(&self, y: &Admittance) -> f64 {
+        let tau = std::f64::consts::TAU;
+        self.freqs
+            .iter()
+            .zip(&self.wanted)
+            .zip(&self.band_weights)
+            .map(|((freqs, w), bw)| {
+                let a = freqs.iter().map(|(fe, dirs)| diffuse_absorption(y.at(C64::new(0.0, tau * fe)), dirs).0).sum::<f64>() / freqs.len() as f64;
+                bw * (a - w).abs()
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Each band's α_st of the columns `cols` weighted `theta`, and its derivatives by each
@@ -167,10 +244,10 @@ impl RandomTarget {
             .map(|freqs| {
                 let mut mean = 0.0;
                 let mut grad = vec![0.0; if jacobian { cols.len() } else { 0 }];
-                for &f in freqs {
-                    let shapes: Vec<C64> = cols.iter().map(|c| c.shape(f)).collect();
+                for (f, dirs) in freqs {
+                    let shapes: Vec<C64> = cols.iter().map(|c| c.shape(*f)).collect();
                     let y: C64 = shapes.iter().zip(theta).map(|(h, t)| h * t).sum();
-                    let (a, g) = random_absorption(y);
+                    let (a, g) = diffuse_absorption(y, dirs);
                     mean += a;
                     for (d, h) in grad.iter_mut().zip(&shapes) {
                         *d += (g * h).re;
@@ -182,9 +259,10 @@ impl RandomTarget {
             .collect()
     }
 
-    /// The worst band's |α_st − asked|.
+    /// The worst band's |α_st − asked|, weighted as [`Self::worst_of`].
     fn worst(&self, cols: &[Column], theta: &[f64]) -> f64 {
-        self.absorption(cols, theta, false).iter().zip(&self.wanted).map(|((a, _), w)| (a - w).abs()).fold(0.0, f64::max)
+        let bands = self.absorption(cols, theta, false);
+        bands.iter().zip(&self.wanted).zip(&self.band_weights).map(|(((a, _), w), bw)| bw * (a - w).abs()).fold(0.0, f64::max)
     }
 }
 
@@ -228,10 +306,13 @@ struct Problem {
     columns: Vec<Column>,
     /// A reactive random-incidence fit's α_st per band, one more residual each.
     random: Option<RandomTarget>,
+    /// Each sample's weight in the fit: what the waves deliver there ([`delivered`]; 1 for
+    /// normal-incidence data and continuous fits).
+    weights: Vec<f64>,
 }
 
 impl Problem {
-    fn new(centres: &[f64], edges: &[(f64, f64)], target: &[f64], scheme: Option<Discretisation>) -> Problem {
+    fn new(centres: &[f64], edges: &[(f64, f64)], target: &[f64], scheme: Option<Discretisation>, weight: &dyn Fn(f64) -> f64) -> Problem {
         let n = centres.len();
         let band_target_db: Vec<f64> = target.iter().map(|&a| 10.0 * (1.0 - a).max(MIN_REFLECTED_ENERGY).log10()).collect();
         let curve = |knots: &[f64], f: f64| {
@@ -287,7 +368,8 @@ impl Problem {
         }
         let planes: Vec<Plane> = freqs.iter().map(|&f| Plane::new(f, scheme)).collect();
         let target_r = planes.iter().zip(&target_g).map(|(p, &g)| p.reflection(C64::new(g, 0.0))).collect();
-        Problem { freqs, planes, target_db, target_g, target_r, band_target_db, band_samples, columns, random: None }
+        let weights = freqs.iter().map(|&f| weight(f)).collect();
+        Problem { freqs, planes, target_db, target_g, target_r, band_target_db, band_samples, columns, random: None, weights }
     }
 
     /// NNLS on the admittance, then Levenberg–Marquardt on the levels with the columns it kept.
@@ -298,7 +380,7 @@ impl Problem {
         let mut b = vec![0.0; m];
         for (i, (p, &g)) in self.planes.iter().zip(&self.target_g).enumerate() {
             let r = ((1.0 - g) / (1.0 + g)).abs().max(MIN_REFLECTED_ENERGY.sqrt());
-            let w = 2.0 / ((1.0 + g) * (1.0 + g) * r);
+            let w = 2.0 / ((1.0 + g) * (1.0 + g) * r) * self.weights[i].sqrt();
             for (j, c) in self.columns.iter().enumerate() {
                 let h = c.shape(p.f_eval) * w;
                 a[2 * i * k + j] = h.re;
@@ -372,25 +454,27 @@ impl Problem {
     fn residuals(&self, cols: &[Column], theta: &[f64], jacobian: bool) -> (Vec<f64>, Vec<Vec<f64>>) {
         let mut res = Vec::with_capacity(2 * self.freqs.len());
         let mut jac = Vec::new();
-        for ((p, t), rg) in self.planes.iter().zip(&self.target_db).zip(&self.target_r) {
+        for (((p, t), rg), w) in self.planes.iter().zip(&self.target_db).zip(&self.target_r).zip(&self.weights) {
             let shapes: Vec<C64> = cols.iter().map(|c| c.shape(p.f_eval)).collect();
             let y: C64 = shapes.iter().zip(theta).map(|(h, t)| h * t).sum();
             let r = p.reflection(y);
             let e = r.norm_sqr();
-            res.push(10.0 * e.log10() - t);
-            res.push(PHASE_DB_PER_RAD * (r / rg).arg());
+            let sw = w.sqrt();
+            res.push(sw * (10.0 * e.log10() - t));
+            res.push(sw * PHASE_DB_PER_RAD * (r / rg).arg());
             if jacobian {
                 let dr_dy = p.slope(y);
-                let s = 10.0 / std::f64::consts::LN_10 / e;
+                let s = sw * 10.0 / std::f64::consts::LN_10 / e;
                 jac.push(shapes.iter().map(|h| 2.0 * (r.conj() * dr_dy * h).re * s).collect());
-                jac.push(shapes.iter().map(|h| PHASE_DB_PER_RAD * (dr_dy * h / r).im).collect());
+                jac.push(shapes.iter().map(|h| sw * PHASE_DB_PER_RAD * (dr_dy * h / r).im).collect());
             }
         }
         if let Some(random) = &self.random {
-            for ((a, grad), w) in random.absorption(cols, theta, jacobian).into_iter().zip(&random.wanted) {
-                res.push(RANDOM_DB_PER_ABSORPTION * (a - w));
+            for (((a, grad), w), bw) in random.absorption(cols, theta, jacobian).into_iter().zip(&random.wanted).zip(&random.band_weights) {
+                let k = RANDOM_DB_PER_ABSORPTION * bw.sqrt();
+                res.push(k * (a - w));
                 if jacobian {
-                    jac.push(grad.iter().map(|d| RANDOM_DB_PER_ABSORPTION * d).collect());
+                    jac.push(grad.iter().map(|d| k * d).collect());
                 }
             }
         }
@@ -412,14 +496,16 @@ impl Problem {
     /// A fit's RMS level error over the curve's samples and its worst band error, dB.
     fn errors(&self, cols: &[Column], theta: &[f64]) -> (f64, f64) {
         let (l, _) = self.levels(cols, theta, false);
-        let rms = (l.iter().zip(&self.target_db).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / l.len() as f64).sqrt();
+        let w = &self.weights;
+        let rms = (l.iter().zip(&self.target_db).zip(w).map(|((a, b), w)| w * (a - b) * (a - b)).sum::<f64>() / w.iter().sum::<f64>()).sqrt();
         let band = self
             .band_samples
             .iter()
             .zip(&self.band_target_db)
             .map(|(r, t)| {
                 let mean = l[r.clone()].iter().map(|x| 10f64.powf(x / 10.0)).sum::<f64>() / r.len() as f64;
-                (10.0 * mean.log10() - t).abs()
+                let bw = w[r.clone()].iter().sum::<f64>() / r.len() as f64;
+                bw * (10.0 * mean.log10() - t).abs()
             })
             .fold(0.0, f64::max);
         (rms, band)
@@ -477,100 +563,6 @@ impl Problem {
         }
         theta
     }
-}
-
-/// Non-negative least squares, min ‖A x − b‖ with x ≥ 0 (A is m×k, row-major), by the active
-/// set method of Lawson and Hanson (1974, ch. 23).
-fn nnls(a: &[f64], b: &[f64], m: usize, k: usize) -> Vec<f64> {
-    let mut x = vec![0.0; k];
-    let mut passive = vec![false; k];
-    let gradient = |x: &[f64]| -> Vec<f64> {
-        let r: Vec<f64> = (0..m).map(|i| b[i] - (0..k).map(|j| a[i * k + j] * x[j]).sum::<f64>()).collect();
-        (0..k).map(|j| (0..m).map(|i| a[i * k + j] * r[i]).sum()).collect()
-    };
-    // Least squares restricted to the passive set, by the normal equations.
-    let restricted = |passive: &[bool]| -> Vec<f64> {
-        let idx: Vec<usize> = (0..k).filter(|&j| passive[j]).collect();
-        let n = idx.len();
-        let mut ata = vec![0.0; n * n];
-        let mut atb = vec![0.0; n];
-        for i in 0..m {
-            for (p, &jp) in idx.iter().enumerate() {
-                atb[p] += a[i * k + jp] * b[i];
-                for (q, &jq) in idx.iter().enumerate() {
-                    ata[p * n + q] += a[i * k + jp] * a[i * k + jq];
-                }
-            }
-        }
-        for p in 0..n {
-            ata[p * n + p] *= 1.0 + 1e-12;
-        }
-        let mut z = vec![0.0; k];
-        if solve_dense(&mut ata, &mut atb, n) {
-            for (p, &j) in idx.iter().enumerate() {
-                z[j] = atb[p];
-            }
-        }
-        z
-    };
-    let scale = a.iter().map(|v| v.abs()).fold(0.0, f64::max) * b.iter().map(|v| v.abs()).fold(0.0, f64::max);
-    let tol = 1e-12 * scale.max(1e-300) * m as f64;
-    for _ in 0..3 * k {
-        let w = gradient(&x);
-        let Some(t) = (0..k).filter(|&j| !passive[j] && w[j] > tol).max_by(|&i, &j| w[i].total_cmp(&w[j])) else { break };
-        passive[t] = true;
-        loop {
-            let z = restricted(&passive);
-            if (0..k).all(|j| !passive[j] || z[j] > 0.0) {
-                x = z;
-                break;
-            }
-            let alpha = (0..k)
-                .filter(|&j| passive[j] && z[j] <= 0.0)
-                .map(|j| x[j] / (x[j] - z[j]))
-                .fold(f64::INFINITY, f64::min);
-            for j in 0..k {
-                x[j] += alpha * (z[j] - x[j]);
-                if passive[j] && x[j] <= 1e-15 {
-                    passive[j] = false;
-                    x[j] = 0.0;
-                }
-            }
-            if !passive.iter().any(|&p| p) {
-                break;
-            }
-        }
-    }
-    x
-}
-
-/// Solves the k×k system `a`·x = `b` in place (Gaussian elimination, partial pivoting); false
-/// when singular.
-fn solve_dense(a: &mut [f64], b: &mut [f64], k: usize) -> bool {
-    for col in 0..k {
-        let pivot = (col..k).max_by(|&i, &j| a[i * k + col].abs().total_cmp(&a[j * k + col].abs())).unwrap_or(col);
-        if !(a[pivot * k + col].abs() > 1e-300) {
-            return false;
-        }
-        if pivot != col {
-            for c in 0..k {
-                a.swap(pivot * k + c, col * k + c);
-            }
-            b.swap(pivot, col);
-        }
-        for row in col + 1..k {
-            let f = a[row * k + col] / a[col * k + col];
-            for c in col..k {
-                a[row * k + c] -= f * a[col * k + c];
-            }
-            b[row] -= f * b[col];
-        }
-    }
-    for row in (0..k).rev() {
-        let s: f64 = (row + 1..k).map(|c| a[row * k + c] * b[c]).sum();
-        b[row] = (b[row] - s) / a[row * k + row];
-    }
-    b.iter().all(|x| x.is_finite())
 }
 
 #[cfg(test)]

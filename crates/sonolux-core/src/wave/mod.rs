@@ -23,6 +23,7 @@ pub mod bands;
 pub mod boundary;
 pub mod fit;
 pub mod grid;
+mod lsq;
 pub mod receiver;
 pub mod scheme;
 pub mod settings;
