@@ -46,15 +46,6 @@ fn continuous_reflection(y: &Admittance, f: f64, cos_theta: f64) -> C64 {
     (cos_theta - yv) / (cos_theta + yv)
 }
 
-fn spectrum(x: &[f64], len: usize) -> Vec<C64> {
-    let mut buf = vec![0.0; len];
-    buf[..x.len()].copy_from_slice(x);
-    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(len);
-    let mut out = fft.make_output_vec();
-    fft.process(&mut buf, &mut out).unwrap();
-    out.iter().map(|c| C64::new(c.re, c.im)).collect()
-}
-
 /// Transverse mode m of a duct with rigid sides, N cells across, one cell high: started as a
 /// Gaussian in x times the mode's exact discrete shape cos(πm(j + ½)/N), recorded as its
 /// projection at `x_r`. The rigid sides do not mix modes, and a wall across the duct (the same
@@ -130,7 +121,7 @@ fn oblique_plane_waves_reflect_as_off_a_locally_reacting_wall() {
             let reflected: Vec<f64> = with_wall.iter().zip(&incident).enumerate().map(|(i, (a, b))| (a - b) * taper(i)).collect();
             let incident: Vec<f64> = incident.iter().enumerate().map(|(i, b)| b * taper(i)).collect();
             let len = (4 * n).next_power_of_two();
-            let (xr, xi) = (spectrum(&reflected, len), spectrum(&incident, len));
+            let (xr, xi) = (common::spectrum(&reflected, len), common::spectrum(&incident, len));
             let fs = 1.0 / dt;
             let s_t = (std::f64::consts::PI * m as f64 / (2.0 * n_cells as f64)).sin().powi(2);
             for f in [200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0] {

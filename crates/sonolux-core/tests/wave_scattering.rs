@@ -94,15 +94,6 @@ fn plane_mode_response(mesh: &Mesh, walls: &[Admittance], h: f64, duration_s: f6
     (out, settings.time_step_s(), (solver.a2() as f64).sqrt())
 }
 
-fn spectrum(x: &[f64], len: usize) -> Vec<C64> {
-    let mut buf = vec![0.0; len];
-    buf[..x.len()].copy_from_slice(x);
-    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(len);
-    let mut out = fft.make_output_vec();
-    fft.process(&mut buf, &mut out).unwrap();
-    out.iter().map(|c| C64::new(c.re, c.im)).collect()
-}
-
 /// The grid's normal-incidence reflection of admittance `y` at `f` (module doc).
 fn grid_reflection(y: &Admittance, f: f64, dt: f64, courant: f64) -> C64 {
     let half = std::f64::consts::PI * f * dt;
@@ -179,7 +170,7 @@ fn phase_grating(patch: usize) -> (f64, f64, f64) {
     let len = 1 << 16;
     let ws: Vec<f64> = p_sample.iter().enumerate().map(|(i, p)| p * window(i)).collect();
     let wr: Vec<f64> = p_rigid.iter().enumerate().map(|(i, p)| p * window(i)).collect();
-    let (ss, sr) = (spectrum(&ws, len), spectrum(&wr, len));
+    let (ss, sr) = (common::spectrum(&ws, len), common::spectrum(&wr, len));
     let f_max = C / (10.0 * h);
     let cut_on = C / (2.0 * cells as f64 * h);
     let (mut worst, mut largest, mut model): (f64, f64, f64) = (0.0, 0.0, 0.0);

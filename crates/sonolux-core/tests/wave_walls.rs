@@ -125,13 +125,7 @@ fn plane_waves_reflect_off_each_material_as_its_bands_ask() {
 
 /// The spectrum of a signal, zero-padded to a power of two at least twice its length.
 fn spectrum(x: &[f64]) -> Vec<C64> {
-    let len = (2 * x.len()).next_power_of_two();
-    let mut buf = vec![0.0; len];
-    buf[..x.len()].copy_from_slice(x);
-    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(len);
-    let mut out = fft.make_output_vec();
-    fft.process(&mut buf, &mut out).unwrap();
-    out.iter().map(|c| C64::new(c.re, c.im)).collect()
+    common::spectrum(x, (2 * x.len()).next_power_of_two())
 }
 
 /// The exact complex angular frequency of mode `m` of a rectangular room `l` whose six walls

@@ -1,4 +1,4 @@
-//! What the integration tests share: rooms.
+//! What the integration tests share: rooms, a spectrum.
 
 use glam::Vec3;
 use sonolux_core::Mesh;
@@ -68,4 +68,15 @@ pub fn wave_settings(h: f64, duration_s: f64) -> sonolux_core::wave::WaveSetting
         absorption_kind: sonolux_core::wave::AbsorptionKind::NormalIncidence,
         ..Default::default()
     }
+}
+
+/// The complex spectrum (realfft's half spectrum) of `x` zero-padded to `len` samples.
+#[allow(dead_code)]
+pub fn spectrum(x: &[f64], len: usize) -> Vec<num_complex::Complex64> {
+    let mut buf = vec![0.0; len];
+    buf[..x.len()].copy_from_slice(x);
+    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(len);
+    let mut out = fft.make_output_vec();
+    fft.process(&mut buf, &mut out).unwrap();
+    out.iter().map(|c| num_complex::Complex64::new(c.re, c.im)).collect()
 }
