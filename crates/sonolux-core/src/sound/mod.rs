@@ -505,7 +505,7 @@ pub fn trace_sound_with(
         settings.threads,
         || trace::Worker::new(nb, receivers.len()),
         |worker, range| {
-            // The chunk's rays, source by source, a few in flight at once (trace::trace_rays).
+            // The chunk's rays, source by source, one after another (trace::trace_rays).
             let traced = (0..sources.len()).filter(|&s| settings.only_source.is_none_or(|k| k == s));
             let jobs = traced.flat_map(|s| range.clone().map(move |i| (s, settings.first_ray + i)));
             trace::trace_rays(&scene, jobs, &field, worker);

@@ -28,21 +28,13 @@ pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) 
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
 
-/// How many rays a worker keeps in flight, tracing a segment of each in turn so that one ray's
-/// nearest-surface query could overlap with another's independent work: Embree's ray streams
-/// (`rtcIntersect1M`) and the wavefront tracers (Pharr, Jakob and Humphreys, *Physically Based
-/// Rendering* 4th ed., 2023, ch. 15; Laine, Karras and Aila, "Megakernels considered harmful",
-/// HPG 2013) at the smallest scale, a few rays in registers rather than queues in memory.
-/// Measured here 2 and 4 were no faster than 1 (docs/bvh.md, "Rays in flight": a mesh query is
-/// bound by its own mispredicted branches, which discard the other ray's work too), so 1.
-pub(crate) const RAYS_IN_FLIGHT: usize = 1;
-
 /// The nearest surface along a ray: distance, mesh triangle, unit normal (either side); None
 /// when the ray leaves the scene.
 type SurfaceHit = Option<(f64, usize, DVec3)>;
 
 /// A ray being traced: everything that carries from one of its segments to the next. A
-/// worker holds [`RAYS_IN_FLIGHT`] of them, their band arrays sized once (no allocation per ray).
+/// worker holds one, its band arrays sized once (no allocation per ray). (Several rays in
+/// flight a worker were measured no faster: docs/bvh.md, "Rays in flight".)
 pub(crate) struct RayState {
     source: usize,
     index: u64,
@@ -111,12 +103,12 @@ struct Scratch {
 }
 
 /// What one worker thread owns while it traces: its statistics, its batch of deposits, its
-/// rays in flight and their scratch, sized once for the bake's bands and receivers.
+/// ray and its scratch, sized once for the bake's bands and receivers.
 pub(crate) struct Worker {
     pub stats: SoundStats,
     pub deposits: Deposits,
     scratch: Scratch,
-    rays: [RayState; RAYS_IN_FLIGHT],
+    ray: RayState,
 }
 
 impl Worker {
@@ -132,7 +124,7 @@ impl Worker {
                 scattering: vec![0.0; n_bands],
                 absorption: vec![0.0; n_bands],
             },
-            rays: std::array::from_fn(|_| RayState::new(n_bands)),
+            ray: RayState::new(n_bands),
         }
     }
 }
@@ -188,11 +180,10 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream, weights: &mut [f64]) 
 
 /// Traces the rays `jobs` names, (source, ray index) each, to their ends, depositing into
 /// `acc` (through the worker's batch, flushed by the caller) and tallying into the worker's
-/// statistics. [`RAYS_IN_FLIGHT`] rays are traced at once, a segment of each in turn; a ray
-/// that ends hands its slot to the next job. Which rays share the worker, and in what order
-/// their segments come, changes no bit: every random number is the ray's own (its stream, or
-/// keyed by the ray and the event), every per-ray sum is summed by the ray alone, and the
-/// field and the statistics add integers (fixed point), whose sums do not depend on order.
+/// statistics, one ray after another. Which rays a worker traces, and in what order, changes no
+/// bit: every random number is the ray's own (its stream, or keyed by the ray and the event),
+/// every per-ray sum is summed by the ray alone, and the field and the statistics add integers
+/// (fixed point), whose sums do not depend on order.
 pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
     // The kernel compiled for the usual band counts (octaves 125 Hz–4 kHz or –8 kHz, the
     // default third octaves), any other count read at run time: the same operations in the
@@ -207,33 +198,18 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
 
 /// [`trace_rays`] for `NB` bands (0: any).
 #[inline(always)]
-fn trace_rays_for<const NB: usize>(scene: &Scene, mut jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+fn trace_rays_for<const NB: usize>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
     let limits = Limits::<NB>::new(scene);
-    let Worker { stats: st, deposits: buf, scratch, rays } = w;
-    let mut live = [false; RAYS_IN_FLIGHT];
-    for (slot, ray) in rays.iter_mut().enumerate() {
-        if let Some((s, index)) = jobs.next() {
-            start_ray(scene, &limits, s, index, ray, acc, st, buf);
-            live[slot] = true;
-        }
-    }
-    while live.iter().any(|&l| l) {
-        for (slot, ray) in rays.iter_mut().enumerate() {
-            if !live[slot] {
-                continue;
-            }
+    let Worker { stats: st, deposits: buf, scratch, ray } = w;
+    for (s, index) in jobs {
+        start_ray(scene, &limits, s, index, ray, acc, st, buf);
+        loop {
             let hit = find_surface(scene, ray);
             if !advance(scene, &limits, ray, hit, acc, scratch, st, buf) {
-                finish_ray(ray, &limits, st);
-                live[slot] = match jobs.next() {
-                    Some((s, index)) => {
-                        start_ray(scene, &limits, s, index, ray, acc, st, buf);
-                        true
-                    }
-                    None => false,
-                };
+                break;
             }
         }
+        finish_ray(ray, &limits, st);
     }
 }
 
