@@ -11,7 +11,12 @@ let s: Session;
 beforeEach(async () => {
   s = await launch();
 });
-afterEach(async () => s?.close());
+// Routes still in flight when a test ends (the page keeps fetching after its assertions) would
+// reject once the browser closes; Playwright's advice is to drop them first, ignoring their errors.
+afterEach(async () => {
+  await s?.page.unrouteAll({ behavior: 'ignoreErrors' });
+  await s?.close();
+});
 
 async function shownError(path: string, handler: (r: Route) => Promise<void>, startSound = false): Promise<string> {
   await s.page.route(`**/bundle/${path}`, handler);
