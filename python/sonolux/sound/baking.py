@@ -36,11 +36,12 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     ``settings["progressive"]`` says how it ended and which errors it reached.
     """
     options = with_scene(scene, replace(options or SoundOptions(), **overrides).validate())
-    # The hybrid's clearance and memory, before any ray, pilots included.
-    check_waves(scene, options, from_ray_zero=(options.ray_range or (0,))[0] == 0)
     if accuracy is None and options.estimator == "auto":
         # A fixed ray count: the estimator that reaches a quarter of a JND sooner (the pilots'
-        # measure of speed; the count itself stays the caller's).
+        # measure of speed; the count itself stays the caller's). The pilots are rays: the
+        # hybrid's clearance and memory are checked before them (the other paths' entries,
+        # the range baker and the progressive bake, check before their own first ray).
+        check_waves(scene, options, from_ray_zero=(options.ray_range or (0,))[0] == 0)
         options, choice = progressive.choose_estimator(scene, options, log=log)
         field = bake(scene, options, client=client, checkpoint=checkpoint, resume=resume,
                      restart=restart, checkpoint_every_s=checkpoint_every_s,
