@@ -228,6 +228,10 @@ def test_early_diffuse_connections_keep_bits_on_threads_and_ranges():
     b = bake(sc, ray_range=(1300, 3000), **run)
     np.testing.assert_array_equal(a.merge(b).energy, whole.energy)
     assert one.stats["draws"] > 0
+    # A range baked without the connections is another bake: refused, not mixed in.
+    plain = replace(sc, early=replace(sc.early, diffuse_connections=False))
+    with pytest.raises(SonoluxError, match="different bakes"):
+        a.merge(bake(plain, ray_range=(1300, 3000), **run))
 
 
 def test_a_quantum_below_the_bakes_own_is_refused_by_name():
@@ -367,6 +371,7 @@ def test_hybrid_is_the_same_on_one_and_two_threads():
     ({"diffraction_piece_m": -1}, "early.diffraction_piece_m"),
     ({"level_of_detail_rays": "band"}, "early.level_of_detail_rays"),
     ({"level_of_detail": 1}, "early.level_of_detail"),
+    ({"diffuse_connections": "yes"}, "early.diffuse_connections"),
     ({"order": 2}, "early.order"),
 ])
 def test_early_table_is_validated_at_the_edge(early, key):
