@@ -27,6 +27,7 @@ __all__ = [
     "EarlySettings",
     "early_arrivals",
     "trace_sound",
+    "sound_quantum",
     "WaveSettings",
     "simulate_waves",
     "Optics",
