@@ -422,3 +422,20 @@ def test_band_groups_whose_gains_peak_differently_share_one_quantum(tmp_path):
     np.testing.assert_array_equal(one.energy, two.energy)
     np.testing.assert_array_equal(one.energy, whole.energy)
     assert a.quantum == b.quantum == whole.quantum > 0
+
+
+def test_receiver_tiles_whose_channels_peak_differently_share_one_quantum(tmp_path):
+    # An omni channel (peak gain 1) and the sloped capsule (peak 16) at each point; a memory
+    # budget that traces the 18 receivers in tiles. Each tile used to take the quantum of its
+    # own receivers' peak, and a ray range's counts were joined under one of them: merged, the
+    # field was off by 0.1 % of its largest value (silently). Every tile now takes the whole
+    # bake's quantum: the merged tiled ranges are the untiled bake, bit for bit.
+    sloped_array(tmp_path / "sloped.sofa")
+    scene = box_room(tmp_path, False, level_of_detail=False,
+                     channels=["omni", {"sofa": "sloped.sofa", "name": "mic"}])
+    kw = dict(air_absorption=False, max_time_s=0.3, storage="full")
+    whole = bake(scene, rays=1200, ray_range=(0, 1200), **kw)
+    a = bake(scene, rays=1200, ray_range=(0, 500), memory_bytes=400_000_000, **kw)
+    b = bake(scene, rays=1200, ray_range=(500, 1200), **kw)
+    assert a.stats["tiles"] > 1
+    np.testing.assert_array_equal(a.merge(b).energy, whole.energy)

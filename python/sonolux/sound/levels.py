@@ -150,8 +150,8 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
     # One fixed-point quantum for every group: the whole bake's sources and receivers, every
     # band (each group's own, from its bands' gains, is no larger: the core checks), so that
     # the groups' counts share a scale and ray ranges merge exactly whatever the groups' peaks.
-    settings = dict(settings, quantum=engine.sound_quantum(sources, whole.get("bake_receivers")
-                                                            or receivers))
+    if settings.get("quantum") is None:  # the caller's (the whole bake's, over tiles) else ours
+        settings = dict(settings, quantum=engine.sound_quantum(sources, receivers))
     out: dict[str, Any] = {}
     parts_stats: list[dict[str, Any]] = []
     cancelled = saturated = False
