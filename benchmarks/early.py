@@ -35,7 +35,7 @@ whose slowest band decays longer gets 0.6 × that band's Eyring T60 (an exponent
 −30 dB of its energy after T60 / 2; 0.6 leaves −36 dB, room for a decay slower than Eyring's):
 the shoebox's 125 Hz band (Eyring 8.0 s) needs 4.8 s; ``--max-time`` sets it.
 
-Where the noise comes from (docs/early-sound.md "Noise at equal wall time"): the share of each
+Where the noise comes from (docs/early-noise.md): the share of each
 listener's first 80 ms that the image sources hold (deterministic) is reported too, and the
 ratios' medians are printed for the listeners grouped by that share (below 20 %, 20-50 %, 50 %
 and above: fixed bounds, the same for every scene). Paired (same seeds, same rays) the hybrid's

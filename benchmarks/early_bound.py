@@ -1,7 +1,7 @@
 """How much of EDT's noise an early method could remove at best: pure particle bakes over seeds,
 and EDT's standard deviation when each seed's energy before onset + T is replaced by the mean
 over the seeds (a noise-free first T ms: better than any image source or early connection can
-give). Per window T, the median over listeners per band. docs/early-sound.md, "What bounds EDT's
+give). Per window T, the median over listeners per band. docs/early-noise.md, "What bounds EDT's
 noise".
 
 Run with ``.venv/bin/python benchmarks/early_bound.py [--scene l-room|shoebox]``. Not part of
