@@ -35,7 +35,7 @@ whose slowest band decays longer gets 0.6 × that band's Eyring T60 (an exponent
 −30 dB of its energy after T60 / 2; 0.6 leaves −36 dB, room for a decay slower than Eyring's):
 the shoebox's 125 Hz band (Eyring 8.0 s) needs 4.8 s; ``--max-time`` sets it.
 
-Where the noise comes from (docs/early-sound.md "Noise at equal wall time"): the share of each
+Where the noise comes from (docs/early-noise.md): the share of each
 listener's first 80 ms that the image sources hold (deterministic) is reported too, and the
 ratios' medians are printed for the listeners grouped by that share (below 20 %, 20-50 %, 50 %
 and above: fixed bounds, the same for every scene). Paired (same seeds, same rays) the hybrid's
@@ -69,14 +69,14 @@ SCENES = {"l-room": EXAMPLES / "l-room" / "l-room.toml",
 SHARE_GROUPS = ((0.0, 0.2), (0.2, 0.5), (0.5, 1.01))
 
 
-def load(room: Path, early: bool, seed: int):
+def load(room: Path, early: bool, seed: int, connections: bool = True):
     data = tomllib.loads(room.read_text())
     for g in data["geometry"]:
         if "file" in g:
             g["file"] = str(room.parent / g["file"])
     data.setdefault("settings", {})["seed"] = seed
     if early:
-        data["early"] = {"max_order": 3}
+        data["early"] = {"max_order": 3, "diffuse_connections": connections}
     return sonolux.load_scene(data)
 
 
@@ -113,8 +113,9 @@ class Runs:
     def __init__(self):
         self.edt, self.c80, self.seconds = [], [], []
 
-    def bake(self, room: Path, early: bool, rays: int, seed: int, max_time_s: float):
-        sc = load(room, early, seed)
+    def bake(self, room: Path, early: bool, rays: int, seed: int, max_time_s: float,
+             connections: bool = True):
+        sc = load(room, early, seed, connections)
         started = time.perf_counter()
         field = bake(sc, rays=rays, max_time_s=max_time_s)
         self.seconds.append(time.perf_counter() - started)
@@ -182,7 +183,8 @@ def main() -> None:
     # The hybrid and the particles at the hybrid's rays, seed by seed in turn (paired: same
     # seeds, so the same rays: the noise per ray, without the spread of two sets of seeds);
     # their median wall times give the particles' rays for equal time.
-    hybrid, paired = Runs(), Runs()
+    # The hybrid without its early diffuse connections too (same seeds): what they change.
+    hybrid, paired, unconnected = Runs(), Runs(), Runs()
     for seed in range(1, args.seeds + 1):
         field, sc = hybrid.bake(room, True, args.rays, seed, args.max_time)
         if seed == 1:
@@ -190,7 +192,11 @@ def main() -> None:
             print("share of the first 80 ms held by the image sources [listener, band]:\n",
                   np.round(share, 3))
         paired.bake(room, False, args.rays, seed, args.max_time)
+        unconnected.bake(room, True, args.rays, seed, args.max_time, connections=False)
     hybrid_s, particles_s = np.median(hybrid.seconds), np.median(paired.seconds)
+    unconnected_s = float(np.median(unconnected.seconds))
+    print(f"median bake of {args.rays} rays: hybrid without early diffuse connections "
+          f"{unconnected_s:.2f} s")
     rays_particles = int(round(args.rays * hybrid_s / particles_s))
     print(f"median bake of {args.rays} rays: hybrid {hybrid_s:.2f} s, particles "
           f"{particles_s:.2f} s; particles get {rays_particles} rays for equal time")
@@ -210,6 +216,7 @@ def main() -> None:
               "bands_hz": bands, "image_share_first_80ms": share.tolist(),
               "median_seconds_hybrid": float(hybrid_s),
               "median_seconds_particles_at_hybrid_rays": float(particles_s),
+              "median_seconds_hybrid_without_connections": unconnected_s,
               "max_time_s": args.max_time}
     # A ratio of two standard deviations of n values each: sqrt(F(n-1, n-1)), 16th-84th %.
     dof = args.seeds - 1
@@ -221,9 +228,12 @@ def main() -> None:
     # An EDT undefined in every seed (NaN) is counted and printed below, not warned about.
     for text in ("All-NaN slice", "Mean of empty slice", "Degrees of freedom"):
         warnings.filterwarnings("ignore", message=text, category=RuntimeWarning)
-    for name, h, p, q in (("edt_s", h_edt, p_edt, q_edt), ("c80_db", h_c80, p_c80, q_c80)):
-        h, p, q = np.asarray(h), np.asarray(p), np.asarray(q)  # [seed, listener, band]
+    for name, h, p, q, u in (("edt_s", h_edt, p_edt, q_edt, unconnected.edt),
+                             ("c80_db", h_c80, p_c80, q_c80, unconnected.c80)):
+        h, p, q, u = np.asarray(h), np.asarray(p), np.asarray(q), np.asarray(u)
         paired = np.nanstd(q, axis=0, ddof=1) / np.nanstd(h, axis=0, ddof=1)
+        # [seed, listener, band]; the connections' own effect per ray (same seeds).
+        connections = np.nanstd(u, axis=0, ddof=1) / np.nanstd(h, axis=0, ddof=1)
         sh, sp = np.nanstd(h, axis=0, ddof=1), np.nanstd(p, axis=0, ddof=1)
         per_listener = sp / sh
         ratio = np.nanmedian(per_listener, axis=0)
@@ -234,7 +244,9 @@ def main() -> None:
                         "undefined_particles": np.isnan(p).sum(axis=0).tolist(),
                         "noise_ratio_particles_over_hybrid": per_listener.tolist(),
                         "noise_ratio_particles_over_hybrid_median": ratio.tolist(),
-                        "equal_rays_paired_ratio": paired.tolist()}
+                        "equal_rays_paired_ratio": paired.tolist(),
+                        "mean_hybrid_without_connections": np.nanmean(u, axis=0).tolist(),
+                        "connections_paired_ratio": connections.tolist()}
         print(f"{name}: noise ratio particles / hybrid (median over listeners) per band "
               + ", ".join(f"{b:g} Hz {r:.2f}" for b, r in zip(bands, ratio)))
         print("  per listener [listener, band]:\n", np.round(per_listener, 2))
@@ -244,7 +256,10 @@ def main() -> None:
         undefined = int(np.isnan(h).sum() + np.isnan(p).sum())
         if undefined:
             print(f"  {undefined} values undefined (NaN: see sonolux.analysis.decay's reasons)")
-        grouped[name] = by_share(share, {"equal time": per_listener, "paired": paired}, bands)
+        print("  hybrid without / with early diffuse connections, same seeds and rays [listener, "
+              "band]:\n", np.round(connections, 2))
+        grouped[name] = by_share(share, {"equal time": per_listener, "paired": paired,
+                                         "connections paired": connections}, bands)
     result["by_image_share"] = grouped
     result["machine"] = machine_and_load(busy_start, other_cpu_use())
     write_json(args.out, result)

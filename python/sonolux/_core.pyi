@@ -27,6 +27,7 @@ __all__ = [
     "EarlySettings",
     "early_arrivals",
     "trace_sound",
+    "sound_quantum",
     "WaveSettings",
     "simulate_waves",
     "Optics",
@@ -155,7 +156,10 @@ class SoundSettings:
         first_receiver: int = 0,
         only_source: int | None = None,
         nee_receivers: int = 8,
+        quantum: float | None = None,
     ) -> SoundSettings: ...
+
+def sound_quantum(sources: Sequence[SoundSource], receivers: Receivers) -> float: ...
 
 def trace_sound(
     geometry: Geometry,
@@ -236,11 +240,14 @@ class EarlySettings:
         threads: int,
         diffraction_piece_m: float = 0.25,
         plane_tolerance_m: float = 1e-3,
+        connect_diffuse: bool = True,
     ) -> EarlySettings: ...
     @property
     def max_order(self) -> int: ...
     @property
     def max_time_s(self) -> float: ...
+    @property
+    def connect_diffuse(self) -> bool: ...
 
 def early_arrivals(
     geometry: Geometry,

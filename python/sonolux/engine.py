@@ -255,6 +255,13 @@ def trace_sound(geometry: Geometry, acoustics: Acoustics, sources: Sequence[Soun
                               progress, early, cover_early, bake_receivers)
 
 
+def sound_quantum(sources: Sequence[SoundSource], receivers: Receivers) -> float:
+    """The fixed-point quantum (J/m² a count) of a bake of ``sources`` into ``receivers``; a
+    bake traced in parts gives each part this quantum of the whole (``SoundSettings(quantum=)``)
+    so that their counts add exactly; see ``_core.sound_quantum``."""
+    return float(core().sound_quantum(list(sources), receivers))
+
+
 def early_arrivals(geometry: Geometry, acoustics: Acoustics, sources: Sequence[SoundSource],
                    receivers: Receivers, early: EarlySettings,
                    settings: SoundSettings) -> dict[str, Any]:
@@ -318,4 +325,4 @@ def wave_max_frequency(settings: WaveSettings, geometry: Geometry, n_receivers: 
 
 __all__ = ["Geometry", "core", "core_available", "early_arrivals", "physical_memory_bytes",
            "simulate_waves", "wave_max_frequency", "wave_memory_estimate", "trace_light",
-           "trace_sound", *_FROM_CORE]
+           "sound_quantum", "trace_sound", *_FROM_CORE]

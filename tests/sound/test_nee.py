@@ -127,6 +127,19 @@ def test_a_bake_in_receiver_tiles_has_the_bits_of_the_untiled_bake(small):
     assert tiled.stats["draws"] == tiled.stats["tiles"] * whole.stats["draws"] > 0
 
 
+def test_a_hybrid_in_receiver_tiles_has_the_bits_of_the_untiled_bake(small):
+    """The hybrid's early diffuse connections draw their receivers like the nee estimator: in
+    tiles they draw among all the bake's receivers, so the tiles are the untiled bake."""
+    from dataclasses import replace
+
+    from sonolux.scene.early import EarlySpec
+    hybrid = replace(small, early=EarlySpec(max_order=1, diffraction=False))
+    whole = bake(hybrid, rays=1200, nee_receivers=3)
+    tiled = bake(hybrid, rays=1200, nee_receivers=3, memory_bytes=TILE_BYTES)
+    assert tiled.stats["tiles"] > 1 and whole.stats["draws"] > 0
+    assert np.array_equal(np.asarray(whole.energy), np.asarray(tiled.energy))
+
+
 #: A memory budget that makes paper-small's field (15 receivers, 1200 rays) go in tiles of a few
 #: receivers (0.3 GB for the rest of the bake, ~5 MB to trace a receiver: sound/budget.py).
 TILE_BYTES = 318_000_000

@@ -17,9 +17,13 @@ use crate::{check_threads, invalid, to_py, Geometry};
 /// transition to the particles), first-order edge diffraction (Biot–Tolstoy–Medwin) when
 /// `diffraction`, Rindel's finite-panel specular share when `level_of_detail`. Bands are
 /// described by their centres and `bands_per_octave` (1 octave, 3 third-octave, ...), any count.
+/// `connect_diffuse`: a sphere-estimator bake that leaves these paths out also connects its
+/// diffuse reflections to the receivers for the arrivals before `max_time_s` (ODEON's early
+/// scattering: `sonolux_core::sound::nee::EarlyConnections`).
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct EarlySettings {
     pub(crate) inner: core::EarlySettings,
+    pub(crate) connect_diffuse: bool,
 }
 
 #[pymethods]
@@ -28,7 +32,7 @@ impl EarlySettings {
     #[pyo3(signature = (
         *, max_order, max_time_s, speed_of_sound_m_s, air_attenuation_per_m, band_centres_hz,
         bands_per_octave, diffraction, level_of_detail, threads, diffraction_piece_m = 0.25,
-        plane_tolerance_m = 1e-3
+        plane_tolerance_m = 1e-3, connect_diffuse = true
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -43,6 +47,7 @@ impl EarlySettings {
         threads: usize,
         diffraction_piece_m: f64,
         plane_tolerance_m: f64,
+        connect_diffuse: bool,
     ) -> PyResult<Self> {
         let inner = core::EarlySettings {
             max_order,
@@ -63,7 +68,7 @@ impl EarlySettings {
         };
         let n_bands = inner.band_centres_hz.len();
         inner.validate(n_bands).map_err(to_py)?;
-        Ok(EarlySettings { inner })
+        Ok(EarlySettings { inner, connect_diffuse })
     }
 
     #[getter]
@@ -74,6 +79,11 @@ impl EarlySettings {
     #[getter]
     fn max_time_s(&self) -> f64 {
         self.inner.max_time_s
+    }
+
+    #[getter]
+    fn connect_diffuse(&self) -> bool {
+        self.connect_diffuse
     }
 }
 

@@ -299,6 +299,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sound::ReceiverPattern>()?;
     m.add_class::<sound::SoundSettings>()?;
     m.add_function(wrap_pyfunction!(sound::trace_sound, m)?)?;
+    m.add_function(wrap_pyfunction!(sound::sound_quantum, m)?)?;
     m.add_class::<wave::WaveSettings>()?;
     m.add_function(wrap_pyfunction!(wave::simulate_waves, m)?)?;
     m.add_class::<early::EarlySettings>()?;

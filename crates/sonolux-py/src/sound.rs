@@ -283,6 +283,10 @@ impl Receivers {
 pub(crate) struct SoundSettings {
     inner: core::SoundSettings,
     keep_counts: bool,
+    /// M of the hybrid's early connections (and of the nee estimator).
+    nee_receivers: u32,
+    /// The field's fixed-point quantum, when several runs must share one (None: the run's own).
+    quantum: Option<f64>,
 }
 
 #[pymethods]
@@ -291,7 +295,8 @@ impl SoundSettings {
     #[pyo3(signature = (
         *, rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound_m_s, air_attenuation_per_m,
         energy_drop_db, max_time_s, sample_rate_hz, early_s, late_bin_s, azimuth_bands, elevation_bands,
-        max_field_bytes, keep_counts = false, first_receiver = 0, only_source = None, nee_receivers = 8
+        max_field_bytes, keep_counts = false, first_receiver = 0, only_source = None, nee_receivers = 8,
+        quantum = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -315,7 +320,16 @@ impl SoundSettings {
         first_receiver: u64,
         only_source: Option<usize>,
         nee_receivers: u32,
+        quantum: Option<f64>,
     ) -> PyResult<Self> {
+        if let Some(q) = quantum {
+            if !(q > 0.0 && q.is_finite()) {
+                return Err(invalid(format!("quantum: {q} is not a positive finite energy (J/m² a count)")));
+            }
+        }
+        if !(1..=sonolux_core::sound::nee::MAX_CONNECTIONS).contains(&nee_receivers) {
+            return Err(invalid(format!("nee_receivers: {nee_receivers} receivers a reflection; from 1 to {}", sonolux_core::sound::nee::MAX_CONNECTIONS)));
+        }
         let estimator = match estimator {
             "paper" => core::Estimator::Paper,
             "rain" => core::Estimator::Rain,
@@ -343,7 +357,7 @@ impl SoundSettings {
             // Never more than this machine has: the core allocates what this allows.
             max_field_bytes: max_field_bytes.min(crate::available_memory_bytes()),
         };
-        Ok(SoundSettings { inner, keep_counts })
+        Ok(SoundSettings { inner, keep_counts, nee_receivers, quantum })
     }
 }
 
@@ -384,6 +398,11 @@ pub(crate) fn trace_sound<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let set = &settings.inner;
     let covered = early.as_ref().filter(|_| cover_early).map(|e| e.coverage());
+    // The hybrid's early diffuse connections: with the paths the image sources count left out.
+    let early_connections = early
+        .as_ref()
+        .filter(|e| cover_early && e.connect_diffuse)
+        .map(|e| core::nee::EarlyConnections { until_s: e.inner.max_time_s, connections: settings.nee_receivers });
     let detail = early.as_ref().filter(|e| e.inner.level_of_detail).map(|e| {
         let e = &e.inner;
         sonolux_core::early::lod::LevelOfDetail::new(&geometry.mesh, e.band_centres_hz.clone(), e.speed_of_sound_m_s, e.plane_tolerance_m)
@@ -396,7 +415,14 @@ pub(crate) fn trace_sound<'py>(
     let mut interrupted: Option<PyErr> = None;
     let progress: Option<Py<PyAny>> = progress.map(|p| p.unbind());
     let result = py.detach(|| {
-        let extras = core::Extras { covered, level_of_detail: detail.as_ref(), wall_model: acoustics.model(), bake_receivers: all_receivers };
+        let extras = core::Extras {
+            covered,
+            level_of_detail: detail.as_ref(),
+            wall_model: acoustics.model(),
+            bake_receivers: all_receivers,
+            early_connections,
+            quantum: settings.quantum,
+        };
         let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
         })?;
@@ -443,4 +469,18 @@ pub(crate) fn trace_sound<'py>(
     s.set_item("escapes", escapes)?;
     out.set_item("stats", s)?;
     Ok(out)
+}
+
+/// The fixed-point quantum (J/m² a count) of a bake of `sources` into `receivers`: what
+/// `trace_sound` uses unless its settings give one (`SoundSettings(quantum=...)`, which must be
+/// at least this). A bake traced in parts whose sources or receivers peak differently (level of
+/// detail's band groups, each with its own bands' gains) gives every part the quantum of the
+/// whole bake's sources and receivers, so that their counts add exactly.
+#[pyfunction]
+pub(crate) fn sound_quantum(sources: Vec<PyRef<'_, SoundSource>>, receivers: &Receivers) -> PyResult<f64> {
+    let sources: Vec<core::SoundSource> = sources.iter().map(|s| s.inner.clone()).collect();
+    if sources.is_empty() {
+        return Err(invalid("sources: a sound bake needs at least one source"));
+    }
+    Ok(core::sound_quantum(&sources, &receivers.inner))
 }

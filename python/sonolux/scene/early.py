@@ -17,7 +17,11 @@ s' = 1 − (1 − s)K, on panels with a diffracting edge; with ``max_order = 0``
 ``diffraction_piece_m`` (default 0.25: the longest piece of an edge whose visibility is tested
 as one, in (0, 10] m), ``level_of_detail_rays`` (``"octave"``, the default: with level of
 detail each octave of bands traces its own rays; ``"level"``: the bands of one geometry share
-rays, faster, with noisier late decays where the panels' K differs between bands).
+rays, faster, with noisier late decays where the panels' K differs between bands),
+``diffuse_connections`` (default true: with the sphere estimator the particles send the
+diffusely reflected part of each reflection straight to the receivers that see it, for the
+arrivals before the transition, as ODEON's early scattering; false: the spheres collect it,
+as before; docs/early-sound.md "Early diffuse connections").
 
 With ``level_of_detail``, features small against a band's wavelength (ka < 1) are also left out
 of that band's geometry, replaced by the surface they sit on (:mod:`sonolux.scene.simplify`).
@@ -30,7 +34,7 @@ from dataclasses import dataclass
 from sonolux.scene.schema import Table
 
 EARLY_KEYS = ("max_order", "transition_ms", "diffraction", "level_of_detail",
-              "diffraction_piece_m", "level_of_detail_rays")
+              "diffraction_piece_m", "level_of_detail_rays", "diffuse_connections")
 #: How the bands of a bake with level of detail share rays (docs/early-sound.md): "octave",
 #: each octave of bands its own rays; "level", one set of rays for all bands of one geometry.
 LOD_RAYS = ("octave", "level")
@@ -48,6 +52,7 @@ class EarlySpec:
     level_of_detail: bool = False
     diffraction_piece_m: float = 0.25
     level_of_detail_rays: str = "octave"
+    diffuse_connections: bool = True
 
 
 def _boolean(t: Table, name: str, default: bool) -> bool:
@@ -87,4 +92,5 @@ def read_early(t: Table | None) -> EarlySpec | None:
         diffraction_piece_m=t.number("diffraction_piece_m", d.diffraction_piece_m, lo=0.0,
                                      lo_open=True, hi=10.0),
         level_of_detail_rays=_choice(t, "level_of_detail_rays", d.level_of_detail_rays, LOD_RAYS),
+        diffuse_connections=_boolean(t, "diffuse_connections", d.diffuse_connections),
     )

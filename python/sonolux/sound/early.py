@@ -8,6 +8,10 @@ Berkley 1979; Borish 1984); the particle tracer, run with the same :class:`Early
 the deposits of exactly those paths (a ray that has only reflected specularly, at most
 ``max_order`` times, before the transition), and keeps everything with a diffuse bounce. The
 diffracted arrivals (Svensson, Fred and Vanderkooy 1999) are sound the particles never carry.
+With ``diffuse_connections`` (the default) the particles also send each reflection's diffuse
+share straight to the receivers that see it for the arrivals before the transition (ODEON's early
+scattering: Naylor 1993; Rindel and Christensen 2003), and their spheres skip exactly those legs
+(``sonolux_core::sound::nee::EarlyConnections``).
 
 The arrivals are kept in the field (``SoundField.early``) beside the particles' part, so that ray
 ranges still merge exactly: the field's energy is always
@@ -61,7 +65,8 @@ def early_settings(scene: Scene, spec: EarlySpec, air_per_m: np.ndarray,
     if log:
         log(f"early sound: image sources to order {spec.max_order}, {why}"
             + (", edge diffraction" if spec.diffraction else "")
-            + (", level of detail" if spec.level_of_detail else ""))
+            + (", level of detail" if spec.level_of_detail else "")
+            + (", early diffuse connections" if spec.diffuse_connections else ""))
     return engine.EarlySettings(
         max_order=spec.max_order, max_time_s=t,
         speed_of_sound_m_s=scene.settings.speed_of_sound_m_s,
@@ -71,7 +76,8 @@ def early_settings(scene: Scene, spec: EarlySpec, air_per_m: np.ndarray,
         # base-10 edges centre · G^(±1/(2 per_octave)), G = 10^(3/10).
         bands_per_octave=scene.settings.band_set.per_octave / (0.3 * math.log2(10.0)),
         diffraction=spec.diffraction, level_of_detail=spec.level_of_detail,
-        threads=scene.settings.threads, diffraction_piece_m=spec.diffraction_piece_m)
+        threads=scene.settings.threads, diffraction_piece_m=spec.diffraction_piece_m,
+        connect_diffuse=spec.diffuse_connections)
 
 
 def arrival_table(arrivals: dict[str, Any]) -> dict[str, np.ndarray]:

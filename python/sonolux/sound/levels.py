@@ -147,6 +147,11 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
     # The joined field is allocated once, when the first level gives its shape, and each
     # level's bands are copied in and dropped at once: the bake holds the field and one level's
     # part, not every part and the join (twice the field).
+    # One fixed-point quantum for every group: the whole bake's sources and receivers, every
+    # band (each group's own, from its bands' gains, is no larger: the core checks), so that
+    # the groups' counts share a scale and ray ranges merge exactly whatever the groups' peaks.
+    if settings.get("quantum") is None:  # the caller's (the whole bake's, over tiles) else ours
+        settings = dict(settings, quantum=engine.sound_quantum(sources, receivers))
     out: dict[str, Any] = {}
     parts_stats: list[dict[str, Any]] = []
     cancelled = saturated = False
@@ -172,11 +177,8 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
                 out["counts"] = np.zeros(shape, part["counts"].dtype)
         out["energy"][:, :, b] = part.pop("energy")
         if "counts" in part:
-            if part["quantum"] != out["quantum"]:
-                raise SonoluxError("level of detail: the band groups' fixed-point quanta differ "
-                                   "(a directional source, or a SOFA receiver channel, whose "
-                                   "peak gain differs between the groups); ray ranges cannot be "
-                                   "kept exact: bake it whole (--no-checkpoint, a fixed --rays)")
+            if part["quantum"] != out["quantum"]:  # one quantum was given: a broken core
+                raise SonoluxError("level of detail: the band groups' fixed-point quanta differ")
             out["counts"][:, :, b] = part.pop("counts")
         parts_stats.append(part["stats"])
         cancelled |= bool(part["cancelled"])

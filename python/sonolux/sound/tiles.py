@@ -45,9 +45,18 @@ def trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs:
     # Work done in every tile (the rays' segments are the first tile's: the bake's).
     per_tile = {"deposits": 0, "shadow_rays": 0, "draws": 0}
     t0 = time.perf_counter()
-    # Tiled, the nee estimator draws among all the bake's receivers (the untiled bits).
+    # Tiled, the nee estimator and the hybrid's early diffuse connections draw among all the
+    # bake's receivers (the untiled bits).
+    draws = base.get("estimator") == "nee" or (
+        early is not None and getattr(scene.early, "diffuse_connections", False))
     whole = ({"bake_receivers": engine.Receivers(positions, scene.receivers.radius_m, patterns)}
-             if memory.tiles > 1 and base.get("estimator") == "nee" else {})
+             if memory.tiles > 1 and draws else {})
+    # One fixed-point quantum for every tile (and band group): the whole bake's sources and
+    # receivers. A tile's own would follow its receivers' peak gain (an omni tile beside a SOFA
+    # channel's), and its counts would not share the bake's scale. The same as the tile's own
+    # when every receiver peaks alike (the same bits as before).
+    base = dict(base, quantum=engine.sound_quantum(sources, engine.Receivers(
+        positions, scene.receivers.radius_m, patterns)))
     # With levels, SOFA channels take each band group's own gains (per-level receivers).
     banded = None if levels is None else banded_patterns(scene)
     for k, lo in enumerate(range(0, n, size)):

@@ -50,6 +50,25 @@ fn box_distance(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
 impl ImageTree {
     /// All images up to `max_order` that could reach a receiver within `max_path_m`.
     pub fn build(planes: &Planes, source: DVec3, receivers: &[DVec3], max_order: u32, max_path_m: f64) -> ImageTree {
+        Self::build_in_beams(planes, source, receivers, max_order, max_path_m, None)
+    }
+
+    /// [`ImageTree::build`], and with `beams` (each plane's aperture: [`Apertures::spheres`])
+    /// a child is kept only if its plane's aperture meets the beam of its parent: the lines
+    /// through the parent image and a point of the parent's plane aperture.
+    ///
+    /// Why that is conservative: [`specular_path`] builds a path backwards, from the receiver
+    /// towards the child image I′ to a hit X on a triangle of the child's plane, then from X
+    /// towards the parent image I to a hit Y on a triangle of the parent's plane. X, Y and I lie on
+    /// one line, so X lies on a line through I and a point of the parent's aperture. Both
+    /// apertures are bounded by spheres (each plane's vertex box, widened by the triangles'
+    /// stand-off and the hits' slack), the lines through I and the parent's sphere fill a double
+    /// cone of half-angle asin(r/d), and the child's sphere must meet it: otherwise no point of
+    /// any receiver can have a path through the child (or any image below it). Borish's (1984)
+    /// visibility condition, tested on bounding spheres like the beams of Funkhouser et al.
+    /// (SIGGRAPH 1998); it drops no image [`specular_path`] would accept, so the arrivals are
+    /// the same (their image indices shift: they are internal).
+    pub(crate) fn build_in_beams(planes: &Planes, source: DVec3, receivers: &[DVec3], max_order: u32, max_path_m: f64, beams: Option<&[(DVec3, f64)]>) -> ImageTree {
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for r in receivers {
             lo = lo.min(*r);
@@ -78,6 +97,9 @@ impl ImageTree {
                         if !pl.vertices.iter().any(|v| pp.distance(*v) * s > 1e-9) {
                             continue;
                         }
+                        if beams.is_some_and(|b| !in_beam(parent.position, b[parent.plane as usize], b[q])) {
+                            continue;
+                        }
                     }
                     let position = pl.mirror(parent.position);
                     if receivers.is_empty() || box_distance(position, lo, hi) > max_path_m {
@@ -97,6 +119,21 @@ impl ImageTree {
         // scan of the next order's range is cheap next to the BVH queries around it.
         self.nodes.iter().position(|n| n.parent == node && n.plane == plane && n.order > 0).map(|i| i as u32)
     }
+}
+
+/// Whether the sphere `child` (centre, radius) meets the double cone of lines through `apex` and
+/// the sphere `aperture` ([`ImageTree::build_in_beams`]); true whenever the apex lies in either
+/// sphere. The angles get a margin of 1e-9 rad for rounding.
+fn in_beam(apex: DVec3, aperture: (DVec3, f64), child: (DVec3, f64)) -> bool {
+    let (to_a, to_c) = (aperture.0 - apex, child.0 - apex);
+    let (da, dc) = (to_a.length(), to_c.length());
+    if !(da > aperture.1 && dc > child.1) {
+        return true;
+    }
+    let reach = (aperture.1 / da).asin() + (child.1 / dc).asin() + 1e-9;
+    let angle = (to_a.dot(to_c) / (da * dc)).clamp(-1.0, 1.0).acos();
+    // The lines run both ways through the apex.
+    angle <= reach || std::f64::consts::PI - angle <= reach
 }
 
 /// A valid path of one image to one receiver.
@@ -231,6 +268,12 @@ impl Apertures {
         let boxes: Vec<(DVec3, DVec3)> = ctx.planes.planes.iter().map(|p| p.vertices.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))).collect();
         let slack_m = boxes.iter().map(|(lo, hi)| ctx.settings.plane_tolerance_m.max(1e-9) + super::planes::NORMAL_TOLERANCE * (*hi - *lo).length() + 4.0 * ctx.epsilon_m).collect();
         Apertures { boxes, slack_m }
+    }
+
+    /// Each plane's aperture bounded by a sphere: its box's centre, half its diagonal plus the
+    /// slack and a relative margin of 1e-9 (for [`ImageTree::build_in_beams`]).
+    pub(crate) fn spheres(&self) -> Vec<(DVec3, f64)> {
+        self.boxes.iter().zip(&self.slack_m).map(|((lo, hi), slack)| (0.5 * (*lo + *hi), (0.5 * (*hi - *lo).length() + slack) * (1.0 + 1e-9) + 1e-9)).collect()
     }
 }
 
@@ -440,5 +483,32 @@ impl Same<'_> {
             j = self.twins.next[j as usize];
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_beam_holds_every_line_through_the_apex_and_the_aperture() {
+        let apex = DVec3::ZERO;
+        let aperture = (DVec3::new(4.0, 0.0, 0.0), 1.0);
+        // Random lines through the apex and a point of the aperture's sphere: every point on
+        // them (either side of the apex) is in the beam of a tiny sphere about it.
+        let mut s = crate::rng::Stream::new(5, 0, 0);
+        for _ in 0..10_000 {
+            let v = DVec3::new(s.uniform() - 0.5, s.uniform() - 0.5, s.uniform() - 0.5);
+            let y = aperture.0 + v.normalize_or_zero() * aperture.1 * s.uniform().cbrt();
+            let x = apex + (y - apex) * (6.0 * s.uniform() - 3.0);
+            assert!(in_beam(apex, aperture, (x, 1e-6)), "{x:?}");
+        }
+        // Off the cone (half-angle asin(1/4) = 14.5°): at 40° from the axis, a small sphere is out.
+        let off = DVec3::new(40f64.to_radians().cos(), 40f64.to_radians().sin(), 0.0) * 6.0;
+        assert!(!in_beam(apex, aperture, (off, 0.1)));
+        assert!(!in_beam(apex, aperture, (-off, 0.1)));
+        // The apex inside either sphere: everything is reachable.
+        assert!(in_beam(DVec3::new(4.5, 0.0, 0.0), aperture, (off, 0.1)));
+        assert!(in_beam(off, aperture, (off, 0.1)));
     }
 }

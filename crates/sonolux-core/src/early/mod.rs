@@ -290,9 +290,10 @@ pub fn early_arrivals(
         epsilon_m: 1e-5 * (bvh.bounds().extent().length() as f64).max(1.0),
     };
     let max_path_m = settings.max_time_s * settings.speed_of_sound_m_s;
-    let trees: Vec<ImageTree> = sources.iter().map(|s| ImageTree::build(&planes, s.position, receivers, settings.max_order, max_path_m)).collect();
-    let twins: Vec<image_sources::Twins> = trees.iter().map(image_sources::Twins::of).collect();
     let apertures = image_sources::Apertures::new(&ctx);
+    let beams = apertures.spheres();
+    let trees: Vec<ImageTree> = sources.iter().map(|s| ImageTree::build_in_beams(&planes, s.position, receivers, settings.max_order, max_path_m, Some(&beams))).collect();
+    let twins: Vec<image_sources::Twins> = trees.iter().map(image_sources::Twins::of).collect();
 
     let threads = if settings.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { settings.threads };
     let pool = rayon::ThreadPoolBuilder::new()

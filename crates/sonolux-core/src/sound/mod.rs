@@ -361,6 +361,8 @@ pub(crate) struct Scene<'a> {
     pub lod: Option<&'a LevelOfDetail>,
     /// How each surface's absorption depends on the angle of incidence ([`reflectance`]).
     pub walls: Walls,
+    /// The hybrid's early diffuse connections (sphere estimator only; None: none).
+    pub early_connections: Option<nee::EarlyConnections>,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -402,6 +404,24 @@ pub struct Extras<'a> {
     /// and deposits only into the tile's, so that tiles give the bits of the untiled bake.
     /// None: the run's receivers are the bake's.
     pub bake_receivers: Option<&'a [DVec3]>,
+    /// The hybrid's early diffuse connections ([`nee::EarlyConnections`]): with the sphere
+    /// estimator, diffuse reflections are connected to the receivers for the arrivals before
+    /// the window's end (the rain and nee estimators connect every one already).
+    pub early_connections: Option<nee::EarlyConnections>,
+    /// The field's fixed-point quantum (J/m² a count), when the caller needs one quantum for
+    /// several runs whose sources or receivers peak differently (level of detail's band groups,
+    /// each with its own bands' gains): it must be at least this run's own
+    /// ([`sound_quantum`] of its sources and receivers), so that no bin can overflow. None: the
+    /// run's own.
+    pub quantum: Option<f64>,
+}
+
+/// The fixed-point quantum (J/m² a count) of a bake of these sources into these receivers: set
+/// by the sources' power × directivity peak and the receivers' peak gain and radius (no bin can
+/// overflow). A bake of the same sources and receivers restricted to some of their bands has a
+/// quantum no larger (a peak over fewer bands is no larger, and rounding is monotone).
+pub fn sound_quantum(sources: &[SoundSource], receivers: &Receivers) -> f64 {
+    trace::quantum(sources, receivers.radius_m, receivers.peak_gain())
 }
 
 /// [`trace_sound`] with [`Extras`].
@@ -429,6 +449,9 @@ pub fn trace_sound_with(
         if !(c.max_time_s >= 0.0) || c.max_order > 64 {
             return Err(CoreError::invalid("specular coverage", format!("order {} (≤ 64) and time {} s (≥ 0) expected", c.max_order, c.max_time_s)));
         }
+    }
+    if let Some(ec) = extras.early_connections {
+        ec.check().map_err(|problem| CoreError::invalid("early_connections", problem))?;
     }
     let nb = acoustics.n_bands;
     settings.validate(acoustics, receivers.len())?;
@@ -472,7 +495,8 @@ pub fn trace_sound_with(
         }
         None => (&receivers.centres[..], 0),
     };
-    let receiver_tree = matches!(settings.estimator, Estimator::Nee { .. }).then(|| nee::ReceiverTree::new(tree_centres, receivers.radius_m));
+    let early_connections = extras.early_connections.filter(|_| settings.estimator == Estimator::Paper);
+    let receiver_tree = (matches!(settings.estimator, Estimator::Nee { .. }) || early_connections.is_some()).then(|| nee::ReceiverTree::new(tree_centres, receivers.radius_m));
     let scene = Scene {
         mesh,
         bvh,
@@ -493,8 +517,16 @@ pub fn trace_sound_with(
         tree_offset,
         lod: extras.level_of_detail,
         walls: Walls::new(extras.wall_model, acoustics),
+        early_connections,
     };
-    let quantum = trace::quantum(sources, receivers.radius_m, receivers.peak_gain());
+    let own_quantum = sound_quantum(sources, receivers);
+    let quantum = match extras.quantum {
+        None => own_quantum,
+        Some(q) if q.is_finite() && q >= own_quantum => q,
+        Some(q) => {
+            return Err(CoreError::invalid("quantum", format!("{q:e} J/m² a count is below this bake's own {own_quantum:e} (its sources' power × directivity peak and its receivers' peak gain): a bin could overflow; give the quantum of the whole bake's sources and receivers (sound_quantum)")));
+        }
+    };
     let n = settings.end_ray - settings.first_ray;
     let traced_sources = if settings.only_source.is_some() { 1 } else { sources.len() };
     let huge = field::huge_pages_pay(n * traced_sources as u64, receivers.len(), layout.len());

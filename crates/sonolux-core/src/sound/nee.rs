@@ -53,6 +53,45 @@ use crate::rng::keyed_uniform;
 /// Most receivers one diffuse reflection may connect to (the draws live on the stack).
 pub const MAX_CONNECTIONS: u32 = 256;
 
+/// The hybrid's early diffuse connections, for the sphere ("paper") estimator: ODEON's early
+/// scattering (Naylor, "ODEON — another hybrid room acoustical model", Applied Acoustics 38,
+/// 1993; Rindel and Christensen, "Room acoustic simulation and auralization — how close can we
+/// get to the real room?", WESPAC 8, 2003): the diffusely reflected part of every reflection is
+/// sent straight to the receivers that see the reflection point, Lambert-weighted and
+/// visibility-tested, for the arrivals before `until_s` (the transition time, when the image
+/// sources hand over), and the cheap sphere estimator takes the rest.
+///
+/// Each path is counted once: the leg from a diffuse reflection at x straight to receiver r is
+/// counted either by this connection (when it arrives before `until_s`) or by the sphere that
+/// the ray's next segment crosses after a diffuse bounce at x (when it arrives at `until_s` or
+/// later), never both. Both estimate the same quantity (the Lambert source at x seen over the
+/// receiver's ball) and both time it at (path to x + |r − x|) / c, so the split is by the
+/// arrival time alone, decided the same way on both sides. Segments after a specular bounce
+/// (a specular chain from x) stay with the spheres, as in the rain estimator.
+///
+/// With more receivers than `connections`, each reflection connects to `connections` drawn
+/// receivers ([`connect`], weighted 1 / (M p)); with no more, to every one (rain).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EarlyConnections {
+    /// Arrivals before this time (s) come from the connections, later ones from the spheres.
+    pub until_s: f64,
+    /// M, the receivers a reflection connects to when the bake has more (1 to [`MAX_CONNECTIONS`]).
+    pub connections: u32,
+}
+
+impl EarlyConnections {
+    /// Checks the window and the connections; the message names the setting.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.until_s >= 0.0 && self.until_s.is_finite()) {
+            return Err(format!("early connections: until_s = {} is not a finite time ≥ 0", self.until_s));
+        }
+        if !(1..=MAX_CONNECTIONS).contains(&self.connections) {
+            return Err(format!("early connections: {} receivers a reflection; from 1 to {MAX_CONNECTIONS}", self.connections));
+        }
+        Ok(())
+    }
+}
+
 /// The receiver key of the draws' random numbers: no receiver of a bake has this index.
 const DRAW_KEY: u64 = u64::MAX - 1;
 
@@ -208,9 +247,10 @@ fn geometric_factor(to: DVec3, n: DVec3, receiver_radius: f64) -> f64 {
 /// Next-event estimation at a diffuse reflection through `m` drawn receivers: the diffusely
 /// scattered part s·E leaves `point` as a Lambert source; receiver r, drawn k times, receives
 /// k / (m p(r)) × what the rain estimator sends it (4 cos θ × the ball mean of 1/(4π d²) × air).
-/// `key` is (source, ray, event): the draws' and the roundings' key.
+/// `key` is (source, ray, event): the draws' and the roundings' key. Only connections arriving
+/// before `until_s` deposit ([`EarlyConnections`]; infinite for the nee estimator).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
+pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64]), until_s: f64) {
     let (deposit, gain) = scratch;
     let Some(tree) = scene.receiver_tree else { return };
     let set = scene.settings;
@@ -252,7 +292,7 @@ pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: 
     for &(r, weight) in &picks[..n_picks] {
         // A receiver of another tile: that tile's run deposits it (the same draws there).
         let Some(r) = (r as usize).checked_sub(offset).filter(|&r| r < own) else { continue };
-        super::trace::connect(scene, r, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain));
+        super::trace::connect(scene, r, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain), until_s);
     }
 }
 

@@ -62,6 +62,10 @@ pub(crate) struct RayState {
     spheres: bool,
     /// Whether every reflection so far was specular: such segments may be the image sources'.
     specular_only: bool,
+    /// The hybrid's early connections ([`super::nee::EarlyConnections`]): after a diffuse
+    /// bounce, the spheres skip this segment's deposits arriving before this time (s), which
+    /// the connections at the reflection counted; 0 otherwise (nothing skipped).
+    connected_until_s: f64,
     /// With level of detail, the surface a specular bounce will meet, found at the reflection
     /// (its distance is the leg d₂ of Rindel's K) and kept for the next segment.
     next_known: bool,
@@ -80,7 +84,7 @@ impl RayState {
             source: 0, index: 0, key: 0, rng: Stream::new(0, 0, 0), pos: DVec3::ZERO, dir: DVec3::X,
             share: 0.0, path: 0.0, wave_radius: 0.0, reflections: 0, segments: 0,
             free_n: 0, free_sum: 0.0, free_sq: 0.0,
-            spheres: false, specular_only: true, next_known: false, next: None,
+            spheres: false, specular_only: true, connected_until_s: 0.0, next_known: false, next: None,
             energy: vec![0.0; n_bands],
             tally: vec![0.0; stats::KINDS * n_bands],
         }
@@ -234,6 +238,7 @@ fn start_ray<const NB: usize>(scene: &Scene, limits: &Limits<NB>, s: usize, inde
     (ray.free_n, ray.free_sum, ray.free_sq) = (0, 0.0, 0.0);
     ray.spheres = !set.estimator.rains();
     ray.specular_only = true;
+    ray.connected_until_s = 0.0;
     ray.next_known = false;
     ray.tally.fill(0.0);
     ray.tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].copy_from_slice(&ray.energy[..nb]);
@@ -329,9 +334,17 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
         let scratch_pair = (&mut scratch.deposit[..nb], &mut scratch.gain[..nb]);
         match set.estimator {
             Estimator::Rain => rain(scene, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair),
-            Estimator::Nee { connections } => super::nee::connect(scene, connections, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair),
+            Estimator::Nee { connections } => super::nee::connect(scene, connections, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair, f64::INFINITY),
             Estimator::Paper => {}
         }
+    }
+    // The hybrid's early connections (sphere estimator): the same connection for the arrivals
+    // before the window's end; none can arrive before it once the ray's path is past it.
+    let early = scene.early_connections.filter(|_| matches!(set.estimator, Estimator::Paper));
+    if let Some(ec) = early.filter(|ec| ray.path < ec.until_s * set.speed_of_sound_m_s) {
+        let key = [ray.source as u64, ray.index, 2 * ray.reflections + 1];
+        let scratch_pair = (&mut scratch.deposit[..nb], &mut scratch.gain[..nb]);
+        super::nee::connect(scene, ec.connections, point, normal, ray.path, &ray.energy[..nb], scat, ray.share, acc, buf, st, key, scratch_pair, ec.until_s);
     }
 
     // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
@@ -341,10 +354,12 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
         ray.wave_radius = 0.0;
         ray.spheres = !set.estimator.rains();
         ray.specular_only = false;
+        ray.connected_until_s = early.map_or(0.0, |ec| ec.until_s);
         ray.next_known = false;
     } else {
         ray.dir = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
         ray.spheres = true;
+        ray.connected_until_s = 0.0;
     }
     ray.pos = leave(scene, point, normal, ray.pos);
 
@@ -376,6 +391,10 @@ fn deposit_crossings<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &
         let to_centre = ((ray.wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - ray.wave_radius;
         let time_s = (ray.path + to_centre) / set.speed_of_sound_m_s;
         if ray.specular_only && scene.covered.is_some_and(|c| c.covers(ray.reflections, time_s)) {
+            return;
+        }
+        // The leg from a diffuse reflection that the early connections counted.
+        if time_s < ray.connected_until_s {
             return;
         }
         let Some(tb) = lay.time_bin(time_s) else { return };
@@ -470,16 +489,17 @@ fn finish_ray<const NB: usize>(ray: &RayState, limits: &Limits<NB>, st: &mut Sou
 fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
     let (deposit, gain) = scratch;
     for r in 0..scene.receivers.centres.len() {
-        connect(scene, r, 1.0, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain));
+        connect(scene, r, 1.0, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain), f64::INFINITY);
     }
 }
 
 /// One next-event connection of the rain and nee estimators: the diffusely reflected energy at
 /// `point` sent to receiver `r` (Lambert's cosine, the sphere's mean 1/(4πd²), air, the
 /// receiver's pattern) with an extra `weight` (1 for rain; 1/(M p) for a sampled receiver),
-/// if the receiver is in front of the surface and sees the point.
+/// if the receiver is in front of the surface and sees the point, and it arrives before
+/// `until_s` (infinite for rain and nee; the window of [`super::nee::EarlyConnections`]).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
+pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64]), until_s: f64) {
     let (deposit, gain) = scratch;
     let set = scene.settings;
     let lay = &scene.layout;
@@ -491,7 +511,11 @@ pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal
     if !(cos > 0.0) {
         return;
     }
-    let Some(tb) = lay.time_bin((path + d) / set.speed_of_sound_m_s) else { return };
+    let time_s = (path + d) / set.speed_of_sound_m_s;
+    if !(time_s < until_s) {
+        return;
+    }
+    let Some(tb) = lay.time_bin(time_s) else { return };
     if !scene.convex {
         let from = offset_origin(point, normal, point + normal);
         let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
