@@ -5,7 +5,7 @@
 # time] in J/m² (docs/fieldfile.md). Errors: sonolux.errors.InvalidInputError and
 # GeometryError (both SonoluxError), raised with the name of the input at fault.
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, final
 
 import numpy as np
@@ -80,6 +80,7 @@ class Acoustics:
         absorption: NDArray[np.float64],
         scattering: NDArray[np.float64],
         wall_model: str = "random-incidence",
+        scattering_by_angle: Mapping[int, NDArray[np.float64]] | None = None,
     ) -> Acoustics: ...
     @property
     def n_bands(self) -> int: ...

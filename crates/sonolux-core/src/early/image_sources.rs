@@ -180,6 +180,7 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
     let n = path.points.len();
     let mut shares = vec![1.0; nb];
     let mut absorption = vec![0.0; nb];
+    let mut by_angle = vec![0.0; nb];
     for (k, (&p, &tri)) in path.points.iter().zip(&path.triangles).enumerate() {
         let m = ctx.mesh.material[tri as usize] as usize * nb;
         // The absorption at this reflection's angle of incidence, as the tracer applies it
@@ -187,7 +188,13 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
         let arriving = (p - if k == 0 { source } else { path.points[k - 1] }).normalize_or_zero();
         let cos_incidence = arriving.dot(ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize].normal).abs();
         let alpha = ctx.walls.absorption(&ctx.acoustics.absorption, m, cos_incidence, &mut absorption);
-        let scat = &ctx.acoustics.scattering[m..m + nb];
+        let mut scat = &ctx.acoustics.scattering[m..m + nb];
+        if let Some(table) = &ctx.settings.scattering_by_angle {
+            // A described surface's s at this angle (sound/scattering.rs), as the tracer's.
+            if table.at(ctx.mesh.material[tri as usize] as usize, cos_incidence, &mut by_angle) {
+                scat = &by_angle;
+            }
+        }
         for b in 0..nb {
             out[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);
         }
