@@ -80,7 +80,7 @@ class Acoustics:
         absorption: NDArray[np.float64],
         scattering: NDArray[np.float64],
         wall_model: str = "random-incidence",
-        scattering_by_angle: Mapping[int, NDArray[np.float64]] | None = None,
+        by_angle: Mapping[int, NDArray[np.float64]] | None = None,
     ) -> Acoustics: ...
     @property
     def n_bands(self) -> int: ...
@@ -217,6 +217,7 @@ def simulate_waves(
     term_signals_m3_s2: NDArray[np.float64] | None = None,
     pulse_delay_s: float = 0.0,
     energy_bands: int | None = None,
+    wells: Mapping[int, tuple[Sequence[float], float]] | None = None,
 ) -> dict[str, Any]: ...
 
 @final

@@ -24,10 +24,10 @@ fn per_material(a: &PyReadonlyArray2<'_, f64>) -> (usize, Vec<f64>) {
 /// the same in both. wall_model: "random-incidence" (each band's coefficient at every angle) or
 /// "locally-reacting" (a locally reacting wall whose random-incidence absorption is the
 /// coefficient, as the wave solver's; sonolux_core::sound::reflectance); `trace_sound` and
-/// `early_arrivals` both use it, so a hybrid of the two agrees. scattering_by_angle: None, or
-/// {material: float64[angle, band]}, the scattering of materials whose surface is described, at
-/// angles evenly spaced in cos θ from grazing (0) to normal incidence (1), at least 2
-/// (sonolux_core::sound::scattering); both calls use it too.
+/// `early_arrivals` both use it, so a hybrid of the two agrees. by_angle: None, or
+/// {material: float64[2, angle, band]}, the absorption then the scattering of materials whose
+/// surface is described, at angles evenly spaced in cos θ from grazing (0) to normal incidence
+/// (1), at least 2 (sonolux_core::sound::scattering); both calls use it too.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Acoustics {
     inner: core::Acoustics,
@@ -38,12 +38,12 @@ pub(crate) struct Acoustics {
 #[pymethods]
 impl Acoustics {
     #[new]
-    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence", scattering_by_angle = None))]
+    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence", by_angle = None))]
     fn new(
         absorption: PyReadonlyArray2<'_, f64>,
         scattering: PyReadonlyArray2<'_, f64>,
         wall_model: &str,
-        scattering_by_angle: Option<std::collections::BTreeMap<usize, PyReadonlyArray2<'_, f64>>>,
+        by_angle: Option<std::collections::BTreeMap<usize, PyReadonlyArray3<'_, f64>>>,
     ) -> PyResult<Self> {
         let (a, s) = (absorption.as_array().dim(), scattering.as_array().dim());
         if a != s {
@@ -55,15 +55,15 @@ impl Acoustics {
         let (n_bands, absorption) = per_material(&absorption);
         let (_, scattering) = per_material(&scattering);
         let n_materials = a.0;
-        let by_angle = match scattering_by_angle {
+        let by_angle = match by_angle {
             None => None,
             Some(tables) => {
                 let mut rows: Vec<Option<Vec<f64>>> = vec![None; n_materials];
                 let mut n_cos = 0;
                 for (m, t) in &tables {
-                    let (angles, bands) = t.as_array().dim();
-                    if *m >= n_materials || bands != n_bands || (n_cos != 0 && angles != n_cos) {
-                        return Err(invalid(format!("scattering_by_angle: material {m} has shape ({angles}, {bands}); a material below {n_materials}, the same angle count for all, and {n_bands} bands expected")));
+                    let (two, angles, bands) = t.as_array().dim();
+                    if *m >= n_materials || two != 2 || bands != n_bands || (n_cos != 0 && angles != n_cos) {
+                        return Err(invalid(format!("by_angle: material {m} has shape ({two}, {angles}, {bands}); a material below {n_materials}, shape (2, angles, {n_bands}) and the same angle count for all expected")));
                     }
                     n_cos = angles;
                     rows[*m] = Some(t.as_array().iter().copied().collect());

@@ -28,7 +28,7 @@ from sonolux.acoustics.bands import (
     band_set_of,
     convert_coefficients,
 )
-from sonolux.acoustics.surface import WellSurface, random_incidence_scattering
+from sonolux.acoustics.surface import WellSurface, random_incidence
 from sonolux.errors import (  # noqa: F401  (interval_text: re-exported)
     _MISSING,
     SceneError,
@@ -70,7 +70,8 @@ class Material:
         every triangle of a material with transmittance > 0.
     surface: the surface's profile (``[materials.NAME.surface]``), or None. When given, the
         scattering is the profile's (:mod:`sonolux.acoustics.surface`): its random-incidence
-        coefficient per band, s(θ) for the rays and a well behind each patch of the waves' walls.
+        coefficient per band, α(θ) and s(θ) for the rays and a well behind each patch of the
+        waves' walls; ``absorption`` is then the absorption of the surface's flat face.
     """
 
     name: str
@@ -94,7 +95,8 @@ class Material:
         """float64[band]: the scattering on ``bands``, converted as docs/bands.md says; for a
         described surface, the profile's random-incidence coefficient in each band."""
         if self.surface is not None:
-            return random_incidence_scattering(self.surface, bands, speed_of_sound_m_s)
+            return random_incidence(self.surface, self.absorption_in(bands), bands,
+                                    speed_of_sound_m_s)[1]
         return convert_coefficients(self.scattering, self.scattering_bands, bands)
 
 

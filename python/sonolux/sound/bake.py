@@ -209,7 +209,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     settings = engine.SoundSettings(**base)
     wall_model, wall_why = sound_walls.resolve(scene, options)
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model,
-                                 scattering_by_angle=sound_surfaces.scattering_tables(scene))
+                                 by_angle=sound_surfaces.tables_by_angle(scene))
     wall_kept = [list(k) for k in acoustics.kept_constant()]
     if log:
         log(wall_why)

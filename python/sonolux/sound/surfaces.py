@@ -1,5 +1,5 @@
-"""The rays' and image sources' side of described surfaces: each profiled material's s(θ, f)
-table for the tracer (sonolux_core::sound::scattering), from the profile's model
+"""The rays' and image sources' side of described surfaces: each profiled material's α(θ, f)
+and s(θ, f) table for the tracer (sonolux_core::sound::scattering), from the profile's model
 (:mod:`sonolux.acoustics.surface`; docs/scene.md ``surface``, docs/waves.md "Scattering on the
 waves' side")."""
 
@@ -12,11 +12,18 @@ from sonolux.errors import SettingError
 from sonolux.scene.schema import Scene
 
 
-def scattering_tables(scene: Scene) -> dict[int, np.ndarray] | None:
-    """{material index: float64[angle, band]} for the materials with a surface profile (angles
-    evenly spaced in cos θ from grazing to normal), or None when no material has one."""
-    tables = {i: rays_table(m.surface, scene.settings.band_set, scene.settings.speed_of_sound_m_s)
-              for i, m in enumerate(scene.materials) if m.surface is not None}
+def tables_by_angle(scene: Scene) -> dict[int, np.ndarray] | None:
+    """{material index: float64[2, angle, band]} (absorption, then scattering) for the materials
+    with a surface profile (angles evenly spaced in cos θ from grazing to normal), or None when
+    no material has one."""
+    bands, c = scene.settings.band_set, scene.settings.speed_of_sound_m_s
+    tables = {}
+    for i, m in enumerate(scene.materials):
+        if m.surface is not None:
+            try:
+                tables[i] = rays_table(m.surface, m.absorption_in(bands), bands, c)
+            except ValueError as exc:
+                raise SettingError(f"material {m.name}: {exc}") from None
     return tables or None
 
 
@@ -27,3 +34,11 @@ def refuse_with_levels(scene: Scene) -> None:
         raise SettingError(f"materials {', '.join(named)}: a surface profile (surface = {{...}}) "
                          "cannot be baked with level-of-detail band groups yet; give those "
                          "materials a scattering coefficient instead, or leave level of detail off")
+
+
+def wells_of(scene: Scene) -> dict[int, tuple[tuple[float, ...], float]] | None:
+    """{material index: (depths m, patch m)} for the waves' walls of the materials with a
+    surface profile (sonolux_core::wave::wells), or None when no material has one."""
+    wells = {i: (m.surface.depths_m, m.surface.patch_m)
+             for i, m in enumerate(scene.materials) if m.surface is not None}
+    return wells or None

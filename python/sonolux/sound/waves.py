@@ -60,6 +60,7 @@ from sonolux import engine
 from sonolux.errors import SettingError, SonoluxError
 from sonolux.memory import budget_bytes, gb
 from sonolux.progress import ProgressLine
+from sonolux.sound.surfaces import wells_of
 from sonolux.sound.synthesis import band_split_weights
 from sonolux.sound.wave_spheres import BALL_POINTS, add_direct, ball_points, point_weights
 
@@ -306,7 +307,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         if pattern is None or src.directivity == "omni":
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, settings, binning, callback,
-                                        without_direct=True, energy_bands=k)
+                                        without_direct=True, energy_bands=k,
+                                        wells=wells_of(scene))
             gains = None
         else:
             fitted = wave_sources.fit_on_grid(
@@ -331,7 +333,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                                           len(cluster[0]), cross.wave_bands))
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, longer, binning, callback,
-                                        without_direct=True, terms=cluster, energy_bands=k)
+                                        without_direct=True, terms=cluster, energy_bands=k,
+                                        wells=wells_of(scene))
             towards = centres - source_m
             norm = np.linalg.norm(towards, axis=1, keepdims=True)
             gains = np.asarray(pattern.gains(towards / np.maximum(norm, 1e-12), bands.size), float)

@@ -187,14 +187,18 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
         // (sound/reflectance.rs): the leg arriving from the previous point meets the plane.
         let arriving = (p - if k == 0 { source } else { path.points[k - 1] }).normalize_or_zero();
         let cos_incidence = arriving.dot(ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize].normal).abs();
-        let alpha = ctx.walls.absorption(&ctx.acoustics.absorption, m, cos_incidence, &mut absorption);
         let mut scat = &ctx.acoustics.scattering[m..m + nb];
-        if let Some(table) = &ctx.settings.scattering_by_angle {
-            // A described surface's s at this angle (sound/scattering.rs), as the tracer's.
-            if table.at(ctx.mesh.material[tri as usize] as usize, cos_incidence, &mut by_angle) {
+        let profiled = ctx.settings.by_angle.as_ref().filter(|t| t.profiled(m / nb));
+        let alpha = match profiled {
+            // A described surface's α and s at this angle (sound/scattering.rs), as the tracer's.
+            Some(table) => {
+                table.scattering(m / nb, cos_incidence, &mut by_angle);
                 scat = &by_angle;
+                table.absorption(m / nb, cos_incidence, &mut absorption);
+                &absorption[..]
             }
-        }
+            None => ctx.walls.absorption(&ctx.acoustics.absorption, m, cos_incidence, &mut absorption),
+        };
         for b in 0..nb {
             out[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);
         }

@@ -363,8 +363,8 @@ pub(crate) struct Scene<'a> {
     pub lod: Option<&'a LevelOfDetail>,
     /// How each surface's absorption depends on the angle of incidence ([`reflectance`]).
     pub walls: Walls,
-    /// The scattering s(θ) of materials with a surface profile ([`scattering`]); None: every
-    /// material keeps its coefficient at every angle.
+    /// The absorption α(θ) and scattering s(θ) of materials with a surface profile
+    /// ([`scattering`]); None: every material keeps its coefficients.
     pub by_angle: Option<&'a ScatteringByAngle>,
 }
 
@@ -407,8 +407,9 @@ pub struct Extras<'a> {
     /// and deposits only into the tile's, so that tiles give the bits of the untiled bake.
     /// None: the run's receivers are the bake's.
     pub bake_receivers: Option<&'a [DVec3]>,
-    /// The scattering s(θ) of materials whose surface is described ([`scattering`]): at each
-    /// bounce on them the rays scatter s at the angle of incidence instead of the coefficient.
+    /// The absorption α(θ) and scattering s(θ) of materials whose surface is described
+    /// ([`scattering`]): at each bounce on them the rays take both at the angle of incidence
+    /// instead of the coefficients (and the wall model).
     pub scattering_by_angle: Option<&'a ScatteringByAngle>,
 }
 

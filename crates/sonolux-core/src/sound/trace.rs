@@ -313,7 +313,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
     if let Some(table) = scene.by_angle {
         // A described surface (a profile) scatters its s(θ) at this angle of incidence
         // (scattering.rs); level of detail below then adds the panel's diffraction to it.
-        if table.at(material, -ray.dir.dot(normal), &mut scratch.by_angle[..nb]) {
+        if table.scattering(material, -ray.dir.dot(normal), &mut scratch.by_angle[..nb]) {
             scat = &scratch.by_angle[..nb];
             p_diffuse = scat.iter().sum::<f64>() / nb as f64;
         }
@@ -426,7 +426,12 @@ fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f
 #[inline(always)]
 fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], tally: &mut [f64], scratch: &mut [f64]) {
     let nb = e.len();
-    let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), scratch);
+    let cos_incidence = -dir.dot(normal);
+    let alpha = match scene.by_angle {
+        // A described surface absorbs its α(θ) (scattering.rs), whatever the wall model.
+        Some(t) if t.absorption(m / nb, cos_incidence, scratch) => &scratch[..],
+        _ => scene.walls.absorption(&scene.acoustics.absorption, m, cos_incidence, scratch),
+    };
     for b in 0..nb {
         tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
         e[b] *= 1.0 - alpha[b];
