@@ -109,6 +109,7 @@ pub struct BoundaryStats {
 
 /// Builds the slabs' boundary nodes from the voxelised faces. `slab_of(index)` names the slab of
 /// a grid index; slabs come back in order.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
     grid: &Grid,
     mesh: &Mesh,

@@ -43,7 +43,7 @@ pub struct Wells {
 impl Wells {
     pub fn validate(&self, material: usize) -> Result<(), CoreError> {
         let ok = !self.depths_m.is_empty() && self.depths_m.iter().all(|d| d.is_finite() && *d >= 0.0) && self.depths_m.iter().any(|d| *d > 0.0);
-        if !ok || !(self.patch_m > 0.0 && self.patch_m.is_finite()) {
+        if !(ok && self.patch_m > 0.0 && self.patch_m.is_finite()) {
             return Err(CoreError::invalid("wells", format!("material {material}: depths {:?} (at least one, each ≥ 0, one > 0) and patch {} m (positive) expected", self.depths_m, self.patch_m)));
         }
         Ok(())
