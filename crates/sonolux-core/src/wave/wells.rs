@@ -157,4 +157,49 @@ mod tests {
         // A deeper well keeps every resonance up to f_max: 0.5 m resonates at 171.5 and 514.5 Hz.
         assert_eq!(well_branches(0.5, c, 600.0).len(), 5);
     }
+
+    #[test]
+    fn faces_of_a_patch_share_a_well_and_the_depths_are_equally_likely() {
+        // A floor of 40 × 40 m at z = 0 seen from the air nodes at z = h (faces towards −z), on
+        // a 5 cm grid; patches of 0.5 m: 6,400 patches of 100 faces each. Depths 0.01, 0.02,
+        // 0.03 (walls 2, 3, 4 after two materials); material 0 has none.
+        use crate::geometry::Aabb;
+        use glam::Vec3;
+        let h = 0.05;
+        let grid = Grid::over(&Aabb { min: Vec3::new(0.0, 0.0, -0.1), max: Vec3::new(40.0, 40.0, 0.1) }, h).unwrap();
+        let fit = |_| MaterialFit { admittance: Admittance { conductance: 0.05, branches: Vec::new() }, n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false };
+        let wells = vec![None, Some(Wells { depths_m: vec![0.01, 0.02, 0.03], patch_m: 0.5 })];
+        let (walls, choice) = expand(vec![fit(0), fit(1)], &wells, 343.0, 500.0).unwrap();
+        assert_eq!(walls.len(), 5);
+        assert_eq!(walls[4].admittance.branches.len(), 3);
+        let z = (0..grid.dims[2]).find(|&k| (grid.coordinate(2, k) - h).abs() < 1e-9 || grid.coordinate(2, k) > 0.0).unwrap();
+        let mut count = [0usize; 3];
+        let mut per_patch = std::collections::HashMap::new();
+        for i in 0..grid.dims[0] {
+            for j in 0..grid.dims[1] {
+                let (x, y) = (grid.coordinate(0, i), grid.coordinate(1, j));
+                if !(0.0..40.0).contains(&x) || !(0.0..40.0).contains(&y) {
+                    continue;
+                }
+                let face = Face { node: grid.index(i, j, z) as u32, dir: 4, tri: 0 };
+                assert_eq!(choice.wall(&grid, &face, 0), 0, "material 0 keeps its wall");
+                let w = choice.wall(&grid, &face, 1);
+                assert!((2..5).contains(&w));
+                count[w as usize - 2] += 1;
+                let patch = ((x / 0.5).floor() as i64, (y / 0.5).floor() as i64);
+                assert_eq!(*per_patch.entry(patch).or_insert(w), w, "one well a patch");
+            }
+        }
+        // Per depth, patches ~ Binomial(6,400, 1/3): σ ≈ 37.7 patches; 5σ.
+        let patches = per_patch.len() as f64;
+        let mut by_depth = [0.0f64; 3];
+        for w in per_patch.values() {
+            by_depth[*w as usize - 2] += 1.0;
+        }
+        let sigma = (patches * (1.0 / 3.0) * (2.0 / 3.0)).sqrt();
+        for n in by_depth {
+            assert!((n - patches / 3.0).abs() < 5.0 * sigma, "{by_depth:?} of {patches}");
+        }
+        assert_eq!(count.iter().sum::<usize>() as f64, patches * 100.0);
+    }
 }
