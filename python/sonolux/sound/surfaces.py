@@ -42,3 +42,17 @@ def wells_of(scene: Scene) -> dict[int, tuple[tuple[float, ...], float]] | None:
     wells = {i: (m.surface.depths_m, m.surface.patch_m)
              for i, m in enumerate(scene.materials) if m.surface is not None}
     return wells or None
+
+
+def flat_in_the_waves(scene: Scene) -> str | None:
+    """A line for the log naming the materials whose scattering coefficient the rays apply and
+    the waves' flat walls cannot (no ``surface``), or None (docs/waves.md, "Scattering on the
+    waves' side": what a coefficient alone means)."""
+    named = [m.name for m in scene.materials
+             if m.surface is None and np.any(np.asarray(m.scattering) > 0)]
+    if not named:
+        return None
+    return (f"waves: the scattering of {', '.join(named)} is a coefficient: the rays apply it at "
+            "every angle, the waves' walls stay flat, so T30 may step at the crossover; a "
+            "material's surface = {depths_m, patch_m} gives both halves one surface "
+            "(docs/waves.md)")

@@ -60,7 +60,7 @@ from sonolux import engine
 from sonolux.errors import SettingError, SonoluxError
 from sonolux.memory import budget_bytes, gb
 from sonolux.progress import ProgressLine
-from sonolux.sound.surfaces import wells_of
+from sonolux.sound.surfaces import flat_in_the_waves, wells_of
 from sonolux.sound.synthesis import band_split_weights
 from sonolux.sound.wave_spheres import BALL_POINTS, add_direct, ball_points, point_weights
 
@@ -298,6 +298,9 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
             f"{len(scene.sources)} source(s), about {gb(est['total_bytes'])} and "
             f"{run_seconds(est, cross.updates_per_s) * len(scene.sources):.0f} s at the measured "
             f"{cross.updates_per_s / 1e9:.2f} G cell updates/s")
+        note = flat_in_the_waves(scene)
+        if note:
+            log(note)
     energy, pressure, stats = None, None, []
     for i, src in enumerate(scene.sources):
         label = f"waves {scene.name} source {i + 1}/{len(scene.sources)}"
