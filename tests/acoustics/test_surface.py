@@ -100,6 +100,13 @@ def test_a_bad_surface_names_the_key(surface, match):
         sonolux.load_scene(_scene(surface))
 
 
+def test_a_surface_on_a_face_absorbing_more_than_a_locally_reacting_wall_can_is_refused():
+    data = _scene("{'depths_m': [0.1], 'patch_m': 0.5}")
+    data["materials"]["floor"]["absorption"] = 0.97
+    with pytest.raises(SceneError, match="surface.*0.951"):
+        sonolux.load_scene(data)
+
+
 def test_a_surface_and_a_scattering_coefficient_are_refused_together():
     with pytest.raises(SceneError, match="not both"):
         sonolux.load_scene(_scene("{'depths_m': [0.1], 'patch_m': 0.5}", scattering="yes"))

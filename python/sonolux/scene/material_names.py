@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from sonolux.acoustics.surface import WellSurface
+from sonolux.acoustics.surface import PARIS_PEAK_G, WellSurface, paris_absorption
 from sonolux.errors import SceneError, close_matches
 from sonolux.scene.materials import Library
 from sonolux.scene.materials import library as shipped_library
@@ -108,6 +108,8 @@ class MaterialNames:
                                          "([materials.NAME.surface]), not both: a profile sets "
                                          "the scattering")
         if start is None:
+            if surface is not None:
+                _check_surface_absorption(t, t.bands("absorption", None, grid))
             if not t.has("absorption"):
                 raise self.ctx.error(
                     t.path("absorption"),
@@ -127,6 +129,9 @@ class MaterialNames:
                 transmittance=_transmittance(t, d["diffuse_rgb"]),
                 surface=surface,
             )
+        if surface is not None:
+            _check_surface_absorption(t, t.bands("absorption", start.absorption.copy(), grid)
+                                      if t.has("absorption") else start.absorption)
         return Material(
             name=name,
             absorption=t.bands("absorption", start.absorption.copy(), grid)
@@ -176,3 +181,15 @@ def _surface(t: Table) -> WellSurface | None:
                           allowed)
     patch = st.number("patch_m", lo=0.0, lo_open=True, hi=100.0)
     return WellSurface(tuple(float(d) for d in depths), patch)
+
+
+def _check_surface_absorption(t: Table, absorption: np.ndarray | None) -> None:
+    """A profile's wells sit in front of a locally reacting face (sonolux.acoustics.surface),
+    which absorbs at most Paris' peak, 0.951, at random incidence."""
+    if absorption is None:
+        return
+    peak = float(paris_absorption(PARIS_PEAK_G))
+    if np.any(np.asarray(absorption) > peak):
+        raise t.ctx.error(t.path("surface"), message=(
+            f"a surface profile needs absorption ≤ {peak:.3f} in every band (its flat face is a "
+            f"locally reacting wall); the absorption reaches {float(np.max(absorption)):.3f}"))
