@@ -5,7 +5,7 @@
 # time] in J/m² (docs/fieldfile.md). Errors: sonolux.errors.InvalidInputError and
 # GeometryError (both SonoluxError), raised with the name of the input at fault.
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, final
 
 import numpy as np
@@ -81,6 +81,7 @@ class Acoustics:
         absorption: NDArray[np.float64],
         scattering: NDArray[np.float64],
         wall_model: str = "random-incidence",
+        by_angle: Mapping[int, NDArray[np.float64]] | None = None,
     ) -> Acoustics: ...
     @property
     def n_bands(self) -> int: ...
@@ -220,6 +221,7 @@ def simulate_waves(
     term_signals_m3_s2: NDArray[np.float64] | None = None,
     pulse_delay_s: float = 0.0,
     energy_bands: int | None = None,
+    wells: Mapping[int, tuple[Sequence[float], float]] | None = None,
 ) -> dict[str, Any]: ...
 
 @final

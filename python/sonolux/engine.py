@@ -285,7 +285,9 @@ def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: 
                    progress: Progress | None = None, *,
                    without_direct: bool = False,
                    terms: tuple[np.ndarray, np.ndarray, float] | None = None,
-                   energy_bands: int | None = None) -> dict[str, Any]:
+                   energy_bands: int | None = None,
+                   wells: dict[int, tuple[Sequence[float], float]] | None = None
+                   ) -> dict[str, Any]:
     """Runs the wave solver over the geometry (all sources at once, coherently): absorption
     float64[material, band] at ``band_centres_hz``; sources and receivers float64[k, 3]. Returns
     pressure_pa float32[receiver, time] and velocity_m_s float32[receiver, axis, time] at
@@ -295,7 +297,9 @@ def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: 
     sound taken out first). ``terms``: a directional source, (positions float64[term, 3],
     volume accelerations float64[term, step], pulse delay s) in place of ``sources_m``'
     pulses; see ``_core.simulate_waves``. ``energy_bands`` k: the energy holds the first k bands
-    only (a hybrid's wave bands; default all)."""
+    only (a hybrid's wave bands; default all). ``wells``: {material: (depths m, patch m)}, the
+    materials whose surface is a profile of wells (docs/scene.md ``surface``; a well behind every
+    patch of their walls, sonolux_core::wave::wells)."""
     a = np.ascontiguousarray(absorption, dtype=np.float64)
     if a.ndim != 2:
         raise InvalidInputError(f"absorption: expected shape (material, band), got {a.shape}")
@@ -306,7 +310,10 @@ def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: 
                       *(() if terms is None else
                         (_points(terms[0], "term_positions_m"),
                          np.ascontiguousarray(terms[1], dtype=np.float64), float(terms[2]))),
-                      **({} if energy_bands is None else {"energy_bands": int(energy_bands)}))
+                      **({} if energy_bands is None else {"energy_bands": int(energy_bands)}),
+                      **({} if not wells else {"wells": {int(m): ([float(d) for d in w[0]],
+                                                                  float(w[1]))
+                                                         for m, w in wells.items()}}))
 
 
 def wave_memory_estimate(settings: WaveSettings, geometry: Geometry, n_receivers: int,

@@ -133,7 +133,8 @@ def test_paper_rooms_waves_follow_the_exact_modes(name):
 @pytest.mark.xfail(strict=True, reason="as in paper-small: the rays' scattering (0.1) removes the "
                    "floor-grazing late decay that the waves' flat walls and the room's exact modes "
                    "keep; paper-medium steps −20 % against the room's, paper-large −12.5 % (3σ "
-                   "9.4 % and 9.6 %; issue 18, docs/waves.md)")
+                   "9.4 % and 9.6 %; issue 18, docs/waves.md: a coefficient alone keeps the "
+                   "waves' walls flat by decision, session 10)")
 def test_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
     """The hybrid's T30 step from its last wave band to its first ray band against the room's
     (exact modes, fitted line), within three σ of both bands combined (ISO 3382-2 annex A, 4

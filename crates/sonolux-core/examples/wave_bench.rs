@@ -48,7 +48,7 @@ fn kernel(n: usize, threads: usize, steps: usize) -> (f64, u64) {
     let h = 0.05;
     let side = (n as f64 * h) as f32;
     let mesh = common::shoebox(side, side, side, [0; 6]);
-    let materials = WaveMaterials { band_centres_hz: vec![125.0], absorption: vec![0.0] };
+    let materials = WaveMaterials { band_centres_hz: vec![125.0], absorption: vec![0.0], wells: Vec::new() };
     let s = WaveSettings { max_frequency_hz: 343.0 / (10.0 * h), threads, memory_limit_bytes: 16 << 30, ..WaveSettings::default() };
     let (mut solver, stats) = build_solver(&mesh, &materials, &s, 0).expect("solver");
     let cells = solver.grid().cells();
@@ -72,6 +72,7 @@ fn room(name: &str, size: [f32; 3], max_frequency_hz: f64) -> String {
     let materials = WaveMaterials {
         band_centres_hz: vec![62.5, 125.0, 250.0, 500.0, 1000.0],
         absorption: vec![0.02, 0.08, 0.24, 0.57, 0.69, 0.3, 0.5, 0.7, 0.8, 0.85, 0.1, 0.1, 0.08, 0.05, 0.04],
+        wells: Vec::new(),
     };
     let mesh = common::shoebox(size[0], size[1], size[2], [0, 1, 2, 2, 2, 2]);
     let s = WaveSettings { max_frequency_hz, duration_s: 2.0, absorption_kind: AbsorptionKind::RandomIncidence, ..WaveSettings::default() };

@@ -20,7 +20,7 @@ fn settings(h: f64, duration_s: f64, threads: usize) -> WaveSettings {
 
 /// `n` materials that absorb nothing, in octaves 125..1000 Hz.
 fn rigid(n: usize) -> WaveMaterials {
-    WaveMaterials { band_centres_hz: vec![125.0, 250.0, 500.0, 1000.0], absorption: vec![0.0; 4 * n] }
+    WaveMaterials { band_centres_hz: vec![125.0, 250.0, 500.0, 1000.0], absorption: vec![0.0; 4 * n], wells: Vec::new() }
 }
 
 /// A deterministic pseudo-random sequence in [−1, 1) (xorshift).
@@ -252,6 +252,7 @@ fn one_and_two_threads_give_the_same_bits() {
     let materials = WaveMaterials {
         band_centres_hz: vec![125.0, 250.0, 500.0],
         absorption: vec![0.02, 0.03, 0.04, 0.5, 0.7, 0.9, 0.1, 0.2, 0.3, 0.2, 0.2, 0.2],
+        wells: Vec::new(),
     };
     let sources = [DVec3::new(0.3, 0.3, 1.0), DVec3::new(1.7, 1.2, 0.3)];
     let receivers = [DVec3::new(1.0, 0.7, 0.9), DVec3::new(1.9, 0.1, 0.1), DVec3::new(0.77, 0.61, 0.2)];
@@ -294,7 +295,7 @@ fn bad_inputs_are_errors_naming_what_is_wrong() {
     assert!(e.contains("courant"), "{e}");
     let e = try_run(&WaveSettings { max_frequency_hz: f64::NAN, ..good.clone() }, &rigid(1), &inside, &inside);
     assert!(e.contains("max_frequency_hz"), "{e}");
-    let e = try_run(&good, &WaveMaterials { band_centres_hz: vec![125.0, 250.0, 500.0, 1000.0], absorption: vec![0.0, 1.5, 0.0, 0.0] }, &inside, &inside);
+    let e = try_run(&good, &WaveMaterials { band_centres_hz: vec![125.0, 250.0, 500.0, 1000.0], absorption: vec![0.0, 1.5, 0.0, 0.0], wells: Vec::new() }, &inside, &inside);
     assert!(e.contains("absorption") && e.contains("1.5"), "{e}");
     let e = try_run(&good, &rigid(2), &inside, &inside);
     assert!(e.contains("materials"), "{e}");

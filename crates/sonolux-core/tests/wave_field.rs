@@ -32,7 +32,7 @@ fn run(side: f64, h: f64, rcv_offset: impl Fn(DVec3) -> Vec<DVec3>) -> (DVec3, V
     let src = DVec3::splat(0.5 * side) + DVec3::new(0.013, -0.013, 0.031);
     let rcv = rcv_offset(src);
     let mesh = common::shoebox(side as f32, side as f32, side as f32, [0; 6]);
-    let materials = WaveMaterials { band_centres_hz: vec![125.0, 250.0], absorption: vec![0.0, 0.0] };
+    let materials = WaveMaterials { band_centres_hz: vec![125.0, 250.0], absorption: vec![0.0, 0.0], wells: Vec::new() };
     let s = common::wave_settings(h, 0.0045 * side);
     let r = simulate_waves(&mesh, &materials, &[src], &rcv, &s, |_| true).unwrap();
     (src, rcv, r)

@@ -55,7 +55,7 @@ fn continuous_reflection(y: &Admittance, f: f64, cos_theta: f64) -> C64 {
 fn duct_mode(length: f64, width_cells: usize, m: usize, end_wall: &[f64], centres: &[f64], h: f64, duration_s: f64, x_r: f64) -> (Vec<f64>, Admittance, f64, f64) {
     let mut absorption = vec![0.0; centres.len()];
     absorption.extend_from_slice(end_wall);
-    let materials = WaveMaterials { band_centres_hz: centres.to_vec(), absorption };
+    let materials = WaveMaterials { band_centres_hz: centres.to_vec(), absorption, wells: Vec::new() };
     let mesh = common::shoebox(length as f32, (width_cells as f64 * h) as f32, h as f32, [0, 0, 0, 0, 0, 1]);
     let s = WaveSettings { absorption_kind: AbsorptionKind::RandomIncidence, ..common::wave_settings(h, duration_s) };
     let (mut solver, stats) = build_solver(&mesh, &materials, &s, 0).unwrap();
@@ -177,7 +177,7 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
     for (name, alpha) in materials {
         let mut absorption = vec![0.0; 4];
         absorption.extend_from_slice(&alpha);
-        let wm = WaveMaterials { band_centres_hz: centres.to_vec(), absorption };
+        let wm = WaveMaterials { band_centres_hz: centres.to_vec(), absorption, wells: Vec::new() };
         let mesh = common::shoebox(0.5, 0.4, 0.3, [1; 6]);
         let s = WaveSettings { absorption_kind: AbsorptionKind::RandomIncidence, ..common::wave_settings(h, 0.01) };
         let (solver, stats) = build_solver(&mesh, &wm, &s, 0).unwrap();

@@ -80,7 +80,7 @@ fn plane_waves_reflect_off_each_material_as_its_bands_ask() {
         let run = |wall: &[f64]| {
             let mut absorption = vec![0.0; nb];
             absorption.extend_from_slice(wall);
-            let materials = WaveMaterials { band_centres_hz: m.centres.clone(), absorption };
+            let materials = WaveMaterials { band_centres_hz: m.centres.clone(), absorption, wells: Vec::new() };
             let mesh = common::shoebox(length as f32, h as f32, h as f32, [0, 0, 0, 0, 0, 1]);
             let s = WaveSettings { absorption_kind: m.kind, ..s.clone() };
             let r = simulate_waves(&mesh, &materials, &[src], &[rcv], &s, |_| true).unwrap();
@@ -225,7 +225,7 @@ fn the_modes_of_an_absorbing_box_decay_at_their_exact_rates() {
     let mut worst = 0.0f64;
     for (name, absorption) in materials {
         let mesh = common::shoebox(l[0] as f32, l[1] as f32, l[2] as f32, [0; 6]);
-        let wm = WaveMaterials { band_centres_hz: OCTAVES.to_vec(), absorption };
+        let wm = WaveMaterials { band_centres_hz: OCTAVES.to_vec(), absorption, wells: Vec::new() };
         let s = settings(h, 0.15, AbsorptionKind::NormalIncidence);
         let (mut solver, stats) = build_solver(&mesh, &wm, &s, 0).unwrap();
         let y = stats.fits[0].admittance.clone();
@@ -314,7 +314,7 @@ fn a_furnished_room_with_absorbing_walls_never_gains_energy() {
         [0.02, 0.03, 0.03, 0.04],
     ]
     .concat();
-    let wm = WaveMaterials { band_centres_hz: OCTAVES.to_vec(), absorption };
+    let wm = WaveMaterials { band_centres_hz: OCTAVES.to_vec(), absorption, wells: Vec::new() };
     let (mut solver, stats) = build_solver(&mesh, &wm, &settings(0.05, 1.0, AbsorptionKind::RandomIncidence), 0).unwrap();
     assert!(stats.boundary.lossy_entries > 0);
     let grid = solver.grid().clone();

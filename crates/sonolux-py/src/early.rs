@@ -65,6 +65,7 @@ impl EarlySettings {
             // Set from the `Acoustics` each call is given (its wall model), so that the image
             // sources and the tracer of one bake agree.
             wall_model: Default::default(),
+            by_angle: None,
         };
         let n_bands = inner.band_centres_hz.len();
         inner.validate(n_bands).map_err(to_py)?;
@@ -118,6 +119,7 @@ pub(crate) fn early_arrivals<'py>(
     let mut set = early.inner.clone();
     set.receiver_radius_m = rec.radius_m;
     set.wall_model = acoustics.model();
+    set.by_angle = acoustics.by_angle().cloned();
     let nb = acoustics.inner().n_bands;
     let mut res = py
         .detach(|| core::early_arrivals(&geometry.mesh, &geometry.bvh, acoustics.inner(), &sources, &rec.centres, &set, None))

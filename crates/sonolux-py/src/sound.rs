@@ -24,18 +24,27 @@ fn per_material(a: &PyReadonlyArray2<'_, f64>) -> (usize, Vec<f64>) {
 /// the same in both. wall_model: "random-incidence" (each band's coefficient at every angle) or
 /// "locally-reacting" (a locally reacting wall whose random-incidence absorption is the
 /// coefficient, as the wave solver's; sonolux_core::sound::reflectance); `trace_sound` and
-/// `early_arrivals` both use it, so a hybrid of the two agrees.
+/// `early_arrivals` both use it, so a hybrid of the two agrees. by_angle: None, or
+/// {material: float64[2, angle, band]}, the absorption then the scattering of materials whose
+/// surface is described, at angles evenly spaced in cos θ from grazing (0) to normal incidence
+/// (1), at least 2 (sonolux_core::sound::scattering); both calls use it too.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Acoustics {
     inner: core::Acoustics,
     wall_model: core::WallModel,
+    by_angle: Option<core::ScatteringByAngle>,
 }
 
 #[pymethods]
 impl Acoustics {
     #[new]
-    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence"))]
-    fn new(absorption: PyReadonlyArray2<'_, f64>, scattering: PyReadonlyArray2<'_, f64>, wall_model: &str) -> PyResult<Self> {
+    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence", by_angle = None))]
+    fn new(
+        absorption: PyReadonlyArray2<'_, f64>,
+        scattering: PyReadonlyArray2<'_, f64>,
+        wall_model: &str,
+        by_angle: Option<std::collections::BTreeMap<usize, PyReadonlyArray3<'_, f64>>>,
+    ) -> PyResult<Self> {
         let (a, s) = (absorption.as_array().dim(), scattering.as_array().dim());
         if a != s {
             return Err(invalid(format!("scattering: shape {s:?} differs from the absorption's {a:?} (material, band)")));
@@ -45,7 +54,28 @@ impl Acoustics {
         };
         let (n_bands, absorption) = per_material(&absorption);
         let (_, scattering) = per_material(&scattering);
-        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering }, wall_model: wall })
+        let n_materials = a.0;
+        let by_angle = match by_angle {
+            None => None,
+            Some(tables) => {
+                let mut rows: Vec<Option<Vec<f64>>> = vec![None; n_materials];
+                let mut n_cos = 0;
+                for (m, t) in &tables {
+                    let (two, angles, bands) = t.as_array().dim();
+                    if *m >= n_materials || two != 2 || bands != n_bands || (n_cos != 0 && angles != n_cos) {
+                        return Err(invalid(format!("by_angle: material {m} has shape ({two}, {angles}, {bands}); a material below {n_materials}, shape (2, angles, {n_bands}) and the same angle count for all expected")));
+                    }
+                    n_cos = angles;
+                    rows[*m] = Some(t.as_array().iter().copied().collect());
+                }
+                if tables.is_empty() {
+                    None
+                } else {
+                    Some(core::ScatteringByAngle::new(n_bands, n_cos, &rows).map_err(to_py)?)
+                }
+            }
+        };
+        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering }, wall_model: wall, by_angle })
     }
 
     #[getter]
@@ -73,6 +103,10 @@ impl Acoustics {
 
     pub(crate) fn model(&self) -> core::WallModel {
         self.wall_model
+    }
+
+    pub(crate) fn by_angle(&self) -> Option<&core::ScatteringByAngle> {
+        self.by_angle.as_ref()
     }
 }
 
@@ -422,6 +456,7 @@ pub(crate) fn trace_sound<'py>(
             bake_receivers: all_receivers,
             early_connections,
             quantum: settings.quantum,
+            scattering_by_angle: acoustics.by_angle(),
         };
         let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)

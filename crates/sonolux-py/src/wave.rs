@@ -145,12 +145,15 @@ fn dvec3s(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
 /// at n·Δt), with the pulse that normalises the responses centred at `pulse_delay_s`; then
 /// `sources_m` is not emitted (docs/waves.md).
 ///
+/// `wells`: {material: (depths m, patch m)}, the materials whose surface is a profile of wells
+/// (a well of one of the depths behind every patch of their walls; sonolux_core::wave::wells).
+///
 /// `energy_bands` k: the energy holds the first k bands only (a hybrid's wave bands; default:
 /// all), each band's numbers the same as with all. The energy's size (8 bytes a cell while it is
 /// binned, 4 more for the array returned) is checked against the binning's `max_field_bytes`
 /// before the run.
 #[pyfunction]
-#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false, term_positions_m = None, term_signals_m3_s2 = None, pulse_delay_s = 0.0, energy_bands = None))]
+#[pyo3(signature = (geometry, absorption, band_centres_hz, sources_m, receivers_m, settings, binning = None, progress = None, without_direct = false, term_positions_m = None, term_signals_m3_s2 = None, pulse_delay_s = 0.0, energy_bands = None, wells = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn simulate_waves<'py>(
     py: Python<'py>,
@@ -167,6 +170,7 @@ pub(crate) fn simulate_waves<'py>(
     term_signals_m3_s2: Option<PyReadonlyArray2<'py, f64>>,
     pulse_delay_s: f64,
     energy_bands: Option<usize>,
+    wells: Option<std::collections::BTreeMap<usize, (Vec<f64>, f64)>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let terms: Vec<core::SourceTerm> = match (&term_positions_m, &term_signals_m3_s2) {
         (None, None) => Vec::new(),
@@ -187,7 +191,20 @@ pub(crate) fn simulate_waves<'py>(
     if a.ncols() != band_centres_hz.len() {
         return Err(invalid(format!("absorption: {} bands per material but {} band centres", a.ncols(), band_centres_hz.len())));
     }
-    let materials = core::WaveMaterials { band_centres_hz: band_centres_hz.clone(), absorption: a.iter().copied().collect() };
+    let wells = match wells {
+        None => Vec::new(),
+        Some(given) => {
+            let mut per_material = vec![None; a.nrows()];
+            for (m, (depths_m, patch_m)) in given {
+                if m >= a.nrows() {
+                    return Err(invalid(format!("wells: material {m} given; the absorption names {} materials", a.nrows())));
+                }
+                per_material[m] = Some(core::Wells { depths_m, patch_m });
+            }
+            per_material
+        }
+    };
+    let materials = core::WaveMaterials { band_centres_hz: band_centres_hz.clone(), absorption: a.iter().copied().collect(), wells };
     let sources = dvec3s("sources_m", &sources_m)?;
     let receivers = dvec3s("receivers_m", &receivers_m)?;
     if sources.is_empty() {

@@ -15,15 +15,23 @@ The library is read only when a name needs it, so a scene that defines all its m
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from sonolux.acoustics.surface import PARIS_PEAK_G, WellSurface, paris_absorption
 from sonolux.errors import SceneError, close_matches
 from sonolux.scene.materials import Library
 from sonolux.scene.materials import library as shipped_library
 from sonolux.scene.schema import LIBRARY_BAND_SET, REQUIRED, Context, Material, Table
 
-MATERIAL_KEYS = ("base", "description", "bands_hz", "absorption", "scattering", "diffuse_rgb",
-                 "specular", "roughness", "transmittance")
+MATERIAL_KEYS = ("base", "description", "bands_hz", "absorption", "scattering", "surface",
+                 "diffuse_rgb", "specular", "roughness", "transmittance")
+
+#: Keys of a ``[materials.NAME.surface]`` table (docs/scene.md; sonolux.acoustics.surface).
+SURFACE_KEYS = ("depths_m", "patch_m")
+#: At most this many well depths (a designed sequence is a period of a few to a few dozen).
+MAX_WELLS = 256
 
 #: Defaults of a new material's optional fields.
 NEW_MATERIAL_DEFAULTS = {"scattering": 0.1, "diffuse_rgb": (0.8, 0.8, 0.8), "specular": 0.0,
@@ -93,7 +101,15 @@ class MaterialNames:
         # The bands the table's absorption and scattering lists are given in (octaves or
         # thirds, docs/bands.md); values not given keep their own bands.
         grid = t.band_grid("bands_hz", LIBRARY_BAND_SET)
+        surface = _surface(t)
+        if surface is not None and t.has("scattering"):
+            raise self.ctx.error(t.path("scattering"), t.data["scattering"],
+                                 message="give either scattering or a surface profile "
+                                         "([materials.NAME.surface]), not both: a profile sets "
+                                         "the scattering")
         if start is None:
+            if surface is not None:
+                _check_surface_absorption(t, t.bands("absorption", None, grid))
             if not t.has("absorption"):
                 raise self.ctx.error(
                     t.path("absorption"),
@@ -111,7 +127,11 @@ class MaterialNames:
                 roughness=t.number("roughness", d["roughness"], lo=0.0, hi=1.0),
                 description=t.string("description", ""),
                 transmittance=_transmittance(t, d["diffuse_rgb"]),
+                surface=surface,
             )
+        if surface is not None:
+            _check_surface_absorption(t, t.bands("absorption", start.absorption.copy(), grid)
+                                      if t.has("absorption") else start.absorption)
         return Material(
             name=name,
             absorption=t.bands("absorption", start.absorption.copy(), grid)
@@ -125,6 +145,10 @@ class MaterialNames:
             roughness=t.number("roughness", start.roughness, lo=0.0, hi=1.0),
             description=t.string("description", start.description),
             transmittance=_transmittance(t, start.diffuse_rgb, start.transmittance),
+            # A profile given here replaces the start's scattering; scattering given here
+            # replaces the start's profile.
+            surface=surface if surface is not None else
+            (None if t.has("scattering") else start.surface),
         )
 
 
@@ -137,3 +161,35 @@ def _transmittance(t: Table, default_rgb: object, default: float = 0.0) -> float
                           f"at most 1 - diffuse_rgb = {1 - float(rho.max()):g} (reflected and "
                           "transmitted light cannot exceed what arrives)")
     return tau
+
+
+def _surface(t: Table) -> WellSurface | None:
+    """The material's ``surface`` table: wells of ``depths_m`` (a list of depths in m, each
+    equally likely) behind square patches of side ``patch_m`` (m); None when not given."""
+    st = t.table("surface")
+    if st is None:
+        return None
+    st.check_keys(SURFACE_KEYS)
+    allowed = (f"a list of 1 to {MAX_WELLS} well depths in m, each in [0, 10], at least one "
+               "> 0 (each drawn with equal probability per patch)")
+    depths = st.data.get("depths_m")
+    if (not isinstance(depths, list) or not 1 <= len(depths) <= MAX_WELLS
+            or not all(isinstance(d, (int, float)) and not isinstance(d, bool)
+                       and math.isfinite(d) and 0.0 <= d <= 10.0 for d in depths)
+            or not any(d > 0 for d in depths)):
+        raise t.ctx.error(st.path("depths_m"), depths if "depths_m" in st.data else None,
+                          allowed)
+    patch = st.number("patch_m", lo=0.0, lo_open=True, hi=100.0)
+    return WellSurface(tuple(float(d) for d in depths), patch)
+
+
+def _check_surface_absorption(t: Table, absorption: np.ndarray | None) -> None:
+    """A profile's wells sit in front of a locally reacting face (sonolux.acoustics.surface),
+    which absorbs at most Paris' peak, 0.951, at random incidence."""
+    if absorption is None:
+        return
+    peak = float(paris_absorption(PARIS_PEAK_G))
+    if np.any(np.asarray(absorption) > peak):
+        raise t.ctx.error(t.path("surface"), message=(
+            f"a surface profile needs absorption ≤ {peak:.3f} in every band (its flat face is a "
+            f"locally reacting wall); the absorption reaches {float(np.max(absorption)):.3f}"))

@@ -28,6 +28,7 @@ from sonolux.acoustics.bands import (
     band_set_of,
     convert_coefficients,
 )
+from sonolux.acoustics.surface import WellSurface, random_incidence
 from sonolux.errors import (  # noqa: F401  (interval_text: re-exported)
     _MISSING,
     SceneError,
@@ -37,6 +38,9 @@ from sonolux.errors import (  # noqa: F401  (interval_text: re-exported)
     range_text,
 )
 from sonolux.scene.toml_lines import find_line
+
+#: The speed of sound a material's profile is read with when no scene says (20 °C air, m/s).
+DEFAULT_SPEED_OF_SOUND_M_S = 343.2
 
 #: Octave-band centres of the material library, in Hz. Every material carries one value per band.
 LIBRARY_BANDS_HZ: tuple[int, ...] = (63, 125, 250, 500, 1000, 2000, 4000, 8000)
@@ -64,6 +68,10 @@ class Material:
     transmittance: visible transmittance (glazing), the share of light passing straight through,
         the same in every channel; diffuse_rgb + transmittance ≤ 1. Daylight enters through
         every triangle of a material with transmittance > 0.
+    surface: the surface's profile (``[materials.NAME.surface]``), or None. When given, the
+        scattering is the profile's (:mod:`sonolux.acoustics.surface`): its random-incidence
+        coefficient per band, α(θ) and s(θ) for the rays and a well behind each patch of the
+        waves' walls; ``absorption`` is then the absorption of the surface's flat face.
     """
 
     name: str
@@ -76,13 +84,19 @@ class Material:
     transmittance: float = 0.0
     absorption_bands: BandSet = LIBRARY_BAND_SET
     scattering_bands: BandSet = LIBRARY_BAND_SET
+    surface: WellSurface | None = None
 
     def absorption_in(self, bands: BandSet) -> np.ndarray:
         """float64[band]: the absorption on ``bands``, converted as docs/bands.md says."""
         return convert_coefficients(self.absorption, self.absorption_bands, bands)
 
-    def scattering_in(self, bands: BandSet) -> np.ndarray:
-        """float64[band]: the scattering on ``bands``, converted as docs/bands.md says."""
+    def scattering_in(self, bands: BandSet,
+                      speed_of_sound_m_s: float = DEFAULT_SPEED_OF_SOUND_M_S) -> np.ndarray:
+        """float64[band]: the scattering on ``bands``, converted as docs/bands.md says; for a
+        described surface, the profile's random-incidence coefficient in each band."""
+        if self.surface is not None:
+            return random_incidence(self.surface, self.absorption_in(bands), bands,
+                                    speed_of_sound_m_s)[1]
         return convert_coefficients(self.scattering, self.scattering_bands, bands)
 
 

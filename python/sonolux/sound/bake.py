@@ -39,6 +39,7 @@ from sonolux.scene.summary import band_air_attenuation_per_m, theory
 from sonolux.sound import budget as sound_budget
 from sonolux.sound import early as early_sound
 from sonolux.sound import levels as sound_levels
+from sonolux.sound import surfaces as sound_surfaces
 from sonolux.sound import walls as sound_walls
 from sonolux.sound import wave_memory, wave_sources
 from sonolux.sound import waves as wave_sound
@@ -67,8 +68,9 @@ def band_arrays(scene: Scene) -> dict[str, np.ndarray]:
     return {
         "absorption": np.ascontiguousarray([m.absorption_in(bands) for m in scene.materials],
                                            float),
-        "scattering": np.ascontiguousarray([m.scattering_in(bands) for m in scene.materials],
-                                           float),
+        "scattering": np.ascontiguousarray(
+            [m.scattering_in(bands, scene.settings.speed_of_sound_m_s) for m in scene.materials],
+            float),
         "air": band_air_attenuation_per_m(bands, scene.settings.air),
     }
 
@@ -206,7 +208,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
     wall_model, wall_why = sound_walls.resolve(scene, options)
-    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model)
+    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model,
+                                 by_angle=sound_surfaces.tables_by_angle(scene))
     wall_kept = [list(k) for k in acoustics.kept_constant()]
     if log:
         log(wall_why)
@@ -225,6 +228,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
     levels = sound_levels.plan(scene, arrays, log)
+    if levels is not None:
+        sound_surfaces.refuse_with_levels(scene)
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
         """A level's bands: its sources' directivities, early settings and air."""

@@ -60,6 +60,7 @@ from sonolux import engine
 from sonolux.errors import SettingError, SonoluxError
 from sonolux.memory import budget_bytes, gb
 from sonolux.progress import ProgressLine
+from sonolux.sound.surfaces import flat_in_the_waves, wells_of
 from sonolux.sound.synthesis import band_split_weights
 from sonolux.sound.wave_spheres import BALL_POINTS, add_direct, ball_points, point_weights
 
@@ -297,6 +298,9 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
             f"{len(scene.sources)} source(s), about {gb(est['total_bytes'])} and "
             f"{run_seconds(est, cross.updates_per_s) * len(scene.sources):.0f} s at the measured "
             f"{cross.updates_per_s / 1e9:.2f} G cell updates/s")
+        note = flat_in_the_waves(scene)
+        if note:
+            log(note)
     energy, pressure, stats = None, None, []
     for i, src in enumerate(scene.sources):
         label = f"waves {scene.name} source {i + 1}/{len(scene.sources)}"
@@ -306,7 +310,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
         if pattern is None or src.directivity == "omni":
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, settings, binning, callback,
-                                        without_direct=True, energy_bands=k)
+                                        without_direct=True, energy_bands=k,
+                                        wells=wells_of(scene))
             gains = None
         else:
             fitted = wave_sources.fit_on_grid(
@@ -331,7 +336,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                                           len(cluster[0]), cross.wave_bands))
             out = engine.simulate_waves(scene.geometry, arrays["absorption"], bands,
                                         source_m[None], receivers, longer, binning, callback,
-                                        without_direct=True, terms=cluster, energy_bands=k)
+                                        without_direct=True, terms=cluster, energy_bands=k,
+                                        wells=wells_of(scene))
             towards = centres - source_m
             norm = np.linalg.norm(towards, axis=1, keepdims=True)
             gains = np.asarray(pattern.gains(towards / np.maximum(norm, 1e-12), bands.size), float)

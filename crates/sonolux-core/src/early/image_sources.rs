@@ -217,14 +217,25 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
     let n = path.points.len();
     let mut shares = vec![1.0; nb];
     let mut absorption = vec![0.0; nb];
+    let mut by_angle = vec![0.0; nb];
     for (k, (&p, &tri)) in path.points.iter().zip(&path.triangles).enumerate() {
         let m = ctx.mesh.material[tri as usize] as usize * nb;
         // The absorption at this reflection's angle of incidence, as the tracer applies it
         // (sound/reflectance.rs): the leg arriving from the previous point meets the plane.
         let arriving = (p - if k == 0 { source } else { path.points[k - 1] }).normalize_or_zero();
         let cos_incidence = arriving.dot(ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize].normal).abs();
-        let alpha = ctx.walls.absorption(&ctx.acoustics.absorption, m, cos_incidence, &mut absorption);
-        let scat = &ctx.acoustics.scattering[m..m + nb];
+        let mut scat = &ctx.acoustics.scattering[m..m + nb];
+        let profiled = ctx.settings.by_angle.as_ref().filter(|t| t.profiled(m / nb));
+        let alpha = match profiled {
+            // A described surface's α and s at this angle (sound/scattering.rs), as the tracer's.
+            Some(table) => {
+                table.scattering(m / nb, cos_incidence, &mut by_angle);
+                scat = &by_angle;
+                table.absorption(m / nb, cos_incidence, &mut absorption);
+                &absorption[..]
+            }
+            None => ctx.walls.absorption(&ctx.acoustics.absorption, m, cos_incidence, &mut absorption),
+        };
         for b in 0..nb {
             out[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);
         }

@@ -67,6 +67,10 @@ pub struct EarlySettings {
     /// How a reflection's absorption depends on its angle of incidence
     /// ([`crate::sound::reflectance`]): give the tracer of a hybrid the same.
     pub wall_model: WallModel,
+    /// The absorption α(θ) and scattering s(θ) of materials with a surface profile
+    /// ([`crate::sound::scattering`]): each reflection keeps (1 − α)(1 − s) at its angle of
+    /// incidence, as the tracer of a hybrid does. None: every material's coefficients.
+    pub by_angle: Option<crate::sound::ScatteringByAngle>,
 }
 
 impl EarlySettings {
@@ -86,6 +90,7 @@ impl EarlySettings {
             plane_tolerance_m: 1e-3,
             threads: 0,
             wall_model: WallModel::RandomIncidence,
+            by_angle: None,
         }
     }
 

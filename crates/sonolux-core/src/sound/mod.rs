@@ -20,6 +20,7 @@ pub mod pattern;
 pub mod receiver_pattern;
 pub mod receivers;
 pub mod reflectance;
+pub mod scattering;
 pub mod stats;
 mod leave;
 mod trace;
@@ -38,6 +39,7 @@ pub use field::{Accumulator, Deposits, Layout};
 pub use pattern::Pattern;
 pub use receivers::{ReceiverPattern, Receivers};
 pub use reflectance::{WallModel, Walls};
+pub use scattering::ScatteringByAngle;
 pub use stats::SoundStats;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -363,6 +365,9 @@ pub(crate) struct Scene<'a> {
     pub walls: Walls,
     /// The hybrid's early diffuse connections (sphere estimator only; None: none).
     pub early_connections: Option<nee::EarlyConnections>,
+    /// The absorption α(θ) and scattering s(θ) of materials with a surface profile
+    /// ([`scattering`]); None: every material keeps its coefficients.
+    pub by_angle: Option<&'a ScatteringByAngle>,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -414,6 +419,10 @@ pub struct Extras<'a> {
     /// ([`sound_quantum`] of its sources and receivers), so that no bin can overflow. None: the
     /// run's own.
     pub quantum: Option<f64>,
+    /// The absorption α(θ) and scattering s(θ) of materials whose surface is described
+    /// ([`scattering`]): at each bounce on them the rays take both at the angle of incidence
+    /// instead of the coefficients (and the wall model).
+    pub scattering_by_angle: Option<&'a ScatteringByAngle>,
 }
 
 /// The fixed-point quantum (J/m² a count) of a bake of these sources into these receivers: set
@@ -458,6 +467,11 @@ pub fn trace_sound_with(
     let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
     if acoustics.absorption.len() != n_mat * nb {
         return Err(CoreError::invalid("materials", format!("the mesh uses {n_mat} materials: {} values of absorption and scattering are needed ({nb} bands each), got {}", n_mat * nb, acoustics.absorption.len())));
+    }
+    if let Some(t) = extras.scattering_by_angle {
+        if t.n_bands() != nb || t.n_materials() < n_mat {
+            return Err(CoreError::invalid("scattering_by_angle", format!("a table of {} materials × {} bands given; the bake needs {n_mat} × {nb}", t.n_materials(), t.n_bands())));
+        }
     }
     if sources.is_empty() {
         return Err(CoreError::invalid("sources", "a sound bake needs at least one source"));
@@ -510,7 +524,7 @@ pub fn trace_sound_with(
         surfaces: Surfaces::new(mesh, bvh, convex, |r| sources.iter().all(|s| r.contains(s.position))).exact_triangles(extras.level_of_detail.is_some()),
         air: settings.air_attenuation_per_m.iter().any(|&a| a > 0.0),
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
-        uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])),
+        uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])) && extras.scattering_by_angle.is_none_or(|t| t.uniform()),
         covered,
         receiver_tree: receiver_tree.as_ref(),
         tree_centres,
@@ -518,6 +532,7 @@ pub fn trace_sound_with(
         lod: extras.level_of_detail,
         walls: Walls::new(extras.wall_model, acoustics),
         early_connections,
+        by_angle: extras.scattering_by_angle,
     };
     let own_quantum = sound_quantum(sources, receivers);
     let quantum = match extras.quantum {

@@ -102,6 +102,8 @@ struct Scratch {
     /// Per band, with level of detail: Rindel's K at a reflection, and the scattering s' it gives.
     shares: Vec<f64>,
     scattering: Vec<f64>,
+    /// Per band: a described surface's scattering at the angle a ray meets it (scattering.rs).
+    by_angle: Vec<f64>,
     /// Per band: a surface's absorption at the angle a ray meets it (locally reacting walls).
     absorption: Vec<f64>,
 }
@@ -126,6 +128,7 @@ impl Worker {
                 gain: vec![0.0; n_bands],
                 shares: vec![0.0; n_bands],
                 scattering: vec![0.0; n_bands],
+                by_angle: vec![0.0; n_bands],
                 absorption: vec![0.0; n_bands],
             },
             ray: RayState::new(n_bands),
@@ -312,6 +315,14 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
     absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb], &mut scratch.absorption[..nb]);
     let mut scat = &scene.acoustics.scattering[m..m + nb];
     let mut p_diffuse = scene.p_diffuse[material];
+    if let Some(table) = scene.by_angle {
+        // A described surface (a profile) scatters its s(θ) at this angle of incidence
+        // (scattering.rs); level of detail below then adds the panel's diffraction to it.
+        if table.scattering(material, -ray.dir.dot(normal), &mut scratch.by_angle[..nb]) {
+            scat = &scratch.by_angle[..nb];
+            p_diffuse = scat.iter().sum::<f64>() / nb as f64;
+        }
+    }
     if let Some(lod) = scene.lod {
         // Level of detail (early/lod.rs): the surface's scattering s and the panel's
         // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
@@ -434,7 +445,12 @@ fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f
 #[inline(always)]
 fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], tally: &mut [f64], scratch: &mut [f64]) {
     let nb = e.len();
-    let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), scratch);
+    let cos_incidence = -dir.dot(normal);
+    let alpha = match scene.by_angle {
+        // A described surface absorbs its α(θ) (scattering.rs), whatever the wall model.
+        Some(t) if t.absorption(m / nb, cos_incidence, scratch) => &scratch[..],
+        _ => scene.walls.absorption(&scene.acoustics.absorption, m, cos_incidence, scratch),
+    };
     for b in 0..nb {
         tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
         e[b] *= 1.0 - alpha[b];

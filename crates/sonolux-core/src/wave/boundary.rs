@@ -109,6 +109,7 @@ pub struct BoundaryStats {
 
 /// Builds the slabs' boundary nodes from the voxelised faces. `slab_of(index)` names the slab of
 /// a grid index; slabs come back in order.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
     grid: &Grid,
     mesh: &Mesh,
@@ -117,6 +118,7 @@ pub(crate) fn build(
     a2: f64,
     slab_of: impl Fn(usize) -> usize,
     n_slabs: usize,
+    wall_of: impl Fn(&Face) -> u32,
 ) -> (Vec<BoundarySlab>, BoundaryStats) {
     let lambda = a2.sqrt();
     let mut slabs = vec![BoundarySlab::default(); n_slabs];
@@ -136,7 +138,8 @@ pub(crate) fn build(
             let n: DVec3 = mesh.normal(tri).as_dvec3();
             let l1 = n.x.abs() + n.y.abs() + n.z.abs();
             let beta = if l1 > 0.0 { 1.0 / l1 } else { 1.0 };
-            let m = mesh.material[tri];
+            // The face's wall: its material's, or the well of its patch (wells.rs).
+            let m = wall_of(f);
             match areas.iter_mut().find(|a| a.0 == m) {
                 Some(a) => a.1 += beta,
                 None => areas.push((m, beta)),

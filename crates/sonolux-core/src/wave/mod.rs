@@ -29,6 +29,7 @@ pub mod scheme;
 pub mod settings;
 pub mod source;
 pub mod voxel;
+pub mod wells;
 
 use std::time::Instant;
 
@@ -45,6 +46,7 @@ pub use scheme::WaveSolver;
 pub use settings::{AbsorptionKind, MemoryEstimate, SceneSize, WaveSettings, COURANT_LIMIT, COURANT_MAX};
 pub use source::{SourcePulse, SourceTerm, Sources};
 pub use voxel::VoxelStats;
+pub use wells::Wells;
 
 /// Absorption of each material per band: `absorption` is `[material][band]`, flattened, at the
 /// band centres `band_centres_hz` (any number of bands, increasing).
@@ -52,6 +54,8 @@ pub use voxel::VoxelStats;
 pub struct WaveMaterials {
     pub band_centres_hz: Vec<f64>,
     pub absorption: Vec<f64>,
+    /// Per material, its surface's wells ([`wells`]), or None (a flat wall); empty: none has.
+    pub wells: Vec<Option<Wells>>,
 }
 
 impl WaveMaterials {
@@ -163,7 +167,10 @@ pub fn build_solver(
         .chunks(nb)
         .map(|a| fit::fit_material(&materials.band_centres_hz, a, settings.absorption_kind, settings.max_frequency_hz, Some(scheme)))
         .collect::<Result<Vec<_>, _>>()?;
-    assemble(mesh, fits, settings, estimate, start)
+    let (walls, choice) = wells::expand(fits, &materials.wells, settings.speed_of_sound_m_s, settings.max_frequency_hz)?;
+    let (solver, mut stats) = assemble(mesh, walls, &choice, settings, estimate, start)?;
+    stats.fits.truncate(materials.absorption.len() / nb);
+    Ok((solver, stats))
 }
 
 /// [`build_solver`] with each material's wall admittance given (one per material id of the
@@ -193,11 +200,12 @@ pub fn build_solver_with_walls(mesh: &Mesh, walls: &[Admittance], settings: &Wav
         .iter()
         .map(|y| fit::MaterialFit { admittance: y.clone(), n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false })
         .collect();
-    assemble(mesh, fits, settings, estimate, start)
+    assemble(mesh, fits, &wells::WallChoice::none(), settings, estimate, start)
 }
 
-/// The solver for `mesh` with the walls of `fits` (one per material id).
-fn assemble(mesh: &Mesh, fits: Vec<fit::MaterialFit>, settings: &WaveSettings, estimate: MemoryEstimate, start: Instant) -> Result<(WaveSolver, WaveStats), CoreError> {
+/// The solver for `mesh` with the walls of `fits` (one per material id, then the wells' walls
+/// that `choice` picks among).
+fn assemble(mesh: &Mesh, fits: Vec<fit::MaterialFit>, choice: &wells::WallChoice, settings: &WaveSettings, estimate: MemoryEstimate, start: Instant) -> Result<(WaveSolver, WaveStats), CoreError> {
     let h = settings.spacing_m();
     let dt = settings.time_step_s();
     let mut grid = Grid::over(&mesh.bounds(), h)?;
@@ -210,7 +218,8 @@ fn assemble(mesh: &Mesh, fits: Vec<fit::MaterialFit>, settings: &WaveSettings, e
     let plane = grid.strides()[0];
     let n_slabs = nx.div_ceil(thickness);
     let slab_of = |index: usize| index / plane / thickness;
-    let (boundaries, boundary_stats) = boundary::build(&grid, mesh, &faces, &walls, a2 as f64, slab_of, n_slabs);
+    let wall_of = |f: &voxel::Face| choice.wall(&grid, f, mesh.material[f.tri as usize]);
+    let (boundaries, boundary_stats) = boundary::build(&grid, mesh, &faces, &walls, a2 as f64, slab_of, n_slabs, wall_of);
     let strides = grid.strides();
     let mut shells: Vec<Vec<u32>> = vec![Vec::new(); n_slabs];
     for f in &faces {
