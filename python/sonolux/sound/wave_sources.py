@@ -83,6 +83,7 @@ from scipy import fft as sfft
 
 from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
+from sonolux.sound.wave_centre import refer_to_centre
 
 #: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
 #: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
@@ -322,10 +323,13 @@ def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: 
 
 
 def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None,
-        bands_hz: np.ndarray | None = None) -> SourceFit:
+        bands_hz: np.ndarray | None = None, *, centre_bands: int | None = None,
+        speed_of_sound_m_s: float = 343.0) -> SourceFit:
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
     :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
-    fitted too (complex coefficients). The first-order family is order 1 exactly and is
+    fitted too (complex coefficients), referred to its acoustic centre found from that phase
+    in the first ``centre_bands`` bands (all if None; ``wave_centre.refer_to_centre``),
+    where its cluster is then centred. The first-order family is order 1 exactly and is
     fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
     orders above the highest that carries :data:`RESOLVED_AMPLITUDE`² (4·10⁻⁴) of the pattern's
     energy are left out (:attr:`SourceFit.orders` says which are radiated): such an order's
@@ -345,6 +349,11 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         orders = np.minimum(orders, 1)
     u, weight = fit_directions()
     a = amplitude(source, directivity, u, n_bands, bands_hz)  # [direction, band]
+    centre = acoustic_centre_offset_m(source)
+    if np.iscomplexobj(a) and bands_hz is not None:  # a measured phase: its acoustic centre
+        k = 2.0 * math.pi * np.asarray(bands_hz, float) / speed_of_sound_m_s
+        a, centre = refer_to_centre(a, u, weight, np.polynomial.legendre.leggauss(FIT_RINGS)[0],
+                                    FIT_AZIMUTHS, k, centre_bands)
     wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
     c0 = wa.sum(axis=0)
     c = 3.0 * (u.T @ wa)  # [axis, band]
@@ -378,7 +387,7 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
-    return SourceFit(components, orders, residual, centre_offset_m=acoustic_centre_offset_m(source))
+    return SourceFit(components, orders, residual, centre_offset_m=centre)
 
 
 def lowest_filter_hz(bands_hz: np.ndarray) -> float:
@@ -554,12 +563,14 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
         return dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
                                    residual=f.residual[keep])
 
-    fitted = held(fit(source, directivity, b.size, orders, b))
+    fitted = held(fit(source, directivity, b.size, orders, b, centre_bands=wave_bands,
+                      speed_of_sound_m_s=speed_of_sound_m_s))
     cap = int(fitted.orders.max())
     while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
         wanted = reach_m(fitted, spacing_m)
         cap -= 1
-        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b))
+        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b,
+                          centre_bands=wave_bands, speed_of_sound_m_s=speed_of_sound_m_s))
         fitted = dataclasses.replace(fitted, note=(
             f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
             f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm"))
@@ -574,4 +585,13 @@ def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -
             f"{'/'.join(f'0-{int(L)}' if L else '0' for L in orders)} per wave band; the pattern's "
             "energy above "
             f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}"
-            + source_fit.note)
+            + centred(source_fit) + source_fit.note)
+
+
+def centred(source_fit: SourceFit) -> str:
+    """The log's words for a cluster centred off the source's position (its acoustic centre)."""
+    d = source_fit.centre_offset_m
+    if not np.any(d != 0.0):
+        return ""
+    return (f"; radiated from its acoustic centre, ({', '.join(f'{1e3 * v:+.0f}' for v in d)}) "
+            "mm from its position")
