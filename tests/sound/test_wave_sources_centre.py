@@ -79,10 +79,13 @@ def test_a_displaced_omni_source_is_one_monopole_at_its_centre():
     """Measured 94 mm off the array's centre, an omni source is, referred to its centre, a
     monopole: the fit keeps order 0 only (one term, nothing left out); referred to the array's
     centre its pattern e^{ik·u·d} would hold (kd)²/3 above order 0 at the top band (17% at
-    500 Hz, its spherical-Bessel series: 1 − j₀(kd)², in closed form here)."""
+    500 Hz, its spherical-Bessel series: 1 − j₀(kd)², in closed form here). The log line says
+    where the cluster is (to the millimetre: 50, 80, 30 within the 0.5 mm found)."""
     source, d = displaced("omni")
     fit = wave_sources.fit(source, d, len(BANDS), bands_hz=BANDS, centre_bands=3)
     assert np.all(fit.orders == 0) and np.all(fit.residual < 1e-4), (fit.orders, fit.residual)
+    line = wave_sources.describe("m (sofa)", fit, 1, 3)
+    assert "radiated from its acoustic centre, (+50, +80, +30) mm from its position" in line, line
     spacing = C / (10 * 500.0)
     pos, _, _ = wave_sources.terms(np.zeros(3), fit, BANDS, 500.0, spacing, 8660.0, 4000, C)
     np.testing.assert_allclose(pos, fit.centre_offset_m[None], atol=1e-12)
