@@ -89,19 +89,19 @@ def test_every_wave_band_of_the_hybrid_resolves_order_4_and_a_coarse_grid_does_n
     resolves orders 1 and 2 together or neither). A grid at 4 points per wavelength at 500 Hz:
     the 250 Hz band's upper edge has kΔx = 1.11, where a first difference errs by 5%, so it and
     the 500 Hz band radiate order 0 only; 125 Hz (kΔx 0.56 at its edge, 0.55%) keeps order 4.
-    A grid with kΔx = 0.85 at 125 Hz's edge radiates order 2 there, not 3 or 4. Orders of 2 or
-    more are also capped where their signals' growth below the band would leave a float32
-    floor above 10⁻⁶ of a band (``wave_stencils.rounding_orders``): the 63 Hz band keeps order
-    3 on the coarse grid, and the fine one keeps orders 2 / 2 / 3 / 4."""
+    A grid with kΔx = 0.85 at 125 Hz's edge radiates order 2 there, not 3 or 4. Order 4 is also
+    withheld in the lowest band, and where one rounding of its largest signal below the band,
+    (2⁻²⁴·G)², would be above 10⁻⁶ of a band (``wave_stencils.resolved_orders``): on the fine grid
+    (34 mm) the 63 Hz and 125 Hz bands keep order 3."""
     spacing = C / (math.sqrt(2) * 707.0 * 10)
     assert [wave_sources.resolved_orders(BANDS, spacing, C, max_order=L)[-1] for L in (3, 4)] == [
         3, 4]
     assert wave_sources.stencil_error(4, 0.6) == wave_sources.stencil_error(3, 0.6)
-    # The float32 floor caps the low bands on that fine grid (34 mm): the 63 Hz band's orders
-    # are fed down to 19 Hz, where an order-3 term's signal is 1/(kΔx)³ = 6·10⁵ times a
-    # monopole's (wave_stencils.rounding_orders).
-    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [2, 2, 3, 4]
-    assert list(wave_stencils.rounding_orders(BANDS, spacing, C)) == [2, 2, 3, 4]
+    # Order 4 is capped on that fine grid (34 mm) in the 63 Hz band (the lowest: its fade feeds
+    # it down to 19 Hz) and the 125 Hz band (its feed from 74 Hz: (2⁻²⁴/(kΔx)⁴)² = 1.4·10⁻⁵).
+    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [3, 3, 4, 4]
+    assert (wave_stencils.FLOAT32_ROUNDING * wave_stencils.feed_growth(BANDS, 1, spacing, C, 4)
+            ) ** 2 == pytest.approx(1.4e-5, rel=0.05)
     assert wave_sources.stencil_error(3, 2 * math.pi / (10 * math.sqrt(2))) < 0.0023
     assert wave_sources.stencil_error(3, 0.78) < 0.02 < wave_sources.stencil_error(3, 0.80)
     assert wave_sources.stencil_error(2, 0.89) < 0.02 < wave_sources.stencil_error(2, 0.91)
@@ -110,7 +110,7 @@ def test_every_wave_band_of_the_hybrid_resolves_order_4_and_a_coarse_grid_does_n
     assert list(orders) == [3, 4, 0, 0], orders
     edge_125 = 125.0 * math.sqrt(2.0)
     between = 0.85 * C / (2 * math.pi * edge_125)
-    assert list(wave_sources.resolved_orders(BANDS, between, C)) == [4, 2, 0, 0]
+    assert list(wave_sources.resolved_orders(BANDS, between, C)) == [3, 2, 0, 0]  # lowest: <= 3
     # A fit on that grid keeps only those orders, and of them those the pattern carries (the
     # 63 Hz band is omni, the beam of order 2), and reports what it leaves out.
     fit = wave_sources.fit_on_grid(custom(), beam(), BANDS, coarse, C)

@@ -15,7 +15,7 @@ import pytest
 from scipy import fft as sfft
 
 from sonolux import engine
-from sonolux.sound import wave_sources, wave_stencils
+from sonolux.sound import wave_sources
 from tests.sound.test_wave_sources import anechoic_box, band_gains, cluster_runs, windowed_spectrum
 from tests.sound.test_wave_sources_order2 import BANDS, FORWARD, C, beam, custom, pulse_spectrum
 
@@ -216,35 +216,65 @@ def far_field_error(fit, pattern, u, forward, bands):
     return worst
 
 
-@pytest.mark.parametrize("power, top", [(6, 3), (12, 4), (0, 3), (0, 4)])
-def test_the_top_order_s_large_signals_leave_no_rounding_floor(power, top):
-    """Order L's signals grow as 1/(kΔx)^L below the bands (order 3: 10⁴ times the monopole's
-    at 19 Hz on the 137 mm grid, where the fade of the 63 Hz band's coefficients still passes
-    them; order 4: 2·10⁵), and the grid is float32: its rounding near the cluster is a noise
-    floor. The scheme is linear, so the run of the whole cluster less the runs of its orders
-    below L and of its order L alone is that rounding only. Its energy in each band, over the
-    whole run's, is within the floor the order rule assumes (``wave_stencils.rounding_floor``
-    of the lowest band that radiates order L): beams cos¹²(θ/2) (order 3) and cos²⁴(θ/2) fitted
-    to order 4, omni at 63 Hz (measured ≤ 4.6·10⁻¹¹ and 2.9·10⁻⁹ at 250 Hz, assumed 3.8·10⁻¹⁰
-    and 6.4·10⁻⁹), and the 30° cone, directional at 63 Hz too (measured ≤ 1.3·10⁻⁷ and
-    2.3·10⁻⁵, assumed 3.4·10⁻⁷ and 6.7·10⁻⁵: on this grid the rule radiates its order 3 at
-    63 Hz, not its order 4)."""
-    scene, src = anechoic_box()
-    receivers = src + RADIUS_M * DIRECTIONS[:12]
-    fit = (wave_sources.fit(custom(), beam(power), len(BANDS)) if power else
-           wave_sources.fit(cone(30.0)[0], cone(30.0)[1], len(BANDS), np.full(4, top)))
+#: The share of a band's energy a float32 floor may hold: 60 dB down, the range over which the
+#: tracer follows a ray (its default ``energy_drop_db``).
+NOISE_FLOOR = 1e-6
+
+
+def small_box():
+    """A 6 m box of absorbing walls (α 0.9), the source near its centre, off the nodes: small
+    enough for the 69 mm grid: (scene, source position)."""
+    import sonolux
+
+    src = np.array([3.03, 2.97, 3.01])
+    return sonolux.load_scene({
+        "name": "small-box", "settings": {"bands_hz": BANDS.tolist()},
+        "materials": {"m": {"absorption": 0.9}},
+        "geometry": [{"type": "shoebox", "size_m": [6.0] * 3, "materials": {"default": "m"}}],
+        "sources": [{"position_m": src.tolist()}],
+        "receivers": {"type": "points", "positions_m": [[1.0, 1.0, 1.0]]},
+    }), src
+
+
+def rounding_floor(orders, f_max):
+    """The float32 floor of a 30° cone (directional at 63 Hz) fitted to ``orders`` per band and
+    run on the grid for ``f_max`` (10 points per wavelength): the scheme is linear, so the run of
+    the whole cluster less the runs of its orders below the top and of the top order alone is
+    rounding only. Its largest share of a band's energy (63-250 Hz, 12 receivers at 2 m, ±30 ms
+    about the direct sound)."""
+    scene, src = small_box()
+    fit = wave_sources.fit(cone(30.0)[0], cone(30.0)[1], len(BANDS), np.asarray(orders))
     order = np.array([wave_sources.component_order(k) for k in range(fit.components.shape[1])])
-    assert int(fit.orders.max()) == top
-    lowest = int(np.flatnonzero(fit.orders >= top)[0])
-    floor = wave_stencils.rounding_floor(BANDS, lowest, C / (250.0 * 10), C, top)
+    top = int(fit.orders.max())
     parts = [dataclasses.replace(fit, components=np.where(keep[None], fit.components, 0.0))
              for keep in (order < top, order == top)]
-    omni, runs = cluster_runs(scene, src, receivers, [fit, *parts])
+    _, runs = cluster_runs(scene, src, src + RADIUS_M * DIRECTIONS[:12], [fit, *parts], f_max)
     whole, low, high = (np.asarray(run["pressure_pa"], float) for run, _ in runs)
     e_whole, f = windowed_spectrum(runs[0][0], RADIUS_M)
     e_rounding, _ = windowed_spectrum({**runs[0][0], "pressure_pa": whole - low - high},
                                       RADIUS_M)
-    for centre in BANDS[:3]:
-        band = (f > centre / math.sqrt(2)) & (f < centre * math.sqrt(2))
-        ratio = e_rounding[:, band].sum() / e_whole[:, band].sum()
-        assert ratio < floor, (centre, ratio, floor)
+    shares = [e_rounding[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
+              / e_whole[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
+              for c in BANDS[:3]]
+    return max(shares)
+
+
+@pytest.mark.parametrize("f_max", [
+    250.0, pytest.param(500.0, marks=pytest.mark.slow)])  # grids of 137 mm and 69 mm
+def test_the_orders_radiated_leave_a_float32_floor_below_60_db(f_max):
+    """Order L's signals grow as 1/(kΔx)^L below the band they are fed in, and the grid is
+    float32: its rounding near the cluster is a noise that reaches every band. On the 137 mm
+    and 69 mm grids (the latter the 354 Hz hybrid's), for a 30° cone directional at 63 Hz:
+    session 9's orders (the stencil rule up to order 3; measured 6.2·10⁻⁸ and 4.0·10⁻⁹ of a
+    band) and the rule's (order 4 from 125 Hz up; measured 1.1·10⁻⁷ and 3.0·10⁻⁸) leave a floor
+    below 10⁻⁶; order 4 in the lowest band too, fed down to 19 Hz by the fade, leaves 2.1·10⁻⁵
+    and 1.5·10⁻⁵, and the rule withholds it there. Tolerance: 10⁻⁶ (60 dB) is the standard
+    (:data:`NOISE_FLOOR`); the measured margins are ≥ 9× below it and ≥ 15× above. (The 34 mm
+    grid, not run here for its cost, sits at the line: docs/waves.md.)"""
+    spacing = engine.WaveSettings(max_frequency_hz=f_max, duration_s=0.1).spacing_m
+    session9 = wave_sources.resolved_orders(BANDS, spacing, C, max_order=3)
+    rule = wave_sources.resolved_orders(BANDS, spacing, C)
+    assert rule[0] == 3 and 4 in rule and list(np.minimum(rule, 3)) == list(session9)
+    assert rounding_floor(session9, f_max) < NOISE_FLOOR
+    assert rounding_floor(rule, f_max) < NOISE_FLOOR
+    assert rounding_floor(np.where(np.arange(len(BANDS)) == 0, 4, rule), f_max) > NOISE_FLOOR

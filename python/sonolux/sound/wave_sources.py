@@ -61,8 +61,9 @@ monopoles at neighbouring nodes). Here:
   :data:`RESOLVED_AMPLITUDE` (2%, 0.17 dB); the highest such L ≤ :data:`MAX_ORDER`. With the
   hybrid's grid (10 points per wavelength at f_max = √2 × the crossover) every wave band
   resolves order 4 (worst 0.23% at the crossover, the third difference's; order 4's terms use
-  third differences and its own fourth errs by half as much, 7θ⁴/240). The pattern's
-  energy above the radiated orders is printed.
+  third differences and its own fourth errs by half as much, 7θ⁴/240). Order 4 is withheld in
+  the lowest band and where its float32 floor could reach 10⁻⁶ of a band (measured; see
+  :func:`resolved_orders`). The pattern's energy above the radiated orders is printed.
 - **Direct sound.** The terms' direct sound is taken out of the responses in the core (each a
   monopole with its own signal) and the exact pattern's direct sound is added back by the bake
   (the tracer's gain towards each receiver), so the direct sound is the target's exactly and only

@@ -16,19 +16,17 @@ MAX_ORDER = 4
 #: An order is radiated in a band where its stencils' amplitude error is at most this (0.17 dB)
 #: at the band's upper edge, in every direction.
 RESOLVED_AMPLITUDE = 0.02
+#: The highest order radiated in the lowest band, whose coefficients are fed below its lower
+#: edge down to half of :func:`lowest_filter_hz` (:func:`order2_fade`), where every other band's
+#: are fed only a quarter band below theirs (the blend from the band below): session 9's highest
+#: order; order 4 is withheld there for its measured float32 floor (:func:`resolved_orders`).
+LOWEST_BAND_MAX_ORDER = 3
 #: The relative rounding of the grid's float32 fields, 2⁻²⁴.
 FLOAT32_ROUNDING = 2.0 ** -24
-#: An order of 2 or more is radiated in a band only where the rounding its signals' growth below
-#: the band can leave, as a share of the band's energy, is at most this: 60 dB down, the range
-#: over which the tracer follows a ray (its default ``energy_drop_db``), so that the waves'
-#: float32 floor lies below what the rays resolve (:func:`rounding_orders`).
+#: Order 4 is radiated in a band above the lowest only where one rounding of its largest
+#: signal, (2⁻²⁴·G)² (:func:`feed_growth`), is at most this share of a band's energy: 60 dB
+#: down, the range over which the tracer follows a ray (its default ``energy_drop_db``).
 NOISE_FLOOR = 1e-6
-#: The float32 floor measured near a cluster is this much above one rounding of its largest
-#: signal, (2⁻²⁴·G)²: 10-12× measured (a 30° cone on a 137 mm grid, orders 3 and 4: the rounding
-#: accumulates over the steps the low-frequency signal lasts), and 2.5× more for grids and
-#: patterns not measured (tests/sound/test_wave_sources_order3.py checks the measured floor
-#: against it).
-ROUNDING_EXCESS = 30.0
 
 #: Fourth-order centred differences (Fornberg 1988, table 1), × Δx^L: the L-th derivative on the
 #: nodes −2..2 (L = 1, 2) and −3..3 (L = 3, 4); index = the derivative's order.
@@ -116,40 +114,31 @@ def band_upper_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
 def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: float,
                     max_order: int = MAX_ORDER) -> np.ndarray:
     """int[band]: the highest order ≤ ``max_order`` whose stencils are within
-    :data:`RESOLVED_AMPLITUDE` in every direction at the band's upper edge (0 where none is),
-    and whose signals leave a float32 floor below :data:`NOISE_FLOOR` (:func:`rounding_orders`)."""
+    :data:`RESOLVED_AMPLITUDE` in every direction at the band's upper edge (0 where none is);
+    order 4 only above the lowest band (:data:`LOWEST_BAND_MAX_ORDER`) and where one rounding of
+    its largest signal, (2⁻²⁴·G)² with G = :func:`feed_growth`, is at most :data:`NOISE_FLOOR`.
+
+    Why (the mechanism measured; its grid dependence not derived): an order-L term is fed the
+    pulse integrated L − 1 times over (kΔx)^L, so below its band its signal grows as 1/(kΔx)^L,
+    and the grid's float32 fields round the field near the cluster, a noise that reaches every
+    band. The lowest band's coefficients are fed down through the fade of orders ≥ 2, to half of
+    :func:`lowest_filter_hz` (19 Hz for a 63 Hz band, 1.75 octaves below its centre); every other
+    band's only a quarter band below its lower edge. Measured by linearity for a 30° cone
+    directional at 63 Hz (tests/sound/test_wave_sources_order3.py and docs/waves.md): orders 0-3
+    as session 9 chose them leave ≤ 6.2·10⁻⁸ of a band on the 137 mm and 69 mm grids; order 4 in
+    the lowest band 2.1·10⁻⁵ and 1.5·10⁻⁵, which one rounding does not predict (2.2·10⁻⁶ and
+    5.7·10⁻⁴), hence the cap; order 4 above it agrees with one rounding where that is above the
+    grid's other floors (69 mm: 3·10⁻⁸ measured, 5.5·10⁻⁸ one rounding; 34 mm: 2.2·10⁻⁵ and
+    1.4·10⁻⁵), hence the bound."""
     out = []
-    for f in band_upper_edges_hz(bands_hz):
+    for b, f in enumerate(band_upper_edges_hz(bands_hz)):
         kh = 2.0 * math.pi * f * spacing_m / speed_of_sound_m_s
-        out.append(max(L for L in range(max_order + 1) if stencil_error(L, kh) <= RESOLVED_AMPLITUDE))
-    return np.minimum(np.array(out, dtype=int),
-                      rounding_orders(bands_hz, spacing_m, speed_of_sound_m_s, max_order))
-
-
-def rounding_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: float,
-                    max_order: int = MAX_ORDER) -> np.ndarray:
-    """int[band]: the highest order ≤ ``max_order`` whose float32 floor,
-    :data:`ROUNDING_EXCESS`·(2⁻²⁴·G)², is at most :data:`NOISE_FLOOR`, G = :func:`feed_growth`
-    (orders 0 and 1 always: order 1 is fed c·q, not an integral, and its growth is bounded by the
-    pulse's own). An order-L term's signal is the pulse integrated L − 1 times, over (kΔx)^L: it
-    grows as 1/(kΔx)^L below the band, and the grid's float32 fields round the whole field near the
-    cluster to 2⁻²⁴ of it, a noise that reaches every band. Measured on a 137 mm grid for a 30°
-    cone, directional in its lowest band (63 Hz): order 3 leaves 1.3·10⁻⁷ of the 250 Hz band, order
-    4 2.3·10⁻⁵ ((2⁻²⁴·G)²: 1.1·10⁻⁸ and 2.2·10⁻⁶)."""
-    out = []
-    for b in range(len(np.atleast_1d(bands_hz))):
-        ok = [L for L in range(2, max_order + 1)
-              if rounding_floor(bands_hz, b, spacing_m, speed_of_sound_m_s, L) <= NOISE_FLOOR]
-        out.append(max([min(max_order, 1)] + [L for L in ok if all(m in ok for m in range(2, L))]))
+        top = max(L for L in range(max_order + 1) if stencil_error(L, kh) <= RESOLVED_AMPLITUDE)
+        if top >= 4 and (b == 0 or (FLOAT32_ROUNDING * feed_growth(
+                bands_hz, b, spacing_m, speed_of_sound_m_s, 4)) ** 2 > NOISE_FLOOR):
+            top = LOWEST_BAND_MAX_ORDER
+        out.append(top)
     return np.array(out, dtype=int)
-
-
-def rounding_floor(bands_hz: np.ndarray, band: int, spacing_m: float,
-                   speed_of_sound_m_s: float, order: int) -> float:
-    """The float32 floor an order-``order`` term fed in ``band`` can leave, as a share of a
-    band's energy: :data:`ROUNDING_EXCESS`·(2⁻²⁴·:func:`feed_growth`)²."""
-    g = feed_growth(bands_hz, band, spacing_m, speed_of_sound_m_s, order)
-    return ROUNDING_EXCESS * (FLOAT32_ROUNDING * g) ** 2
 
 
 def feed_growth(bands_hz: np.ndarray, band: int, spacing_m: float, speed_of_sound_m_s: float,
