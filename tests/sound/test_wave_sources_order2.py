@@ -15,7 +15,7 @@ from scipy import fft as sfft
 import sonolux
 from sonolux import engine
 from sonolux.scene.directivity import node_directions
-from sonolux.sound import wave_sources
+from sonolux.sound import wave_sources, wave_stencils
 from tests.sound.test_wave_sources import anechoic_box, band_gains, omni_and_cluster_runs
 
 pytestmark = pytest.mark.usefixtures("core")
@@ -45,11 +45,14 @@ def test_the_stencils_errors_are_their_closed_forms():
     """stencil_error is |1 − R| of the fourth-order differences' responses (module doc): checked
     against the terms' own weights summed as plane waves over 2,000 directions (order 1: each
     first difference along its axis; order 2: second differences and the mixed products;
-    order 3: third differences, ∂ᵢ²∂ⱼ and ∂ₓ∂ᵧ∂𝓏), and against the leading terms θ⁴/30, θ⁴/90
-    and 7θ⁴/120 for small θ (relative 2%: the next term)."""
+    order 3: third differences, ∂ᵢ²∂ⱼ and ∂ₓ∂ᵧ∂𝓏; order 4: fourth differences, ∂ᵢ³∂ⱼ, ∂ᵢ²∂ⱼ²
+    and ∂ᵢ²∂ⱼ∂ₖ), and against the leading terms θ⁴/30, θ⁴/90, 7θ⁴/120 and 7θ⁴/240 for small θ
+    (relative 2%: the next term). Order 4's bound is its terms' third differences (7θ⁴/120):
+    its worst is reached only where a term's third-difference factor has the whole kΔx, which
+    the mixed ∂ᵢ³∂ⱼ never has, so it is asserted > 0.4 of the bound."""
     u = wave_sources.fibonacci_directions(2000)
     for kh in (0.1, 0.3, 0.628, 1.0):
-        worst = {1: 0.0, 2: 0.0, 3: 0.0}
+        worst = {1: 0.0, 2: 0.0, 3: 0.0, 4: 0.0}
         for k in range(1, wave_sources.N_COMPONENTS):
             order = wave_sources.component_order(k)
             phase = np.exp(1j * kh * (u @ np.array([o for o, _ in wave_sources.stencil(k)]).T))
@@ -57,38 +60,57 @@ def test_the_stencils_errors_are_their_closed_forms():
             exact = (1j * kh) ** order * wave_sources.monomials(u)[:, k]
             big = np.abs(exact) > 0.05 * kh ** order  # the relative error where the term lives
             worst[order] = max(worst[order], np.max(np.abs(1 - response[big] / exact[big])))
-        for order in (1, 2, 3):
+        for order in (1, 2, 3, 4):
             bound = wave_sources.stencil_error(order, kh)
             assert worst[order] <= bound + 1e-12, (kh, order, worst[order], bound)
-            assert worst[order] > 0.7 * bound, (kh, order, worst[order], bound)
+            assert worst[order] > (0.7 if order < 4 else 0.4) * bound, (kh, order, worst[order],
+                                                                         bound)
     np.testing.assert_allclose(wave_sources.stencil_error(1, 0.2), 0.2 ** 4 / 30, rtol=0.02)
     np.testing.assert_allclose(
         abs(1 - (30 - 32 * math.cos(0.2) + 2 * math.cos(0.4)) / (12 * 0.04)), 0.2 ** 4 / 90,
         rtol=0.02)
     np.testing.assert_allclose(wave_sources.stencil_error(3, 0.2), 7 * 0.2 ** 4 / 120, rtol=0.02)
+    np.testing.assert_allclose(1 - wave_sources.difference_response(4, 0.2), 7 * 0.2 ** 4 / 240,
+                               rtol=0.02)
+    # Below kΔx = 0.1 the fourth difference's response is its series (the closed form cancels
+    # to 10⁻¹⁶/θ⁴): the two meet there within the series' next term (θ⁸/10⁴ = 10⁻¹²).
+    np.testing.assert_allclose(wave_sources.difference_response(4, 0.0999999),
+                               wave_sources.difference_response(4, 0.1), atol=1e-11)
 
 
-def test_every_wave_band_of_the_hybrid_resolves_order_3_and_a_coarse_grid_does_not():
+def test_every_wave_band_of_the_hybrid_resolves_order_4_and_a_coarse_grid_does_not():
     """The rule: order L where its stencils are within 2% at the band's upper edge. The
     hybrid's grid is 10 points per wavelength at f_max = √2·crossover, so the last wave band's
     upper edge (the crossover) has kΔx = 2π/(10√2) = 0.444: order 3 is within 0.22% (its third
-    difference, 7θ⁴/120). Order 3 holds to kΔx = 0.787 at a band's edge, orders 1 and 2 to
+    difference, 7θ⁴/120; order 4 adds a fourth difference, 7θ⁴/240, and its terms' third
+    differences, so it holds wherever order 3 does). Order 3 holds to kΔx = 0.787 at a band's
+    edge, orders 1 and 2 to
     0.902 (the first difference's θ⁴/30; order 2's mixed terms are first differences, so a band
     resolves orders 1 and 2 together or neither). A grid at 4 points per wavelength at 500 Hz:
     the 250 Hz band's upper edge has kΔx = 1.11, where a first difference errs by 5%, so it and
-    the 500 Hz band radiate order 0 only; 125 Hz (kΔx 0.56 at its edge, 0.55%) keeps order 3.
-    A grid with kΔx = 0.85 at 125 Hz's edge radiates order 2 there, not 3."""
+    the 500 Hz band radiate order 0 only; 125 Hz (kΔx 0.56 at its edge, 0.55%) keeps order 4.
+    A grid with kΔx = 0.85 at 125 Hz's edge radiates order 2 there, not 3 or 4. Order 4 is also
+    withheld in the lowest band, and where one rounding of its largest signal below the band,
+    (2⁻²⁴·G)², would be above 10⁻⁶ of a band (``wave_stencils.resolved_orders``): on the fine grid
+    (34 mm) the 63 Hz and 125 Hz bands keep order 3."""
     spacing = C / (math.sqrt(2) * 707.0 * 10)
-    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [3, 3, 3, 3]
+    assert [wave_sources.resolved_orders(BANDS, spacing, C, max_order=L)[-1] for L in (3, 4)] == [
+        3, 4]
+    assert wave_sources.stencil_error(4, 0.6) == wave_sources.stencil_error(3, 0.6)
+    # Order 4 is capped on that fine grid (34 mm) in the 63 Hz band (the lowest: its fade feeds
+    # it down to 19 Hz) and the 125 Hz band (its feed from 74 Hz: (2⁻²⁴/(kΔx)⁴)² = 1.4·10⁻⁵).
+    assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [3, 3, 4, 4]
+    assert (wave_stencils.FLOAT32_ROUNDING * wave_stencils.feed_growth(BANDS, 1, spacing, C, 4)
+            ) ** 2 == pytest.approx(1.4e-5, rel=0.05)
     assert wave_sources.stencil_error(3, 2 * math.pi / (10 * math.sqrt(2))) < 0.0023
     assert wave_sources.stencil_error(3, 0.78) < 0.02 < wave_sources.stencil_error(3, 0.80)
     assert wave_sources.stencil_error(2, 0.89) < 0.02 < wave_sources.stencil_error(2, 0.91)
     coarse = C / (500.0 * 4)
     orders = wave_sources.resolved_orders(BANDS, coarse, C)
-    assert list(orders) == [3, 3, 0, 0], orders
+    assert list(orders) == [3, 4, 0, 0], orders
     edge_125 = 125.0 * math.sqrt(2.0)
     between = 0.85 * C / (2 * math.pi * edge_125)
-    assert list(wave_sources.resolved_orders(BANDS, between, C)) == [3, 2, 0, 0]
+    assert list(wave_sources.resolved_orders(BANDS, between, C)) == [3, 2, 0, 0]  # lowest: <= 3
     # A fit on that grid keeps only those orders, and of them those the pattern carries (the
     # 63 Hz band is omni, the beam of order 2), and reports what it leaves out.
     fit = wave_sources.fit_on_grid(custom(), beam(), BANDS, coarse, C)
@@ -106,12 +128,13 @@ def pulse_spectrum(delay_s, f_max, fs, steps, n_fft):
     return sfft.rfft(-q0 * x / sigma * np.exp(-0.5 * x * x), n_fft)
 
 
-@pytest.mark.parametrize("power, order", [(4, 2), (6, 3)])
+@pytest.mark.parametrize("power, order", [(4, 2), (6, 3), (12, 4)])
 def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern(power, order):
     """The terms as free-field monopoles, summed as plane waves (the far field, each term's
     spectrum times e^{ik·u·x_m}) over the reference pulse's spectrum: the pattern's amplitude
-    c₀ + c·u + uᵀDu (+ T·uuu) at every band centre, in 2,000 directions, for the oblique beams
-    of orders 2 (cos⁸(θ/2)) and 3 (cos¹²(θ/2)). Tolerance: the stencils' own error
+    c₀ + c·u + uᵀDu (+ T·uuu, + Q·uuuu) at every band centre, in 2,000 directions, for the
+    oblique beams of orders 2 (cos⁸(θ/2)) and 3 (cos¹²(θ/2)), and cos²⁴(θ/2) (order 6) fitted to
+    order 4. Tolerance: the stencils' own error
     (stencil_error at the centre) of the largest amplitude, plus 10⁻³ for the coefficient
     blends' tails from the neighbouring band (they reach a quarter band from each edge; an
     octave band's centre is half a band from it, so the blend is flat there, up to the FFT's
@@ -119,7 +142,8 @@ def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern(power, orde
     f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 8000
     spacing = C / (f_max * 10)
     fit = wave_sources.fit(custom(), beam(power), len(BANDS))
-    assert np.any(fit.components[:, 10:] != 0.0) == (order == 3)
+    assert np.any(fit.components[:, 10:20] != 0.0) == (order >= 3)
+    assert np.any(fit.components[:, 20:] != 0.0) == (order == 4)
     pos, sig, delay = wave_sources.terms(np.zeros(3), fit, BANDS, f_max, spacing, fs, steps, C)
     assert len(pos) == len({tuple(np.round(p / spacing).astype(int)) for p in pos})
     n_fft = sfft.next_fast_len(2 * steps, real=True)
@@ -137,14 +161,16 @@ def test_the_clusters_far_field_in_closed_form_is_the_fitted_pattern(power, orde
         assert np.max(np.abs(far.imag)) < tol
 
 
-@pytest.mark.parametrize("power, component", [(4, 4), (6, 10)])
-def test_what_the_filters_of_orders_2_and_3_put_before_the_pulse_is_negligible(power, component):
-    """Order 2 is fed c²·∫q and order 3 c³·∬q, faded out below the lowest band (module doc);
+@pytest.mark.parametrize("power, component", [(4, 4), (6, 10), (12, 20)])
+def test_what_the_filters_of_orders_2_to_4_put_before_the_pulse_is_negligible(power, component):
+    """Order 2 is fed c²·∫q, order 3 c³·∬q and order 4 c⁴·∭q, faded out below the lowest band
+    (module doc);
     their zero-phase filters ring before the pulse for about as long as the fade is narrow, so
     the pulse is delayed by four periods of where the fade starts (212 ms for a 63 Hz lowest
     band). What falls before the run's start (it is cut) is below 10⁻⁶ of the signal's energy
     (measured 2.5·10⁻⁸ for the order-2 beam's D_xx term, 5.4·10⁻⁸ for the order-3 beam's
-    T_xxx), and the signal has no DC (what a soft source must not be fed)."""
+    T_xxx), and the signal has no DC (what a soft source must not be fed); order 4's Q_xxxx
+    likewise."""
     f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 20000
     fit = wave_sources.fit(custom(), beam(power), len(BANDS))
     order = wave_sources.component_order(component)
@@ -160,7 +186,7 @@ def test_what_the_filters_of_orders_2_and_3_put_before_the_pulse_is_negligible(p
     assert fade[0] == 0.0 and np.all(fade[f >= wave_sources.lowest_filter_hz(BANDS)] == 1.0)
     spectrum = sfft.rfft(q, n_fft) * fade / (2j * np.pi * np.where(fade > 0, f, 1.0)) ** (
         order - 1)
-    coefficient = fit.components[:, component]  # D_xx or T_xxx
+    coefficient = fit.components[:, component]  # D_xx, T_xxx or Q_xxxx
     gain = coefficient[0] + np.diff(coefficient) @ wave_sources.edge_blends(f, BANDS)
     whole = sfft.irfft(spectrum * gain, n_fft)
     before = whole[steps:]  # the non-causal part wraps to the end of the FFT's buffer
@@ -238,9 +264,10 @@ CONE = {"name": "cone", "position_m": [1.3, 1.1, 1.4], "directivity": "cone",
         "cone_half_angle_deg": 60.0, "axis": [1.0, 0.4, 0.3]}
 
 
-def test_an_order_3_source_bakes_with_the_same_bits_on_one_and_two_threads():
-    """A 60° cone on an oblique axis (of every order; all 20 components used) through the hybrid
-    bake at a 354 Hz crossover: its log line says order 0-3 in both wave bands and 131
+def test_an_order_4_source_bakes_with_the_same_bits_on_one_and_two_threads():
+    """A 60° cone on an oblique axis (of every order; all 35 components used) through the hybrid
+    bake at a 354 Hz crossover: its log line says orders 0-3 and 0-4 in the two wave bands (the
+    float32 floor caps the lowest band, whose coefficients are fed down to 37 Hz) and 179
     monopoles, and energy and wave pressure are the same bits on 1 and 2 threads (the terms are
     summed in a fixed order). A talker there radiates order 0 at 125 Hz and orders 0-2 at
     250 Hz: its other orders carry less than 4·10⁻⁴ of its energy there (wave_sources.fit)."""
@@ -251,7 +278,7 @@ def test_an_order_3_source_bakes_with_the_same_bits_on_one_and_two_threads():
     out = [bake(talker_room(t, source=CONE), **options, log=lines.append if t == 1 else None)
            for t in (1, 2)]
     line = next(s for s in lines if "monopoles" in s)
-    assert "as 131 monopoles, spherical harmonics of order 0-3/0-3 per wave band" in line, line
+    assert "as 179 monopoles, spherical harmonics of order 0-3/0-4 per wave band" in line, line
     np.testing.assert_array_equal(out[0].energy, out[1].energy)
     np.testing.assert_array_equal(out[0].waves["pressure"], out[1].waves["pressure"])
     lines.clear()
@@ -287,13 +314,14 @@ def test_a_measured_phase_is_radiated():
     either way (within 10% of the peak: the fit's order-2 truncation of the interpolated
     pattern)."""
     with_phase, d = sofa_source(True)
-    fitted = wave_sources.fit(with_phase, d, len(BANDS), bands_hz=BANDS)
+    two = np.full(len(BANDS), 2)  # orders 0-2, where the closed form below is
+    fitted = wave_sources.fit(with_phase, d, len(BANDS), two, bands_hz=BANDS)
     c1 = fitted.components[:, 1:4]
     view = np.array([0.0, 1.0, 0.0])
     assert np.all(np.abs(c1 @ view) > 0.9 * math.sqrt(3.0))  # √3 cos ψ, the power-normalised
     assert np.all(fitted.residual < 0.006), fitted.residual
     without, d0 = sofa_source(False)
-    zero_phase = wave_sources.fit(without, d0, len(BANDS), bands_hz=BANDS)
+    zero_phase = wave_sources.fit(without, d0, len(BANDS), two, bands_hz=BANDS)
     assert np.all(np.abs(zero_phase.components[:, 1:4]) < 0.05)
     assert np.all(zero_phase.residual > 0.006), zero_phase.residual
     u = wave_sources.fibonacci_directions(500)

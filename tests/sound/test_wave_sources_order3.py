@@ -34,10 +34,11 @@ def cone(half_angle_deg):
 
 @pytest.fixture(scope="module")
 def far_field():
-    """One omni run and four cluster runs in the 12 m box of absorbing walls (α 0.9; the first
+    """One omni run and five cluster runs in the 12 m box of absorbing walls (α 0.9; the first
     reflection comes ≥ 23 ms after the direct sound with ≤ 0.5% of its energy), grid to
     250 Hz, 40 receivers at 2 m: the oblique beam cos¹²(θ/2) (order 3 exactly; 63 Hz omni) fitted
-    to orders 0-3 and 0-2, and a 30° cone about the same axis fitted to orders 0-2 and 0-3.
+    to orders 0-3 and 0-2, and a 30° cone about the same axis fitted to orders 0-2, 0-3 and
+    0-4 (order 3 at 63 Hz, as the order rule has it on this grid).
     Per run: (measured, expected) gains (:func:`band_gains`), the fit, the pattern, the
     number of monopoles."""
     scene, src = anechoic_box()
@@ -50,7 +51,10 @@ def far_field():
                    beam_pattern),
         "cone 2": (wave_sources.fit(cone_source, cone_pattern, len(BANDS), np.full(4, 2)),
                    cone_pattern),
-        "cone 3": (wave_sources.fit(cone_source, cone_pattern, len(BANDS)), cone_pattern),
+        "cone 3": (wave_sources.fit(cone_source, cone_pattern, len(BANDS), np.full(4, 3)),
+                   cone_pattern),
+        "cone 4": (wave_sources.fit(cone_source, cone_pattern, len(BANDS), np.array([3, 4, 4, 4])),
+                   cone_pattern),
     }
     omni, runs = cluster_runs(scene, src, receivers, [fit for fit, _ in fits.values()])
     return {name: (band_gains(omni, run, fit, DIRECTIONS, RADIUS_M), fit, pattern, n)
@@ -76,31 +80,38 @@ def test_the_injected_order_3_cluster_radiates_the_beam(far_field):
     assert np.all(np.abs(second - expected).max(axis=0)[1:] > 0.02 * 7)
 
 
-def test_order_3_brings_a_hard_cone_closer(far_field):
+def test_orders_3_and_4_bring_a_hard_cone_closer(far_field):
     """A 30° cone (uniform inside, nothing outside: of every order) has, in closed form (Legendre
-    coefficients (P_{n−1}(cos α) − P_{n+1}(cos α))/2), 53.9% of its energy above order 2 and 34.6%
-    above order 3; the fits' quadrature (48 Gauss rings × 96 azimuths) meets those within 0.01 (the
-    cone's edge is a step, which no quadrature integrates exactly). The far-field energy gains' mean
-    squared error against the cone over the sphere falls accordingly (5.66 → 3.00, the gain's mean
-    square being 14.8), and the grid radiates each fit (its field at 2 m, :func:`band_gains`) within
-    2% of the cone's peak gain (1/sin²(15°) = 14.9), the tolerance of the beams, at 125 and 250 Hz
+    coefficients (P_{n−1}(cos α) − P_{n+1}(cos α))/2), 53.9% of its energy above order 2, 34.6%
+    above order 3 and 22.2% above order 4; the fits' quadrature (48 Gauss rings × 96 azimuths)
+    meets those within 0.01 (the cone's edge is a step, which no quadrature integrates
+    exactly). The far-field energy gains' mean squared error against the cone over the sphere
+    falls accordingly (5.66 → 3.00 → 2.71, the gain's mean square being 14.8; order 4 asserted
+    5% lower), and the grid radiates each fit (its field at 2 m, :func:`band_gains`) within 2%
+    of the cone's peak gain (1/sin²(15°) = 14.9), the tolerance of the beams, at 125 and 250 Hz
     (measured 0.048 / 0.097 for order 2, 0.20 / 0.18 for order 3, whose larger low-frequency terms
-    leak more through the window from 63 Hz). Not at 63 Hz: the cone is directional there too, and
+    leak more through the window from 63 Hz; 0.20 / 0.19 for order 4 above 63 Hz; with order 4
+    at 63 Hz too, its near field below the band leaks 5.0 / 15.9, and the float32 rule does not
+    radiate order 4 there on this grid). Not at 63 Hz: the cone is directional there too, and
     the order-3 terms' near field at 2 m below the band (1/(kr)³: ×21 in amplitude at 25 Hz, where
     the fade still passes it) leaks through the ±30 ms window's 33 Hz resolution into the band (0.88
     and 3.9 measured; the cluster's far field in closed form is the fit within 2·10⁻⁴ at 40-63 Hz,
     test_wave_sources_order2's method)."""
     (m2, x2), fit2, pattern, _ = far_field["cone 2"]
     (m3, x3), fit3, _, _ = far_field["cone 3"]
+    (m4, x4), fit4, _, _ = far_field["cone 4"]
     np.testing.assert_allclose(fit2.residual, 0.5394, atol=0.01)
     np.testing.assert_allclose(fit3.residual, 0.3465, atol=0.01)
     u = wave_sources.fibonacci_directions(4000)
     target = np.asarray(pattern.gains(u, len(BANDS)))
-    errors = [((f.energy_gain(u) - target) ** 2).mean(axis=0) for f in (fit2, fit3)]
+    np.testing.assert_allclose(fit4.residual[1:], 0.2219, atol=0.01)
+    errors = [((f.energy_gain(u) - target) ** 2).mean(axis=0) for f in (fit2, fit3, fit4)]
     assert np.all(errors[1] < 0.8 * errors[0]), errors
+    assert np.all(errors[2][1:] < 0.95 * errors[1][1:]), errors
     peak = 1.0 / math.sin(math.radians(15.0)) ** 2
-    for measured, expected in ((m2, x2), (m3, x3)):
-        assert np.all(np.abs(measured - expected).max(axis=0)[1:] < 0.02 * peak)
+    for measured, expected in ((m2, x2), (m3, x3), (m4, x4)):
+        worst = np.abs(measured - expected).max(axis=0)[1:]
+        assert np.all(worst < 0.02 * peak), worst
 
 
 def talker(forward=(1.0, 0.4, 0.3), bands=BANDS):
@@ -114,10 +125,12 @@ def talker(forward=(1.0, 0.4, 0.3), bands=BANDS):
 
 
 @pytest.mark.parametrize("clearance_cells, orders, reach_cells", [
-    (4.0, 3, 2 * math.sqrt(3)), (3.0, 2, 2 * math.sqrt(2)), (2.5, 1, 2.0), (1.5, 1, 2.0)])
+    (4.0, 4, math.sqrt(13.0)), (3.5, 3, 2 * math.sqrt(3)), (3.0, 2, 2 * math.sqrt(2)),
+    (2.5, 1, 2.0), (1.5, 1, 2.0)])
 def test_a_wall_caps_the_orders_to_the_cluster_that_fits(clearance_cells, orders, reach_cells):
-    """A 60° cone on an oblique axis uses every component: its order-3 cluster reaches 2√3
-    cells (∂ₓ∂ᵧ∂𝓏 on the cube's diagonal), order 2's 2√2 (∂ᵢ∂ⱼ), order 1's 2. With less air
+    """A 60° cone on an oblique axis uses every component: its order-4 cluster reaches √13
+    cells (∂ᵢ³∂ⱼ: a third difference's ±3 by a first's ±2), order 3's 2√3 (∂ₓ∂ᵧ∂𝓏 on the
+    cube's diagonal), order 2's 2√2 (∂ᵢ∂ⱼ), order 1's 2. With less air
     than a cluster's reach around the source, the fit drops to the highest order that fits and
     says so; order 1 is the floor (a source without room even for it is refused by
     check_clearance before any ray, test_wave_sources_order2)."""
@@ -127,8 +140,8 @@ def test_a_wall_caps_the_orders_to_the_cluster_that_fits(clearance_cells, orders
                                       clearance_m=clearance_cells * spacing)
     assert int(fitted.orders.max()) == orders
     np.testing.assert_allclose(fitted.reach_cells(), reach_cells)
-    assert (fitted.note == "") == (orders == 3)
-    if orders < 3:
+    assert (fitted.note == "") == (orders == 4)
+    if orders < 4:
         assert f"orders above {orders} left out: a wall" in fitted.note, fitted.note
     line = wave_sources.describe("cone (cone)", fitted, 10, 3)
     assert line.endswith(fitted.note)
@@ -203,24 +216,65 @@ def far_field_error(fit, pattern, u, forward, bands):
     return worst
 
 
-def test_order_3_s_large_signals_leave_no_rounding_floor():
-    """Order 3's signals grow as 1/(kΔx)³ below the bands (4,000× the monopole's at 25 Hz on
-    the 137 mm grid, where the fade still passes them), and the grid is float32: its rounding
-    near the cluster could be a noise floor. The scheme is linear, so the run of the whole
-    cluster less the runs of its orders 0-2 and of its order 3 alone is that rounding only.
-    Its energy in each band, over the whole run's: bound 10⁻⁷, float32's 6·10⁻⁸ relative
-    rounding grown by those 4,000 and squared; measured ≤ 4·10⁻¹¹ (−104 dB)."""
-    scene, src = anechoic_box()
-    receivers = src + RADIUS_M * DIRECTIONS[:12]
-    fit = wave_sources.fit(custom(), beam(6), len(BANDS))
+#: The share of a band's energy a float32 floor may hold: 60 dB down, the range over which the
+#: tracer follows a ray (its default ``energy_drop_db``).
+NOISE_FLOOR = 1e-6
+
+
+def small_box():
+    """A 6 m box of absorbing walls (α 0.9), the source near its centre, off the nodes: small
+    enough for the 69 mm grid: (scene, source position)."""
+    import sonolux
+
+    src = np.array([3.03, 2.97, 3.01])
+    return sonolux.load_scene({
+        "name": "small-box", "settings": {"bands_hz": BANDS.tolist()},
+        "materials": {"m": {"absorption": 0.9}},
+        "geometry": [{"type": "shoebox", "size_m": [6.0] * 3, "materials": {"default": "m"}}],
+        "sources": [{"position_m": src.tolist()}],
+        "receivers": {"type": "points", "positions_m": [[1.0, 1.0, 1.0]]},
+    }), src
+
+
+def rounding_floor(orders, f_max):
+    """The float32 floor of a 30° cone (directional at 63 Hz) fitted to ``orders`` per band and
+    run on the grid for ``f_max`` (10 points per wavelength): the scheme is linear, so the run of
+    the whole cluster less the runs of its orders below the top and of the top order alone is
+    rounding only. Its largest share of a band's energy (63-250 Hz, 12 receivers at 2 m, ±30 ms
+    about the direct sound)."""
+    scene, src = small_box()
+    fit = wave_sources.fit(cone(30.0)[0], cone(30.0)[1], len(BANDS), np.asarray(orders))
     order = np.array([wave_sources.component_order(k) for k in range(fit.components.shape[1])])
+    top = int(fit.orders.max())
     parts = [dataclasses.replace(fit, components=np.where(keep[None], fit.components, 0.0))
-             for keep in (order < 3, order == 3)]
-    omni, runs = cluster_runs(scene, src, receivers, [fit, *parts])
+             for keep in (order < top, order == top)]
+    _, runs = cluster_runs(scene, src, src + RADIUS_M * DIRECTIONS[:12], [fit, *parts], f_max)
     whole, low, high = (np.asarray(run["pressure_pa"], float) for run, _ in runs)
     e_whole, f = windowed_spectrum(runs[0][0], RADIUS_M)
     e_rounding, _ = windowed_spectrum({**runs[0][0], "pressure_pa": whole - low - high},
                                       RADIUS_M)
-    for centre in BANDS[:3]:
-        band = (f > centre / math.sqrt(2)) & (f < centre * math.sqrt(2))
-        assert e_rounding[:, band].sum() < 1e-7 * e_whole[:, band].sum(), centre
+    shares = [e_rounding[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
+              / e_whole[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
+              for c in BANDS[:3]]
+    return max(shares)
+
+
+@pytest.mark.parametrize("f_max", [
+    250.0, pytest.param(500.0, marks=pytest.mark.slow)])  # grids of 137 mm and 69 mm
+def test_the_orders_radiated_leave_a_float32_floor_below_60_db(f_max):
+    """Order L's signals grow as 1/(kΔx)^L below the band they are fed in, and the grid is
+    float32: its rounding near the cluster is a noise that reaches every band. On the 137 mm
+    and 69 mm grids (the latter the 354 Hz hybrid's), for a 30° cone directional at 63 Hz:
+    session 9's orders (the stencil rule up to order 3; measured 6.2·10⁻⁸ and 4.0·10⁻⁹ of a
+    band) and the rule's (order 4 from 125 Hz up; measured 1.1·10⁻⁷ and 3.0·10⁻⁸) leave a floor
+    below 10⁻⁶; order 4 in the lowest band too, fed down to 19 Hz by the fade, leaves 2.1·10⁻⁵
+    and 1.5·10⁻⁵, and the rule withholds it there. Tolerance: 10⁻⁶ (60 dB) is the standard
+    (:data:`NOISE_FLOOR`); the measured margins are ≥ 9× below it and ≥ 15× above. (The 34 mm
+    grid, not run here for its cost, sits at the line: docs/waves.md.)"""
+    spacing = engine.WaveSettings(max_frequency_hz=f_max, duration_s=0.1).spacing_m
+    session9 = wave_sources.resolved_orders(BANDS, spacing, C, max_order=3)
+    rule = wave_sources.resolved_orders(BANDS, spacing, C)
+    assert rule[0] == 3 and 4 in rule and list(np.minimum(rule, 3)) == list(session9)
+    assert rounding_floor(session9, f_max) < NOISE_FLOOR
+    assert rounding_floor(rule, f_max) < NOISE_FLOOR
+    assert rounding_floor(np.where(np.arange(len(BANDS)) == 0, 4, rule), f_max) > NOISE_FLOOR

@@ -10,14 +10,15 @@ monopoles at neighbouring nodes). Here:
 - **Fit, per band.** The pattern's amplitude A_b(u) (the square root of the engine's energy
   gain towards u, normalised over the sphere; signed for the first-order family, whose pressure
   a + (1 − a)·cos θ changes sign behind the hypercardioid, supercardioid and figure-of-eight)
-  is projected on the spherical harmonics of orders 0 to 3 by a product Gauss quadrature
+  is projected on the spherical harmonics of orders 0 to 4 by a product Gauss quadrature
   (:func:`fit_directions`): c₀ = ⟨A⟩; c = 3⟨A·u⟩ (order 1, c·u);
   order 2 as uᵀDu with D = (15/2)(M − tr M·I/3), M = ⟨A·uuᵀ⟩, the addition theorem's
   5·⟨A(v)·P₂(u·v)⟩ written in Cartesian form (D symmetric and traceless); order 3 as
   T_ijk·u_i u_j u_k, the addition theorem's 7·⟨A(v)·P₃(u·v)⟩ in the same form (T symmetric and
-  traceless, :func:`fit`). Each band keeps the orders the grid resolves there
+  traceless, :func:`fit`); order 4 as Q_ijkl·u_i u_j u_k u_l, the addition theorem's
+  9·⟨A(v)·P₄(u·v)⟩ (:func:`fourth_order`). Each band keeps the orders the grid resolves there
   (:func:`resolved_orders`); the fit is scaled to radiate the source's power, c₀² + |c|²/3 +
-  (2/15)·tr D² + (2/35)·ΣT² = 1 (the means of the harmonics' squares; the tracer's
+  (2/15)·tr D² + (2/35)·ΣT² + (8/315)·ΣQ² = 1 (the means of the harmonics' squares; the tracer's
   convention), and the share of the pattern's energy above the band's order is
   reported (:attr:`SourceFit.residual`). Orders a band's pattern hardly carries are left out,
   and the bands above the waves' hold the last wave band's fit (:func:`fit`,
@@ -36,16 +37,19 @@ monopoles at neighbouring nodes). Here:
   The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
   difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
   8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), ∂³ ≈ (δ₋₃ − 8δ₋₂ +
-  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), and a mixed term as the product of one-axis differences
-  (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏). A term of order L in direction u radiates R(kΔx·u) times the exact
-  u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30), (30 − 32 cos θ +
-  2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90) and (26 sin θ − 16 sin 2θ + 2 sin 3θ)/(8θ³) for a
-  third (1 − 7θ⁴/120).
+  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), ∂⁴ ≈ (−δ₋₃ + 12δ₋₂ − 39δ₋₁ + 56δ₀ − 39δ₁ + 12δ₂ −
+  δ₃)/(6Δx⁴), and a mixed term as the product of one-axis differences (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏,
+  ∂ᵢ³∂ⱼ, ∂ᵢ²∂ⱼ², ∂ᵢ²∂ⱼ∂ₖ; ``wave_stencils.py``). A term of order L in direction u radiates
+  R(kΔx·u) times the exact u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30), (30
+  − 32 cos θ + 2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90), (26 sin θ − 16 sin 2θ + 2 sin 3θ)/(8θ³)
+  for a third (1 − 7θ⁴/120) and (56 − 78 cos θ + 24 cos 2θ − 2 cos 3θ)/(6θ⁴) for a fourth (1 −
+  7θ⁴/240).
 - **Signals.** A monopole fed q̇ radiates ρq̇(τ)/(4πr). A term f(t)·∂^α δ of order L radiates
   (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q, order 2 c²·(its
-  coefficient)·∫q and order 3 c³·(its coefficient)·∬q: the coefficient times the pulse
-  integrated L − 1 times. ∫q has a DC part (a step), which a soft source must not be fed
-  (Sheaffer, van Walstijn and Fazenda, JASA 135(1), 2014): orders 2 and 3 are faded out below
+  coefficient)·∫q, order 3 c³·(its coefficient)·∬q and order 4 c⁴·(its coefficient)·∭q: the
+  coefficient times the pulse integrated L − 1 times. ∫q has a DC part (a step), which a soft
+  source must not be fed (Sheaffer, van Walstijn and Fazenda, JASA 135(1), 2014): orders 2 to 4
+  are faded out below
   the lowest band's filter (a raised sine in log frequency over the octave below where that
   band's filter starts, :func:`order2_fade`), where no band looks. The coefficients are each
   band's within the band and blend across a quarter band on either side of each band edge (the
@@ -56,15 +60,18 @@ monopoles at neighbouring nodes). Here:
   stencils' worst amplitude error over all directions, at the band's upper edge, is within
   :data:`RESOLVED_AMPLITUDE` (2%, 0.17 dB); the highest such L ≤ :data:`MAX_ORDER`. With the
   hybrid's grid (10 points per wavelength at f_max = √2 × the crossover) every wave band
-  resolves order 3 (worst 0.23% at the crossover, the third difference's). The pattern's
-  energy above the radiated orders is printed.
+  resolves order 4 (worst 0.23% at the crossover, the third difference's; order 4's terms use
+  third differences and its own fourth errs by half as much, 7θ⁴/240). Order 4 is withheld in
+  the lowest band and where its float32 floor could reach 10⁻⁶ of a band (measured; see
+  :func:`resolved_orders`). The pattern's energy above the radiated orders is printed.
 - **Direct sound.** The terms' direct sound is taken out of the responses in the core (each a
   monopole with its own signal) and the exact pattern's direct sound is added back by the bake
   (the tracer's gain towards each receiver), so the direct sound is the target's exactly and only
   the room's part carries the fit.
 - **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells on an
   axis, 2√2 on a plane's diagonal for order 2's mixed terms, 3 on an axis and 2√3 on the cube's
-  diagonal for order 3's). Near a wall the orders are capped to the highest whose cluster fits
+  diagonal for order 3's, √13 for order 4's ∂ᵢ³∂ⱼ). Near a wall the orders are capped to the
+  highest whose cluster fits
   in the air around the source (:func:`fit_on_grid`, said in the log); a directional source
   nearer a wall than even order 1 reaches is refused before anything is traced
   (:func:`check_clearance`).
@@ -83,6 +90,30 @@ from scipy import fft as sfft
 
 from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
+from sonolux.sound.wave_centre import refer_to_centre
+from sonolux.sound.wave_stencils import DIFFERENCES as DIFFERENCES
+from sonolux.sound.wave_stencils import FIRST_DIFFERENCE as FIRST_DIFFERENCE
+from sonolux.sound.wave_stencils import FOURTH_DIFFERENCE as FOURTH_DIFFERENCE
+from sonolux.sound.wave_stencils import (
+    MAX_ORDER,
+    PAIRS,
+    QUADS,
+    RESOLVED_AMPLITUDE,
+    TRIPLES,
+    component_order,
+    lowest_filter_hz,
+    monomials,
+    order2_fade,
+    resolved_orders,
+    stencil,
+)
+from sonolux.sound.wave_stencils import N_COMPONENTS as N_COMPONENTS
+from sonolux.sound.wave_stencils import OFFSETS as OFFSETS
+from sonolux.sound.wave_stencils import SECOND_DIFFERENCE as SECOND_DIFFERENCE
+from sonolux.sound.wave_stencils import THIRD_DIFFERENCE as THIRD_DIFFERENCE
+from sonolux.sound.wave_stencils import band_upper_edges_hz as band_upper_edges_hz
+from sonolux.sound.wave_stencils import difference_response as difference_response
+from sonolux.sound.wave_stencils import stencil_error as stencil_error
 
 #: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
 #: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
@@ -93,57 +124,26 @@ from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
 FIT_RINGS = 48
 FIT_AZIMUTHS = 96
 #: The pulse of a directional source is delayed by this many periods of the lowest frequency its
-#: filters pass (the lowest band centre; with order 2 or 3, where their fade starts), plus its
+#: filters pass (the lowest band centre; with orders 2-4, where their fade starts), plus its
 #: own 6σ: room for the non-causal half of the coefficient filters.
 PRE_PERIODS = 4.0
 #: The air density the wave settings use (the core's WaveSettings default): the terms' signals
 #: are volume accelerations scaled as the core's reference pulse.
 AIR_DENSITY_KG_M3 = 1.2
-#: The highest spherical-harmonic order radiated.
-MAX_ORDER = 3
-#: An order is radiated in a band where its stencils' amplitude error is at most this (0.17 dB)
-#: at the band's upper edge, in every direction.
-RESOLVED_AMPLITUDE = 0.02
 #: A fitted component below this in every band is left out (ten times the fit lattice's
 #: quadrature error; < 0.02% of the pattern's energy).
 NEGLIGIBLE = 1e-4
-#: Fourth-order centred differences (Fornberg 1988, table 1), × Δx^L: the L-th derivative on the
-#: nodes −2..2 (L = 1, 2) and −3..3 (L = 3); index = the derivative's order.
-DIFFERENCES = (
-    (np.array([0]), np.array([1.0])),
-    (np.arange(-2, 3), np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0),
-    (np.arange(-2, 3), np.array([-1.0, 16.0, -30.0, 16.0, -1.0]) / 12.0),
-    (np.arange(-3, 4), np.array([1.0, -8.0, 13.0, 0.0, -13.0, 8.0, -1.0]) / 8.0),
-)
-FIRST_DIFFERENCE = DIFFERENCES[1][1]
-SECOND_DIFFERENCE = DIFFERENCES[2][1]
-THIRD_DIFFERENCE = DIFFERENCES[3][1]
-OFFSETS = np.arange(-2, 3)
-#: The components of a fit, in the columns of :attr:`SourceFit.components`: order 0, order 1
-#: along x, y, z, then order 2's monomials u_i·u_j (i ≤ j) with their coefficient (D_ii, 2·D_ij),
-#: then order 3's u_i·u_j·u_k (i ≤ j ≤ k) with theirs (T_iii, 3·T_iij, 6·T_xyz).
-PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-TRIPLES = ((0, 0, 0), (1, 1, 1), (2, 2, 2), (0, 0, 1), (0, 0, 2), (0, 1, 1), (1, 1, 2),
-           (0, 2, 2), (1, 2, 2), (0, 1, 2))
-#: The monomials' index tuples, component by component (order 0 is the empty tuple).
-MONOMIALS: tuple[tuple[int, ...], ...] = ((), (0,), (1,), (2,), *PAIRS, *TRIPLES)
-#: The number of components (orders 0-3: 1 + 3 + 6 + 10).
-N_COMPONENTS = len(MONOMIALS)
-
-
-def component_order(component: int) -> int:
-    """The spherical-harmonic order (the derivative's) of a component of :data:`MONOMIALS`."""
-    return len(MONOMIALS[component])
 
 
 @dataclass(frozen=True)
 class SourceFit:
     """A pattern's spherical-harmonic fit per band, orders 0 to :attr:`orders`."""
 
-    #: float64[band, 20] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
+    #: float64[band, 35] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
     #: coefficients of u_i·u_j for the pairs :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz,
     #: 2D_yz); then of u_i·u_j·u_k for :data:`TRIPLES` (T_xxx, T_yyy, T_zzz, 3T_xxy, …,
-    #: 6T_xyz); world frame, scaled so that the fitted pattern radiates the source's power; zero
+    #: 6T_xyz); then of u_i·u_j·u_k·u_l for :data:`QUADS` (Q_xxxx, …, 12Q_xxyz); world frame,
+    #: scaled so that the fitted pattern radiates the source's power; zero
     #: above the band's order.
     components: np.ndarray
     #: int[band]: the highest order radiated in each band.
@@ -174,18 +174,11 @@ class SourceFit:
     def reach_cells(self) -> float:
         """How far from the source the cluster's terms reach, in cells: the farthest node of
         any component it uses (:func:`stencil`): 0 (omni), 2 (orders 1 and 2 along the axes),
-        2√2 (order 2's mixed terms, order 3's ∂ᵢ²∂ⱼ), 3 (order 3 along an axis) or 2√3
-        (order 3's ∂ₓ∂ᵧ∂𝓏)."""
+        2√2 (order 2's mixed terms, order 3's ∂ᵢ²∂ⱼ, order 4's ∂ᵢ²∂ⱼ²), 3 (orders 3 and 4
+        along an axis), 2√3 (order 3's ∂ₓ∂ᵧ∂𝓏, order 4's ∂ᵢ²∂ⱼ∂ₖ) or √13 (order 4's ∂ᵢ³∂ⱼ)."""
         used = np.flatnonzero(np.any(self.components != 0.0, axis=0))
         return max((math.sqrt(sum(o * o for o in offset)) for k in used
                     for offset, _ in stencil(int(k))), default=0.0)
-
-
-def monomials(u: np.ndarray) -> np.ndarray:
-    """float64[direction, 20]: the monomials of :data:`MONOMIALS`: 1, u_x, u_y, u_z, u_i·u_j for
-    :data:`PAIRS` and u_i·u_j·u_k for :data:`TRIPLES`."""
-    return np.column_stack([np.prod(u[:, list(m)], axis=1) if m else np.ones(len(u))
-                            for m in MONOMIALS])
 
 
 def fibonacci_directions(n: int = 4096) -> np.ndarray:
@@ -275,57 +268,14 @@ def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) ->
     return np.where(magnitude > 0, z / np.where(magnitude > 0, magnitude, 1.0), 1.0)
 
 
-def difference_response(derivative: int, kh: float) -> float:
-    """R(θ): the response of the fourth-order difference of ``derivative`` (1, 2, 3) to a plane
-    wave along its axis at θ = kΔx, over the exact derivative's (iθ)^L: (8 sin θ − sin 2θ)/(6θ)
-    (1 − θ⁴/30), (30 − 32 cos θ + 2 cos 2θ)/(12θ²) (1 − θ⁴/90) and (26 sin θ − 16 sin 2θ +
-    2 sin 3θ)/(8θ³) (1 − 7θ⁴/120): Σ w_m e^{imθ} of the weights of :data:`DIFFERENCES`."""
-    th = max(float(kh), 1e-12)
-    if derivative == 1:
-        return (8.0 * math.sin(th) - math.sin(2.0 * th)) / (6.0 * th)
-    if derivative == 2:
-        return (30.0 - 32.0 * math.cos(th) + 2.0 * math.cos(2.0 * th)) / (12.0 * th * th)
-    return (26.0 * math.sin(th) - 16.0 * math.sin(2.0 * th) + 2.0 * math.sin(3.0 * th)) / (
-        8.0 * th ** 3)
-
-
-def stencil_error(order: int, kh: float) -> float:
-    """The worst amplitude error, over all directions, of the cluster's terms of ``order`` at
-    kΔx = ``kh``: the worst |1 − R| (:func:`difference_response`) of the one-axis differences
-    the order's terms are products of (order 1: first differences; order 2: second and first;
-    order 3: third, second and first). A product term's error is worst where one factor has the
-    whole kΔx: its factors' errors grow as θ⁴, and θᵢ⁴ + θⱼ⁴ ≤ (θᵢ² + θⱼ²)². 0 for order 0
-    (the monopole itself)."""
-    if order <= 0:
-        return 0.0
-    return max(abs(1.0 - difference_response(L, kh)) for L in range(1, order + 1))
-
-
-def band_upper_edges_hz(bands_hz: np.ndarray) -> np.ndarray:
-    """float64[band]: each band's upper edge (the geometric mean with the next centre; the
-    last band as wide as the one below it, as ``admittance::band_edges``)."""
-    b = np.asarray(bands_hz, float)
-    if b.size < 2:
-        return b * math.sqrt(2.0)
-    return np.append(np.sqrt(b[:-1] * b[1:]), b[-1] * math.sqrt(b[-1] / b[-2]))
-
-
-def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: float,
-                    max_order: int = MAX_ORDER) -> np.ndarray:
-    """int[band]: the highest order ≤ ``max_order`` whose stencils are within
-    :data:`RESOLVED_AMPLITUDE` in every direction at the band's upper edge (0 where none is)."""
-    out = []
-    for f in band_upper_edges_hz(bands_hz):
-        kh = 2.0 * math.pi * f * spacing_m / speed_of_sound_m_s
-        out.append(max(L for L in range(max_order + 1) if stencil_error(L, kh) <= RESOLVED_AMPLITUDE))
-    return np.array(out, dtype=int)
-
-
 def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None,
-        bands_hz: np.ndarray | None = None) -> SourceFit:
+        bands_hz: np.ndarray | None = None, *, centre_bands: int | None = None,
+        speed_of_sound_m_s: float = 343.0) -> SourceFit:
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
     :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
-    fitted too (complex coefficients). The first-order family is order 1 exactly and is
+    fitted too (complex coefficients), referred to its acoustic centre found from that phase
+    in the first ``centre_bands`` bands (all if None; ``wave_centre.refer_to_centre``),
+    where its cluster is then centred. The first-order family is order 1 exactly and is
     fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
     orders above the highest that carries :data:`RESOLVED_AMPLITUDE`² (4·10⁻⁴) of the pattern's
     energy are left out (:attr:`SourceFit.orders` says which are radiated): such an order's
@@ -345,6 +295,11 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         orders = np.minimum(orders, 1)
     u, weight = fit_directions()
     a = amplitude(source, directivity, u, n_bands, bands_hz)  # [direction, band]
+    centre = acoustic_centre_offset_m(source)
+    if np.iscomplexobj(a) and bands_hz is not None:  # a measured phase: its acoustic centre
+        k = 2.0 * math.pi * np.asarray(bands_hz, float) / speed_of_sound_m_s
+        a, centre = refer_to_centre(a, u, weight, np.polynomial.legendre.leggauss(FIT_RINGS)[0],
+                                    FIT_AZIMUTHS, k, centre_bands)
     wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
     c0 = wa.sum(axis=0)
     c = 3.0 * (u.T @ wa)  # [axis, band]
@@ -355,53 +310,56 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     eye = np.eye(3)
     t = 17.5 * n - 3.5 * (np.einsum("bi,jk->bijk", m1, eye) + np.einsum("bj,ik->bijk", m1, eye)
                           + np.einsum("bk,ij->bijk", m1, eye))  # [band, 3, 3, 3]
+    q = fourth_order(u, wa, m, c0)  # [band, 3, 3, 3, 3]
     total = weight @ (np.abs(a) ** 2)
     # Each order's share of the pattern's energy (the means of its part's square); an order
     # above every one that carries RESOLVED_AMPLITUDE² of it is left out (see the docstring).
     shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
                        2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
-                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real])
+                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real,
+                       8.0 / 315.0 * np.einsum("bijkl,bijkl->b", q, q.conj()).real])
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
-    highest = np.max(np.where(carried, np.arange(4)[:, None], 0), axis=0)
+    highest = np.max(np.where(carried, np.arange(MAX_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
     c = np.where(orders[None] >= 1, c, 0.0)
     d = np.where((orders >= 2)[:, None, None], d, 0.0)
     t = np.where((orders >= 3)[:, None, None, None], t, 0.0)
-    power = shares[0] + np.where(orders >= 1, shares[1], 0.0) + np.where(
-        orders >= 2, shares[2], 0.0) + np.where(orders >= 3, shares[3], 0.0)
+    q = np.where((orders >= 4)[:, None, None, None, None], q, 0.0)
+    power = shares[0] + sum(np.where(orders >= L, shares[L], 0.0) for L in range(1, MAX_ORDER + 1))
     norm = np.sqrt(np.maximum(power, 1e-300))
     second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
     third = np.column_stack([t[:, i, j, k] * len(set(itertools.permutations((i, j, k))))
                              for i, j, k in TRIPLES])
-    components = np.column_stack([c0, c.T, second, third]) / norm[:, None]
+    fourth = np.column_stack([q[(slice(None), *ix)] * len(set(itertools.permutations(ix)))
+                              for ix in QUADS])
+    components = np.column_stack([c0, c.T, second, third, fourth]) / norm[:, None]
     # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
-    return SourceFit(components, orders, residual, centre_offset_m=acoustic_centre_offset_m(source))
+    return SourceFit(components, orders, residual, centre_offset_m=centre)
 
 
-def lowest_filter_hz(bands_hz: np.ndarray) -> float:
-    """Where the lowest band's filter starts: its lower edge less a quarter of its width (the
-    energy bands' crossover, ``bands.rs``). Below it no band looks."""
-    b = np.asarray(bands_hz, float)
-    ratio = b[1] / b[0] if b.size > 1 else 2.0
-    return float(b[0] / math.sqrt(ratio) * ratio ** (-0.25))
-
-
-def order2_fade(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
-    """float64[frequency]: the fade of orders 2 and 3, 0 below half of :func:`lowest_filter_hz`, 1 above
-    it, a raised sine in log frequency across that octave."""
-    top = lowest_filter_hz(bands_hz)
-    with np.errstate(divide="ignore"):
-        x = 2.0 * np.log2(np.maximum(f_hz, 1e-300) / top) + 1.0  # −1 at top/2, 1 at top
-    return 0.5 * (1.0 + np.sin(0.5 * np.pi * np.clip(x, -1.0, 1.0)))
+def fourth_order(u: np.ndarray, wa: np.ndarray, m: np.ndarray, c0: np.ndarray) -> np.ndarray:
+    """complex or float [band, 3, 3, 3, 3]: order 4 of a pattern as Q_ijkl·u_i u_j u_k u_l, the
+    addition theorem's 9⟨A(v)·P₄(u·v)⟩ with P₄(x) = (35x⁴ − 30x² + 3)/8 in Cartesian form:
+    (9/8)·(35·N₄ − 30·M⊗I + 3·⟨A⟩·I⊗I) symmetrised over its indices, N₄ = ⟨A·v_i v_j v_k v_l⟩,
+    M = ⟨A·v_i v_j⟩ (``m``), ⟨A⟩ = ``c0``; ``wa`` the pattern times the quadrature weights
+    [direction, band]. r⁴P₄(u·v/r) is a solid harmonic, so Q is traceless and order 4 only,
+    and the mean of its square over the sphere is (8/315)·ΣQ² (4!/9!!, as 2/15 and 2/35 are
+    2!/5!! and 3!/7!! for orders 2 and 3)."""
+    eye = np.eye(3)
+    n4 = np.einsum("di,dj,dk,dl,db->bijkl", u, u, u, u, wa)
+    raw = 9.0 / 8.0 * (35.0 * n4 - 30.0 * np.einsum("bij,kl->bijkl", m, eye)
+                       + 3.0 * np.einsum("b,ij,kl->bijkl", c0, eye, eye))
+    return sum(np.transpose(raw, (0, *(1 + np.array(p)))) for p in
+               itertools.permutations(range(4))) / 24.0
 
 
 def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
                   source_fit: SourceFit | None = None) -> float:
     """The delay of a directional source's pulse: its own 6σ plus :data:`PRE_PERIODS` periods of
-    the lowest band centre, or, when ``source_fit`` radiates order 2 or 3, of the frequency
+    the lowest band centre, or, when ``source_fit`` radiates order 2 or more, of the frequency
     where their fade starts (its filter is as long as that fade is narrow)."""
     lowest = float(np.min(bands_hz))
     if source_fit is not None and np.any(source_fit.orders >= 2):
@@ -411,7 +369,7 @@ def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
 
 def longest_pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float) -> float:
     """The longest delay :func:`pulse_delay_s` can give for these bands (a fit radiating order 2
-    or 3): what a plan made before the fit (the memory check at the edge) must assume."""
+    or more): what a plan made before the fit (the memory check at the edge) must assume."""
     return 6.0 / (math.pi * max_frequency_hz) + PRE_PERIODS / (0.5 * lowest_filter_hz(bands_hz))
 
 
@@ -426,20 +384,6 @@ def edge_blends(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore"):
         x = np.log2(np.maximum(f_hz, 1e-300)[None] / edges[:, None]) / width[:, None]
     return 0.5 * (1.0 + np.sin(0.5 * np.pi * np.clip(x, -1.0, 1.0)))
-
-
-def stencil(component: int) -> list[tuple[tuple[int, int, int], float]]:
-    """The node offsets (in cells) and weights (× Δx^L) of a component's term (see
-    :data:`MONOMIALS`): the product over the axes of the one-axis difference of each axis'
-    power in the monomial (:data:`DIFFERENCES`): the monopole; a first, second or third
-    difference along an axis; or a product of them (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏). Nodes of weight 0
-    are left out."""
-    powers = [MONOMIALS[component].count(axis) for axis in range(3)]
-    (ox, wx), (oy, wy), (oz, wz) = (DIFFERENCES[p] for p in powers)
-    return [((int(a), int(b), int(e)), float(u * v * w))
-            for a, u in zip(ox, wx) if u != 0.0
-            for b, v in zip(oy, wy) if v != 0.0
-            for e, w in zip(oz, wz) if w != 0.0]
 
 
 def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
@@ -462,14 +406,15 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     b = np.asarray(bands_hz, float)
     blends = edge_blends(f, b)  # [edge, frequency]
     c, h = speed_of_sound_m_s, spacing_m
-    # The signals of each order before its coefficient: q̇, c·q, c²·∫q, c³·∬q (orders 2 and 3
-    # faded out below the bands).
+    # The signals of each order before its coefficient: q̇, c·q, c²·∫q, c³·∬q, c⁴·∭q (orders 2
+    # to 4 faded out below the bands).
     spectra = [sfft.rfft(q_dot, n_fft), c * sfft.rfft(q, n_fft)]
     fade = order2_fade(f, b)  # 0 at DC, so 1/(iω) is never reached there
     per_integral = c / (2j * np.pi * np.where(fade > 0.0, f, 1.0))
     integrated = spectra[1] * fade * per_integral
     spectra.append(np.where(fade > 0.0, integrated, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral, 0.0))
+    spectra.append(np.where(fade > 0.0, integrated * per_integral ** 2, 0.0))
     by_offset: dict[tuple[int, int, int], np.ndarray] = {}
     for k in range(source_fit.components.shape[1]):
         coefficient = source_fit.components[:, k]
@@ -554,12 +499,14 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
         return dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
                                    residual=f.residual[keep])
 
-    fitted = held(fit(source, directivity, b.size, orders, b))
+    fitted = held(fit(source, directivity, b.size, orders, b, centre_bands=wave_bands,
+                      speed_of_sound_m_s=speed_of_sound_m_s))
     cap = int(fitted.orders.max())
     while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
         wanted = reach_m(fitted, spacing_m)
         cap -= 1
-        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b))
+        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b,
+                          centre_bands=wave_bands, speed_of_sound_m_s=speed_of_sound_m_s))
         fitted = dataclasses.replace(fitted, note=(
             f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
             f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm"))
@@ -574,4 +521,13 @@ def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -
             f"{'/'.join(f'0-{int(L)}' if L else '0' for L in orders)} per wave band; the pattern's "
             "energy above "
             f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}"
-            + source_fit.note)
+            + centred(source_fit) + source_fit.note)
+
+
+def centred(source_fit: SourceFit) -> str:
+    """The log's words for a cluster centred off the source's position (its acoustic centre)."""
+    d = source_fit.centre_offset_m
+    if not np.any(d != 0.0):
+        return ""
+    return (f"; radiated from its acoustic centre, ({', '.join(f'{1e3 * v:+.0f}' for v in d)}) "
+            "mm from its position")

@@ -43,6 +43,7 @@ use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 
 use super::admittance::band_edges;
+use super::direct::{subtract_direct, subtract_terms, PreparedTerms};
 use super::WaveResult;
 use crate::error::CoreError;
 use crate::sound::Layout;
@@ -192,9 +193,7 @@ pub struct DirectPaths<'a> {
 /// smooth there (its sources, the images, are outside the room), so the points average it well;
 /// the direct sound's sphere mean is known in closed form and the caller adds it.
 ///
-/// The direct sound of a monopole of volume velocity q in free field (Pierce, "Acoustics",
-/// 1981, §4.3): p = ρ·q̇(τ)/(4πr), radial velocity v = q̇(τ)/(4πrc) + q(τ)/(4πr²) (from
-/// ρ∂v/∂t = −∂p/∂r), τ = t − r/c. A receiver closer to a source than 10⁻⁶ m is left as is.
+/// The direct sound of each source or term is the free-field monopole's ([`super::direct`]).
 pub fn reflected_energies(
     result: &WaveResult,
     band_centres_hz: &[f64],
@@ -225,8 +224,9 @@ pub fn reflected_energies(
     let unit: Vec<f64> = (0..nb).map(|b| filters.impulse_energy(b)).collect();
     let per_receiver = layout.n_time() * layout.n_directions() * kept;
     let mut out = vec![0.0; layout.len()];
-    // Each term's volume velocity q, the running integral of its signal: once, not per receiver.
-    let integrals: Vec<Vec<f64>> = direct.map_or(Vec::new(), |d| d.terms.iter().map(|t| running_integral(&t.volume_acceleration_m3_s2, dt)).collect());
+    // Each term's signal and volume velocity q (its running integral), padded: once, not per
+    // receiver.
+    let prepared = direct.map(|d| PreparedTerms::new(d.terms, ns, dt, result.pulse.air_density_kg_m3));
     let chunk = 4 * rayon::current_num_threads();
     for first in (0..result.n_receivers).step_by(chunk.max(1)) {
         let last = (first + chunk).min(result.n_receivers);
@@ -235,11 +235,11 @@ pub fn reflected_energies(
             .map(|r| {
                 let mut field = vec![0.0; per_receiver];
                 let mut channels: Vec<Vec<f64>> = (0..4).map(|c| result.pressure_or_velocity(r, c).iter().map(|&x| x as f64).collect()).collect();
-                if let Some(d) = direct {
+                if let (Some(d), Some(terms)) = (direct, &prepared) {
                     if d.terms.is_empty() {
-                        subtract_direct(&mut channels, result, d.sources_m, d.receivers_m[r], speed_of_sound_m_s);
+                        subtract_direct(&mut channels, &result.pulse, dt, d.sources_m, d.receivers_m[r], speed_of_sound_m_s);
                     } else {
-                        subtract_terms(&mut channels, result, d.terms, &integrals, d.receivers_m[r], speed_of_sound_m_s);
+                        subtract_terms(&mut channels, terms, d.receivers_m[r], speed_of_sound_m_s);
                     }
                 }
                 let spectra: Vec<_> = channels.iter().map(|c| filters.deconvolved(c, &inverse)).collect();
@@ -273,83 +273,6 @@ pub fn reflected_energies(
         }
     }
     Ok(out)
-}
-
-/// Takes the free-field direct sound of every source out of one receiver's pressure and velocity
-/// (see [`reflected_energies`]).
-fn subtract_direct(channels: &mut [Vec<f64>], result: &WaveResult, sources: &[DVec3], at: DVec3, c: f64) {
-    let pulse = &result.pulse;
-    let dt = 1.0 / result.sample_rate_hz;
-    let four_pi = 4.0 * std::f64::consts::PI;
-    for s in sources {
-        let d = at - *s;
-        let r = d.length();
-        if r < 1e-6 {
-            continue;
-        }
-        let n = d / r;
-        for i in 0..channels[0].len() {
-            let tau = i as f64 * dt - r / c;
-            let p = pulse.pressure_at_1m(tau) / r;
-            let v = pulse.volume_acceleration(tau) / (four_pi * r * c) + pulse.volume_velocity(tau) / (four_pi * r * r);
-            channels[0][i] -= p;
-            channels[1][i] -= v * n.x;
-            channels[2][i] -= v * n.y;
-            channels[3][i] -= v * n.z;
-        }
-    }
-}
-
-/// [`subtract_direct`] for the terms of a directional source: each term is a monopole whose
-/// volume acceleration a is its signal, so p = ρ·a(τ)/(4πr) and v = a(τ)/(4πrc) + q(τ)/(4πr²),
-/// q the running integral of a (trapezoids), each interpolated at τ = t − r/c by the four-point
-/// cubic (Catmull–Rom: error of order (ωΔt)⁴, 10⁻³ at the grid's f_max, where linear
-/// interpolation would leave 1.6% of the direct sound).
-/// `integrals`: each term's q from [`running_integral`].
-fn subtract_terms(channels: &mut [Vec<f64>], result: &WaveResult, terms: &[super::SourceTerm], integrals: &[Vec<f64>], at: DVec3, c: f64) {
-    let dt = 1.0 / result.sample_rate_hz;
-    let rho = result.pulse.air_density_kg_m3;
-    let four_pi = 4.0 * std::f64::consts::PI;
-    for (term, q) in terms.iter().zip(integrals) {
-        let d = at - term.position_m;
-        let r = d.length();
-        if r < 1e-6 {
-            continue;
-        }
-        let a = &term.volume_acceleration_m3_s2;
-        let at_time = |s: &[f64], t: f64| -> f64 {
-            let x = t / dt;
-            if x < 0.0 || s.is_empty() {
-                return 0.0;
-            }
-            let i = x.floor() as i64;
-            let f = x - i as f64;
-            // Before the first sample the signal is 0; past the last it keeps its last value.
-            let v = |k: i64| if k < 0 { 0.0 } else { s.get(k as usize).copied().unwrap_or(s[s.len() - 1]) };
-            let (p0, p1, p2, p3) = (v(i - 1), v(i), v(i + 1), v(i + 2));
-            p1 + 0.5 * f * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
-        };
-        let n = d / r;
-        for i in 0..channels[0].len() {
-            let tau = i as f64 * dt - r / c;
-            let (ai, qi) = (at_time(a, tau), at_time(q, tau));
-            let p = rho * ai / (four_pi * r);
-            let v = ai / (four_pi * r * c) + qi / (four_pi * r * r);
-            channels[0][i] -= p;
-            channels[1][i] -= v * n.x;
-            channels[2][i] -= v * n.y;
-            channels[3][i] -= v * n.z;
-        }
-    }
-}
-
-/// The running integral of a signal sampled at n·`dt` (trapezoids), from 0 at its first sample.
-fn running_integral(a: &[f64], dt: f64) -> Vec<f64> {
-    let mut q = vec![0.0; a.len()];
-    for n in 1..a.len() {
-        q[n] = q[n - 1] + 0.5 * (a[n - 1] + a[n]) * dt;
-    }
-    q
 }
 
 /// p·v averaged over a centred window of `window` samples (prefix sums, in order).

@@ -21,6 +21,7 @@
 pub mod admittance;
 pub mod bands;
 pub mod boundary;
+mod direct;
 pub mod fit;
 pub mod grid;
 mod lsq;
