@@ -32,10 +32,30 @@ pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) 
 /// when the ray leaves the scene.
 type SurfaceHit = Option<(f64, usize, DVec3)>;
 
+/// A ray's values per band: an array for the band counts the kernel is compiled for (held in
+/// the ray itself, its length known to the compiler: no pointer to follow, no bounds check),
+/// a `Vec` for any other count.
+trait Bands: AsRef<[f64]> + AsMut<[f64]> {
+    fn zeros(n_bands: usize) -> Self;
+}
+
+impl<const N: usize> Bands for [f64; N] {
+    #[inline(always)]
+    fn zeros(_: usize) -> Self {
+        [0.0; N]
+    }
+}
+
+impl Bands for Vec<f64> {
+    fn zeros(n_bands: usize) -> Self {
+        vec![0.0; n_bands]
+    }
+}
+
 /// A ray being traced: everything that carries from one of its segments to the next. A
-/// worker holds one, its band arrays sized once (no allocation per ray). (Several rays in
-/// flight a worker were measured no faster: docs/bvh.md, "Rays in flight".)
-pub(crate) struct RayState {
+/// batch of rays reuses one (no allocation per ray). (Several rays in flight a worker were
+/// measured no faster: docs/bvh.md, "Rays in flight".)
+struct RayState<B: Bands> {
     source: usize,
     index: u64,
     /// [`ray_key`] of (seed, source, index): the deposits' rounding keys start from it.
@@ -67,22 +87,22 @@ pub(crate) struct RayState {
     next_known: bool,
     next: SurfaceHit,
     /// Per band: the energy relative to `share`; the ray stops when all are below the floor.
-    energy: Vec<f64>,
-    /// Per kind of tally and band, `[kind * bands + band]`: the ray's energy balance (in units
+    energy: B,
+    /// Per kind of tally ([`stats::EMITTED`]…) and band: the ray's energy balance (in units
     /// of its share), summed here and added to the fixed-point statistics once at its end: per
     /// segment that conversion would cost more than the tracing.
-    tally: Vec<f64>,
+    tally: [B; stats::KINDS],
 }
 
-impl RayState {
-    fn new(n_bands: usize) -> RayState {
+impl<B: Bands> RayState<B> {
+    fn new(n_bands: usize) -> RayState<B> {
         RayState {
             source: 0, index: 0, key: 0, rng: Stream::new(0, 0, 0), pos: DVec3::ZERO, dir: DVec3::X,
             share: 0.0, path: 0.0, wave_radius: 0.0, reflections: 0, segments: 0,
             free_n: 0, free_sum: 0.0, free_sq: 0.0,
             spheres: false, specular_only: true, next_known: false, next: None,
-            energy: vec![0.0; n_bands],
-            tally: vec![0.0; stats::KINDS * n_bands],
+            energy: B::zeros(n_bands),
+            tally: std::array::from_fn(|_| B::zeros(n_bands)),
         }
     }
 }
@@ -102,13 +122,12 @@ struct Scratch {
     absorption: Vec<f64>,
 }
 
-/// What one worker thread owns while it traces: its statistics, its batch of deposits, its
-/// ray and its scratch, sized once for the bake's bands and receivers.
+/// What one worker thread owns while it traces: its statistics, its batch of deposits and its
+/// scratch, sized once for the bake's bands and receivers.
 pub(crate) struct Worker {
     pub stats: SoundStats,
     pub deposits: Deposits,
     scratch: Scratch,
-    ray: RayState,
 }
 
 impl Worker {
@@ -124,7 +143,6 @@ impl Worker {
                 scattering: vec![0.0; n_bands],
                 absorption: vec![0.0; n_bands],
             },
-            ray: RayState::new(n_bands),
         }
     }
 }
@@ -189,38 +207,40 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
     // default third octaves), any other count read at run time: the same operations in the
     // same order, so the same bits.
     match scene.acoustics.n_bands {
-        6 => trace_rays_for::<6>(scene, jobs, acc, w),
-        7 => trace_rays_for::<7>(scene, jobs, acc, w),
-        18 => trace_rays_for::<18>(scene, jobs, acc, w),
-        _ => trace_rays_for::<0>(scene, jobs, acc, w),
+        6 => trace_rays_for::<6, [f64; 6]>(scene, jobs, acc, w),
+        7 => trace_rays_for::<7, [f64; 7]>(scene, jobs, acc, w),
+        18 => trace_rays_for::<18, [f64; 18]>(scene, jobs, acc, w),
+        _ => trace_rays_for::<0, Vec<f64>>(scene, jobs, acc, w),
     }
 }
 
-/// [`trace_rays`] for `NB` bands (0: any).
+/// [`trace_rays`] for `NB` bands (0: any), the ray's band values held in `B` (`[f64; NB]`,
+/// or a `Vec` for any count).
 #[inline(always)]
-fn trace_rays_for<const NB: usize>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+fn trace_rays_for<const NB: usize, B: Bands>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
     let limits = Limits::<NB>::new(scene);
-    let Worker { stats: st, deposits: buf, scratch, ray } = w;
+    let Worker { stats: st, deposits: buf, scratch } = w;
+    let mut ray = RayState::<B>::new(limits.nb());
     for (s, index) in jobs {
-        start_ray(scene, &limits, s, index, ray, acc, st, buf);
+        start_ray(scene, &limits, s, index, &mut ray, acc, st, buf);
         loop {
-            let hit = find_surface(scene, ray);
-            if !advance(scene, &limits, ray, hit, acc, scratch, st, buf) {
+            let hit = find_surface(scene, &mut ray);
+            if !advance(scene, &limits, &mut ray, hit, acc, scratch, st, buf) {
                 break;
             }
         }
-        finish_ray(ray, &limits, st);
+        finish_ray(&ray, &limits, st);
     }
 }
 
 /// Starts ray `index` of source `s` in `ray`: its stream, first direction and energy; the
 /// rains' share of the exact direct sound when the ray starts a block.
 #[allow(clippy::too_many_arguments)]
-fn start_ray<const NB: usize>(scene: &Scene, limits: &Limits<NB>, s: usize, index: u64, ray: &mut RayState, acc: &Accumulator, st: &mut SoundStats, buf: &mut Deposits) {
+fn start_ray<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, s: usize, index: u64, ray: &mut RayState<B>, acc: &Accumulator, st: &mut SoundStats, buf: &mut Deposits) {
     let set = scene.settings;
     let nb = limits.nb();
     ray.rng = Stream::new(set.seed, s as u64, index);
-    let (dir, share) = emit(&scene.sources[s], set.rays, &mut ray.rng, &mut ray.energy[..nb]);
+    let (dir, share) = emit(&scene.sources[s], set.rays, &mut ray.rng, &mut ray.energy.as_mut()[..nb]);
     ray.source = s;
     ray.index = index;
     ray.key = ray_key(set.seed, s as u64, index);
@@ -235,8 +255,10 @@ fn start_ray<const NB: usize>(scene: &Scene, limits: &Limits<NB>, s: usize, inde
     ray.spheres = !set.estimator.rains();
     ray.specular_only = true;
     ray.next_known = false;
-    ray.tally.fill(0.0);
-    ray.tally[stats::EMITTED * nb..(stats::EMITTED + 1) * nb].copy_from_slice(&ray.energy[..nb]);
+    for t in &mut ray.tally {
+        t.as_mut()[..nb].fill(0.0);
+    }
+    ray.tally[stats::EMITTED].as_mut()[..nb].copy_from_slice(&ray.energy.as_ref()[..nb]);
     st.rays += 1;
     if set.estimator.rains() {
         super::direct::direct_share(scene, s, index, acc, buf);
@@ -245,7 +267,7 @@ fn start_ray<const NB: usize>(scene: &Scene, limits: &Limits<NB>, s: usize, inde
 
 /// Find the nearest surface along the ray (or the one level of detail found already).
 #[inline(always)]
-fn find_surface(scene: &Scene, ray: &mut RayState) -> SurfaceHit {
+fn find_surface<B: Bands>(scene: &Scene, ray: &mut RayState<B>) -> SurfaceHit {
     if ray.next_known {
         ray.next_known = false;
         return ray.next;
@@ -258,7 +280,7 @@ fn find_surface(scene: &Scene, ray: &mut RayState) -> SurfaceHit {
 /// bounce. Returns whether the ray goes on.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RayState, hit: SurfaceHit, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) -> bool {
+fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &mut RayState<B>, hit: SurfaceHit, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) -> bool {
     let set = scene.settings;
     let nb = limits.nb();
     let length = hit.map_or(f64::INFINITY, |h| h.0);
@@ -272,9 +294,9 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
 
     let Some((length, tri, mut normal)) = hit else {
         // The ray left the scene: a leak, unless the scene is open on purpose.
-        let (e, tally) = (&ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb]);
+        let (e, escaped) = (&ray.energy.as_ref()[..nb], &mut ray.tally[stats::ESCAPED].as_mut()[..nb]);
         for b in 0..nb {
-            tally[stats::ESCAPED * nb + b] += e[b];
+            escaped[b] += e[b];
         }
         st.add_escape(Escape { source: ray.source as u32, ray: ray.index, from: ray.pos.to_array(), dir: ray.dir.to_array() });
         return false;
@@ -282,7 +304,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
 
     // Air absorption over the segment.
     if scene.air {
-        absorb_air(&set.air_attenuation_per_m[..nb], length, &mut ray.energy[..nb], &mut ray.tally[stats::ABSORBED_AIR * nb..(stats::ABSORBED_AIR + 1) * nb]);
+        absorb_air(&set.air_attenuation_per_m[..nb], length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
     }
     if ray.reflections > 0 {
         ray.free_n += 1;
@@ -304,7 +326,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = scene.mesh.material[tri] as usize;
     let m = material * nb;
-    absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy[..nb], &mut ray.tally[..stats::KINDS * nb], &mut scratch.absorption[..nb]);
+    absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], &mut scratch.absorption[..nb]);
     let mut scat = &scene.acoustics.scattering[m..m + nb];
     let mut p_diffuse = scene.p_diffuse[material];
     if let Some(lod) = scene.lod {
@@ -324,7 +346,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
 
     // Rain: send the diffusely reflected energy to every receiver that sees this point.
     if !matches!(set.estimator, Estimator::Paper) {
-        let (s, index, e) = (ray.source, ray.index, &ray.energy[..nb]);
+        let (s, index, e) = (ray.source, ray.index, &ray.energy.as_ref()[..nb]);
         let key = [s as u64, index, 2 * ray.reflections + 1];
         let scratch_pair = (&mut scratch.deposit[..nb], &mut scratch.gain[..nb]);
         match set.estimator {
@@ -335,7 +357,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
     }
 
     // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
-    let diffuse = choose_bounce(scene, &mut ray.rng, p_diffuse, scat, &mut ray.energy[..nb], &mut ray.tally[stats::REWEIGHTED * nb..(stats::REWEIGHTED + 1) * nb]);
+    let diffuse = choose_bounce(scene, &mut ray.rng, p_diffuse, scat, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::REWEIGHTED].as_mut()[..nb]);
     if diffuse {
         ray.dir = cosine_hemisphere(&Frame::from_normal(normal), ray.rng.uniform(), ray.rng.uniform());
         ray.wave_radius = 0.0;
@@ -348,7 +370,7 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
     }
     ray.pos = leave(scene, point, normal, ray.pos);
 
-    if ray.energy[..nb].iter().all(|&x| x < limits.floor) {
+    if ray.energy.as_ref()[..nb].iter().all(|&x| x < limits.floor) {
         keep_remaining(ray, nb);
         return false;
     }
@@ -360,12 +382,12 @@ fn advance<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &mut RaySta
 /// the sphere's centre, attenuated by the air on the way to it, weighed by the receiver's pattern.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn deposit_crossings<const NB: usize>(scene: &Scene, limits: &Limits<NB>, ray: &RayState, length: f64, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) {
+fn deposit_crossings<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &RayState<B>, length: f64, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = limits.nb();
     let air = &set.air_attenuation_per_m[..nb];
-    let (e, dir, share) = (&ray.energy[..nb], ray.dir, ray.share);
+    let (e, dir, share) = (&ray.energy.as_ref()[..nb], ray.dir, ray.share);
     let Scratch { stamp, deposit, gain, .. } = scratch;
     let deposit = &mut deposit[..nb];
     let seg_id = st.segments;
@@ -411,13 +433,13 @@ fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f
 
 /// The surface's absorption (material `m`'s first band index) at the angle the ray meets it
 /// (sound/reflectance.rs): on incidence, so it acts on the whole reflection, specular and
-/// scattered parts alike. `tally` is the ray's, all kinds; `scratch` one value a band.
+/// scattered parts alike, what it takes tallied into `absorbed`; `scratch` one value a band.
 #[inline(always)]
-fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], tally: &mut [f64], scratch: &mut [f64]) {
+fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], absorbed: &mut [f64], scratch: &mut [f64]) {
     let nb = e.len();
     let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), scratch);
     for b in 0..nb {
-        tally[stats::ABSORBED_SURFACES * nb + b] += e[b] * alpha[b];
+        absorbed[b] += e[b] * alpha[b];
         e[b] *= 1.0 - alpha[b];
     }
 }
@@ -441,19 +463,27 @@ fn choose_bounce(scene: &Scene, rng: &mut Stream, p_diffuse: f64, scat: &[f64], 
 }
 
 /// The ray stops with energy left: tallied as remaining.
-fn keep_remaining(ray: &mut RayState, nb: usize) {
+fn keep_remaining<B: Bands>(ray: &mut RayState<B>, nb: usize) {
+    let (e, remaining) = (&ray.energy.as_ref()[..nb], &mut ray.tally[stats::REMAINING].as_mut()[..nb]);
     for b in 0..nb {
-        ray.tally[stats::REMAINING * nb + b] += ray.energy[b];
+        remaining[b] += e[b];
     }
 }
 
 /// Adds an ended ray's counts, free paths and energy balance to the worker's statistics.
-fn finish_ray<const NB: usize>(ray: &RayState, limits: &Limits<NB>, st: &mut SoundStats) {
+/// A kind of tally the ray left at zero in every band (the air's without air, the
+/// re-weighting's with uniform scattering, the escapes' in a closed room) is skipped: a zero
+/// adds nothing to the fixed-point sum, so the bits are the same.
+fn finish_ray<const NB: usize, B: Bands>(ray: &RayState<B>, limits: &Limits<NB>, st: &mut SoundStats) {
     let nb = limits.nb();
     st.surface_hits += ray.reflections;
     st.max_reflections = st.max_reflections.max(ray.reflections);
     st.add_free_paths(ray.free_n, ray.free_sum, ray.free_sq);
-    for (kind, t) in ray.tally[..stats::KINDS * nb].chunks(nb).enumerate() {
+    for (kind, t) in ray.tally.iter().enumerate() {
+        let t = &t.as_ref()[..nb];
+        if t.iter().all(|&x| x == 0.0) {
+            continue;
+        }
         for b in 0..nb {
             st.add_energy(kind, b, t[b] * ray.share);
         }
