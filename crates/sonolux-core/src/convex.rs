@@ -27,6 +27,8 @@ pub const MAX_FACES: usize = 32;
 #[derive(Clone, Copy, Debug)]
 struct Face {
     normal: DVec3,
+    /// −normal: the side a ray inside the room comes from (negated once, here).
+    inward: DVec3,
     offset: f64,
     /// This face's triangles are `tris[first..first + count]`.
     first: u32,
@@ -99,25 +101,28 @@ impl AxisBox {
     /// parallel to an axis (±0) meets that side's plane at gap / +0 = +∞ (or NaN for an origin on
     /// the plane, which the minimum skips) instead of being masked; an origin inside the room
     /// (every tracer's) has gap > 0 there. At an exact tie (an edge) the plane of the lower axis.
+    /// Also the plane's normal · dir (its only non-zero product; NaN with no plane).
     #[inline(always)]
-    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64, f64) {
         let (o, d) = (origin.to_array(), dir.to_array());
         let mut t = [0.0; 3];
+        let mut towards = [0.0; 3];
         let mut k = [0u32; 3];
         for a in 0..3 {
             let side = usize::from(d[a].is_sign_positive());
             let n = self.normal[a][side];
-            t[a] = (self.offset[a][side] - n * o[a]) / (n * d[a]);
+            towards[a] = n * d[a];
+            t[a] = (self.offset[a][side] - n * o[a]) / towards[a];
             k[a] = self.face[a][side];
         }
         let low = t[0].min(t[1]).min(t[2]);
         let mask = (0..3).fold(0u32, |m, a| m | (u32::from(t[a] == low) << a));
         // No finite or infinite distance at all (a NaN direction): plane 0 at +∞.
-        let (plane, t) = match mask.trailing_zeros() as usize {
-            a @ 0..3 => (k[a] as usize, low),
-            _ => (0, f64::INFINITY),
+        let (plane, t, towards) = match mask.trailing_zeros() as usize {
+            a @ 0..3 => (k[a] as usize, low, towards[a]),
+            _ => (0, f64::INFINITY, f64::NAN),
         };
-        (plane, t.max(0.0))
+        (plane, t.max(0.0), towards)
     }
 }
 
@@ -140,6 +145,10 @@ pub struct Exit {
     pub triangle: u32,
     /// Outward unit normal of the plane.
     pub normal: DVec3,
+    /// The same normal facing the side the ray comes from: −normal when normal · dir > 0 (a
+    /// plane ahead, every exit but a degenerate one), else normal. The same bits as testing
+    /// `normal.dot(dir)`: the planes' test computed that product already.
+    pub facing: DVec3,
 }
 
 impl ConvexRoom {
@@ -180,7 +189,7 @@ impl ConvexRoom {
         let mut tris = Vec::with_capacity(live.len());
         for (normal, offset, members) in planes {
             let one_material = members.iter().all(|&i| mesh.material[i] == mesh.material[members[0]]);
-            faces.push(Face { normal, offset, first: tris.len() as u32, count: members.len() as u32, one_material });
+            faces.push(Face { normal, inward: -normal, offset, first: tris.len() as u32, count: members.len() as u32, one_material });
             for i in members {
                 let corners = mesh.corners(i).map(|v| v.as_dvec3());
                 let mut edge = [DVec3::ZERO; 3];
@@ -234,19 +243,22 @@ impl ConvexRoom {
     /// plane's triangles share a material.
     #[inline(always)]
     pub fn exit_with(&self, origin: DVec3, dir: DVec3, exact: bool) -> Exit {
-        let (k, t) = self.nearest_plane(origin, dir);
+        let (k, t, towards) = self.nearest_plane(origin, dir);
         let face = &self.faces[k];
         let triangle = if !exact && face.one_material { self.tris[face.first as usize].id } else { self.locate(face, origin + dir * t) };
-        Exit { t, triangle, normal: face.normal }
+        // With no plane ahead (t = +∞, towards NaN) the product is computed as the caller would.
+        let towards = if towards.is_nan() { face.normal.dot(dir) } else { towards };
+        Exit { t, triangle, normal: face.normal, facing: if towards > 0.0 { face.inward } else { face.normal } }
     }
 
     /// The plane the ray leaves through and the distance to it (≥ 0): every plane's distance
     /// gap / towards (towards = normal · dir > 0: the planes ahead; the others +∞), computed
     /// lane by lane with the same operations, in the same order, as the dot products of glam,
     /// then the first plane holding the smallest. No plane ahead (a zero or non-finite dir):
-    /// plane 0 at +∞.
+    /// plane 0 at +∞. Also that plane's normal · dir, bit for bit as glam's dot product computes
+    /// it (NaN with no plane ahead).
     #[inline(always)]
-    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64, f64) {
         if let Some(b) = &self.axis_box {
             return b.nearest_plane(origin, dir);
         }
@@ -255,16 +267,18 @@ impl ConvexRoom {
 
     /// [`ConvexRoom::nearest_plane`] by testing every plane.
     #[inline]
-    fn nearest_of_all_planes(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+    fn nearest_of_all_planes(&self, origin: DVec3, dir: DVec3) -> (usize, f64, f64) {
         let mut best_t = f64::INFINITY;
         let mut best = 0usize;
+        let mut best_towards = f64::NAN;
         for (j, b) in self.blocks.iter().enumerate() {
             let mut t = [f64::INFINITY; LANES];
+            let mut towards = [0.0; LANES];
             for l in 0..LANES {
-                let towards = b.nx[l] * dir.x + b.ny[l] * dir.y + b.nz[l] * dir.z;
+                towards[l] = b.nx[l] * dir.x + b.ny[l] * dir.y + b.nz[l] * dir.z;
                 let gap = b.offset[l] - (b.nx[l] * origin.x + b.ny[l] * origin.y + b.nz[l] * origin.z);
-                let q = gap / towards;
-                t[l] = if towards > 0.0 { q } else { f64::INFINITY };
+                let q = gap / towards[l];
+                t[l] = if towards[l] > 0.0 { q } else { f64::INFINITY };
             }
             // The block's smallest and its first lane, without a branch on the data (which
             // plane is nearest is as good as random from one segment to the next).
@@ -275,9 +289,10 @@ impl ConvexRoom {
             let first = mask.trailing_zeros() as usize; // LANES and more when low is NaN: unused then
             let better = low < best_t;
             best = if better { j * LANES + first } else { best };
+            best_towards = if better { towards[first & (LANES - 1)] } else { best_towards };
             best_t = if better { low } else { best_t };
         }
-        (best, best_t.max(0.0))
+        (best, best_t.max(0.0), best_towards)
     }
 
     /// The triangle of `face` that holds `p` (a point on its plane): the first that contains it,
@@ -336,7 +351,8 @@ impl<'a> Surfaces<'a> {
     }
 
     /// The nearest surface along origin + t·dir (unit dir): its distance, mesh triangle and unit
-    /// normal (facing either way; the planes' is precomputed).
+    /// normal (facing either way; the planes' is precomputed). [`Surfaces::nearest_facing`]
+    /// turns the normal towards the ray's side.
     /// The planes' test is inlined into the tracer (a call and its frame cost as much as the
     /// test); the BVH's query is a call, as it always was.
     #[inline(always)]
@@ -347,6 +363,20 @@ impl<'a> Surfaces<'a> {
                 Some((exit.t, exit.triangle as usize, exit.normal))
             }
             None => self.nearest_in_bvh(origin, dir),
+        }
+    }
+
+    /// [`Surfaces::nearest`] with the normal facing the side the ray comes from (−n when n · dir
+    /// > 0): for the planes the product their test computed, for the BVH the dot product, the
+    /// same bits either way.
+    #[inline(always)]
+    pub fn nearest_facing(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+        match &self.room {
+            Some(room) => {
+                let exit = room.exit_with(origin, dir, self.exact);
+                Some((exit.t, exit.triangle as usize, exit.facing))
+            }
+            None => self.nearest_in_bvh(origin, dir).map(|(t, tri, n)| (t, tri, if n.dot(dir) > 0.0 { -n } else { n })),
         }
     }
 
@@ -498,7 +528,11 @@ mod tests {
                 let (plane, t) = exit_one_by_one(&room, o, d);
                 let exit = room.exit(o, d);
                 // The box's slab test and the test of every plane: the same plane and bits.
-                assert_eq!(room.nearest_of_all_planes(o, d).1.to_bits(), t.to_bits());
+                let (k, t_all, towards) = room.nearest_of_all_planes(o, d);
+                assert_eq!(t_all.to_bits(), t.to_bits());
+                // The product the flip of the normal needs, as the dot product gives it.
+                assert_eq!(towards.to_bits(), room.faces[k].normal.dot(d).to_bits());
+                assert_eq!(exit.facing, if exit.normal.dot(d) > 0.0 { -exit.normal } else { exit.normal });
                 n += 1;
                 // The same distance to the bit, the same plane except at an exact tie (an edge).
                 assert_eq!(exit.t.to_bits(), t.to_bits(), "mesh {m}: t {} vs {t}", exit.t);

@@ -28,8 +28,8 @@ pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) 
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
 
-/// The nearest surface along a ray: distance, mesh triangle, unit normal (either side); None
-/// when the ray leaves the scene.
+/// The nearest surface along a ray: distance, mesh triangle, unit normal facing the side the
+/// ray comes from; None when the ray leaves the scene.
 type SurfaceHit = Option<(f64, usize, DVec3)>;
 
 /// A ray's values per band: an array for the band counts the kernel is compiled for (held in
@@ -272,7 +272,7 @@ fn find_surface<B: Bands>(scene: &Scene, ray: &mut RayState<B>) -> SurfaceHit {
         ray.next_known = false;
         return ray.next;
     }
-    scene.surfaces.nearest(ray.pos, ray.dir)
+    scene.surfaces.nearest_facing(ray.pos, ray.dir)
 }
 
 /// One segment of `ray`, up to the nearest surface `hit`: deposit into the receivers it
@@ -287,12 +287,14 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
     st.segments += 1;
     ray.segments += 1;
 
-    // Deposit into the receiver spheres this segment crosses.
-    if ray.spheres {
+    // Deposit into the receiver spheres this segment crosses, the segments that pass beside
+    // their box rejected first (most of them with one receiver), as `crossings` would: before
+    // the deposit's closure is built.
+    if ray.spheres && !beside_receivers(scene, ray.pos, ray.dir, length) {
         deposit_crossings(scene, limits, ray, length, acc, scratch, st, buf);
     }
 
-    let Some((length, tri, mut normal)) = hit else {
+    let Some((length, tri, normal)) = hit else {
         // The ray left the scene: a leak, unless the scene is open on purpose.
         let (e, escaped) = (&ray.energy.as_ref()[..nb], &mut ray.tally[stats::ESCAPED].as_mut()[..nb]);
         for b in 0..nb {
@@ -318,11 +320,8 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
         return false;
     }
 
-    // Surface: absorb, then reflect from the side the ray came from.
+    // Surface: absorb, then reflect from the side the ray came from (`normal` faces it).
     ray.reflections += 1;
-    if normal.dot(ray.dir) > 0.0 {
-        normal = -normal;
-    }
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = scene.mesh.material[tri] as usize;
     let m = material * nb;
@@ -334,7 +333,7 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
         // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
         // and after (along the specular direction) the reflection, as the image sources do.
         let mirror = ray.dir - 2.0 * ray.dir.dot(normal) * normal;
-        let next = scene.surfaces.nearest(leave(scene, point, normal, ray.pos), mirror);
+        let next = scene.surfaces.nearest_facing(leave(scene, point, normal, ray.pos), mirror);
         lod.specular_shares(tri, ray.dir, length, next.map_or(f64::INFINITY, |h| h.0), &mut scratch.shares[..nb]);
         for b in 0..nb {
             scratch.scattering[b] = crate::early::lod::effective_scattering(scat[b], scratch.shares[b]);
@@ -418,6 +417,16 @@ fn deposit_crossings<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<N
         deposits += 1;
     });
     st.deposits += deposits;
+}
+
+/// Whether the segment from `origin` along unit `dir` for `length` lies wholly beside the
+/// receivers' box: [`super::Receivers::crossings`]' own first test, the same expression, so
+/// that it rejects exactly the same segments.
+#[inline(always)]
+fn beside_receivers(scene: &Scene, origin: DVec3, dir: DVec3, length: f64) -> bool {
+    let (lo, hi) = (scene.receivers.lo, scene.receivers.hi);
+    let end = origin + dir * length;
+    (origin.cmplt(lo) & end.cmplt(lo)).any() || (origin.cmpgt(hi) & end.cmpgt(hi)).any()
 }
 
 /// The air's absorption over `length_m`: each band's energy times exp(−m_b · length), what
