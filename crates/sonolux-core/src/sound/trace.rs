@@ -118,8 +118,10 @@ struct Scratch {
     /// Per band, with level of detail: Rindel's K at a reflection, and the scattering s' it gives.
     shares: Vec<f64>,
     scattering: Vec<f64>,
-    /// Per band: a surface's absorption at the angle a ray meets it (locally reacting walls).
+    /// Per band: a surface's absorption at the angle a ray meets it (locally reacting walls),
+    /// and 1 − that.
     absorption: Vec<f64>,
+    kept: Vec<f64>,
 }
 
 /// What one worker thread owns while it traces: its statistics, its batch of deposits and its
@@ -142,6 +144,7 @@ impl Worker {
                 shares: vec![0.0; n_bands],
                 scattering: vec![0.0; n_bands],
                 absorption: vec![0.0; n_bands],
+                kept: vec![0.0; n_bands],
             },
         }
     }
@@ -206,26 +209,39 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
     // The kernel compiled for the usual band counts (octaves 125 Hz–4 kHz or –8 kHz, the
     // default third octaves), any other count read at run time: the same operations in the
     // same order, so the same bits.
-    match scene.acoustics.n_bands {
-        6 => trace_rays_for::<6, [f64; 6]>(scene, jobs, acc, w),
-        7 => trace_rays_for::<7, [f64; 7]>(scene, jobs, acc, w),
-        18 => trace_rays_for::<18, [f64; 18]>(scene, jobs, acc, w),
-        _ => trace_rays_for::<0, Vec<f64>>(scene, jobs, acc, w),
+    // A plain bake (below) gets a kernel without the branches it would never take.
+    match (scene.acoustics.n_bands, plain(scene)) {
+        (6, true) => trace_rays_for::<6, [f64; 6], true>(scene, jobs, acc, w),
+        (6, false) => trace_rays_for::<6, [f64; 6], false>(scene, jobs, acc, w),
+        (7, true) => trace_rays_for::<7, [f64; 7], true>(scene, jobs, acc, w),
+        (7, false) => trace_rays_for::<7, [f64; 7], false>(scene, jobs, acc, w),
+        (18, true) => trace_rays_for::<18, [f64; 18], true>(scene, jobs, acc, w),
+        (18, false) => trace_rays_for::<18, [f64; 18], false>(scene, jobs, acc, w),
+        _ => trace_rays_for::<0, Vec<f64>, false>(scene, jobs, acc, w),
     }
 }
 
+/// Whether the bake is plain: the paper estimator (every segment collects into the spheres,
+/// no connections), no level of detail, no specular paths counted elsewhere, every material
+/// scattering its bands alike (no re-weighting) and the random-incidence walls. A kernel
+/// compiled for it (`PLAIN`) skips those tests, and takes the same branches.
+fn plain(scene: &Scene) -> bool {
+    matches!(scene.settings.estimator, Estimator::Paper) && scene.lod.is_none() && scene.covered.is_none() && scene.uniform_scattering && scene.walls.random_incidence()
+}
+
 /// [`trace_rays`] for `NB` bands (0: any), the ray's band values held in `B` (`[f64; NB]`,
-/// or a `Vec` for any count).
+/// or a `Vec` for any count); `PLAIN` for a [`plain`] bake.
 #[inline(always)]
-fn trace_rays_for<const NB: usize, B: Bands>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+fn trace_rays_for<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+    debug_assert!(!PLAIN || plain(scene));
     let limits = Limits::<NB>::new(scene);
     let Worker { stats: st, deposits: buf, scratch } = w;
     let mut ray = RayState::<B>::new(limits.nb());
     for (s, index) in jobs {
         start_ray(scene, &limits, s, index, &mut ray, acc, st, buf);
         loop {
-            let hit = find_surface(scene, &mut ray);
-            if !advance(scene, &limits, &mut ray, hit, acc, scratch, st, buf) {
+            let hit = find_surface::<B, PLAIN>(scene, &mut ray);
+            if !advance::<NB, B, PLAIN>(scene, &limits, &mut ray, hit, acc, scratch, st, buf) {
                 break;
             }
         }
@@ -267,8 +283,8 @@ fn start_ray<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, s: u
 
 /// Find the nearest surface along the ray (or the one level of detail found already).
 #[inline(always)]
-fn find_surface<B: Bands>(scene: &Scene, ray: &mut RayState<B>) -> SurfaceHit {
-    if ray.next_known {
+fn find_surface<B: Bands, const PLAIN: bool>(scene: &Scene, ray: &mut RayState<B>) -> SurfaceHit {
+    if !PLAIN && ray.next_known {
         ray.next_known = false;
         return ray.next;
     }
@@ -280,7 +296,7 @@ fn find_surface<B: Bands>(scene: &Scene, ray: &mut RayState<B>) -> SurfaceHit {
 /// bounce. Returns whether the ray goes on.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &mut RayState<B>, hit: SurfaceHit, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) -> bool {
+fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: &Limits<NB>, ray: &mut RayState<B>, hit: SurfaceHit, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) -> bool {
     let set = scene.settings;
     let nb = limits.nb();
     let length = hit.map_or(f64::INFINITY, |h| h.0);
@@ -290,8 +306,8 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
     // Deposit into the receiver spheres this segment crosses, the segments that pass beside
     // their box rejected first (most of them with one receiver), as `crossings` would: before
     // the deposit's closure is built.
-    if ray.spheres && !beside_receivers(scene, ray.pos, ray.dir, length) {
-        deposit_crossings(scene, limits, ray, length, acc, scratch, st, buf);
+    if (PLAIN || ray.spheres) && !beside_receivers(scene, ray.pos, ray.dir, length) {
+        deposit_crossings::<NB, B, PLAIN>(scene, limits, ray, length, acc, scratch, st, buf);
     }
 
     let Some((length, tri, normal)) = hit else {
@@ -325,10 +341,10 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = scene.mesh.material[tri] as usize;
     let m = material * nb;
-    absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], &mut scratch.absorption[..nb]);
+    absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], (&mut scratch.absorption[..nb], &mut scratch.kept[..nb]));
     let mut scat = &scene.acoustics.scattering[m..m + nb];
     let mut p_diffuse = scene.p_diffuse[material];
-    if let Some(lod) = scene.lod {
+    if let Some(lod) = scene.lod.filter(|_| !PLAIN) {
         // Level of detail (early/lod.rs): the surface's scattering s and the panel's
         // diffraction combine to s' = 1 − (1 − s) K, K from the legs before (this segment)
         // and after (along the specular direction) the reflection, as the image sources do.
@@ -344,7 +360,7 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
     }
 
     // Rain: send the diffusely reflected energy to every receiver that sees this point.
-    if !matches!(set.estimator, Estimator::Paper) {
+    if !PLAIN && !matches!(set.estimator, Estimator::Paper) {
         let (s, index, e) = (ray.source, ray.index, &ray.energy.as_ref()[..nb]);
         let key = [s as u64, index, 2 * ray.reflections + 1];
         let scratch_pair = (&mut scratch.deposit[..nb], &mut scratch.gain[..nb]);
@@ -356,7 +372,7 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
     }
 
     // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
-    let diffuse = choose_bounce(scene, &mut ray.rng, p_diffuse, scat, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::REWEIGHTED].as_mut()[..nb]);
+    let diffuse = choose_bounce::<PLAIN>(scene, &mut ray.rng, p_diffuse, scat, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::REWEIGHTED].as_mut()[..nb]);
     if diffuse {
         ray.dir = cosine_hemisphere(&Frame::from_normal(normal), ray.rng.uniform(), ray.rng.uniform());
         ray.wave_radius = 0.0;
@@ -381,7 +397,7 @@ fn advance<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &
 /// the sphere's centre, attenuated by the air on the way to it, weighed by the receiver's pattern.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn deposit_crossings<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, ray: &RayState<B>, length: f64, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) {
+fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: &Limits<NB>, ray: &RayState<B>, length: f64, acc: &Accumulator, scratch: &mut Scratch, st: &mut SoundStats, buf: &mut Deposits) {
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = limits.nb();
@@ -396,7 +412,7 @@ fn deposit_crossings<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<N
         // not where this ray passes nearest: exact times for specular paths.
         let to_centre = ((ray.wave_radius + c.t_nearest).powi(2) + c.miss2).sqrt() - ray.wave_radius;
         let time_s = (ray.path + to_centre) / set.speed_of_sound_m_s;
-        if ray.specular_only && scene.covered.is_some_and(|c| c.covers(ray.reflections, time_s)) {
+        if !PLAIN && ray.specular_only && scene.covered.is_some_and(|c| c.covers(ray.reflections, time_s)) {
             return;
         }
         let Some(tb) = lay.time_bin(time_s) else { return };
@@ -442,14 +458,15 @@ fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f
 
 /// The surface's absorption (material `m`'s first band index) at the angle the ray meets it
 /// (sound/reflectance.rs): on incidence, so it acts on the whole reflection, specular and
-/// scattered parts alike, what it takes tallied into `absorbed`; `scratch` one value a band.
+/// scattered parts alike, what it takes tallied into `absorbed`; `scratch` two values a band.
 #[inline(always)]
-fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], absorbed: &mut [f64], scratch: &mut [f64]) {
+fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], absorbed: &mut [f64], scratch: (&mut [f64], &mut [f64])) {
     let nb = e.len();
-    let alpha = scene.walls.absorption(&scene.acoustics.absorption, m, -dir.dot(normal), scratch);
+    let (alpha, kept) = scene.walls.absorption_and_kept(&scene.acoustics.absorption, m, -dir.dot(normal), scratch.0, scratch.1);
+    let (alpha, kept) = (&alpha[..nb], &kept[..nb]);
     for b in 0..nb {
         absorbed[b] += e[b] * alpha[b];
-        e[b] *= 1.0 - alpha[b];
+        e[b] *= kept[b];
     }
 }
 
@@ -458,9 +475,9 @@ fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut
 /// re-weighted (s_b / p for a diffuse bounce, (1 − s_b) / (1 − p) for a specular one) so that
 /// each keeps its expectation, the change tallied into `reweighted`.
 #[inline(always)]
-fn choose_bounce(scene: &Scene, rng: &mut Stream, p_diffuse: f64, scat: &[f64], e: &mut [f64], reweighted: &mut [f64]) -> bool {
+fn choose_bounce<const PLAIN: bool>(scene: &Scene, rng: &mut Stream, p_diffuse: f64, scat: &[f64], e: &mut [f64], reweighted: &mut [f64]) -> bool {
     let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
-    if !scene.uniform_scattering || scene.lod.is_some() {
+    if !PLAIN && (!scene.uniform_scattering || scene.lod.is_some()) {
         for b in 0..e.len() {
             let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
             let before = e[b];
