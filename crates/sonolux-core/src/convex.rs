@@ -115,6 +115,22 @@ impl AxisBox {
             t[a] = (self.offset[a][side] - n * o[a]) / towards[a];
             k[a] = self.face[a][side];
         }
+        // The first lane holding the smallest, by plain comparisons: the same lane and distance
+        // as the rule below whenever no lane is NaN (a NaN lane in the second or third place
+        // loses every comparison, as `f64::min` skips it); a NaN in the first place makes
+        // `low` NaN, and the rule below decides.
+        let (i01, m01) = if t[1] < t[0] { (1, t[1]) } else { (0, t[0]) };
+        let (a, low) = if t[2] < m01 { (2, t[2]) } else { (i01, m01) };
+        if low.is_nan() {
+            return Self::nearest_of_lanes(t, towards, k);
+        }
+        (k[a] as usize, low.max(0.0), towards[a])
+    }
+
+    /// [`AxisBox::nearest_plane`]'s rule with NaN lanes (an origin on a plane the ray runs
+    /// along: 0 / +0): the smallest by `f64::min`, which skips NaN, and the first lane holding it.
+    #[cold]
+    fn nearest_of_lanes(t: [f64; 3], towards: [f64; 3], k: [u32; 3]) -> (usize, f64, f64) {
         let low = t[0].min(t[1]).min(t[2]);
         let mask = (0..3).fold(0u32, |m, a| m | (u32::from(t[a] == low) << a));
         // No finite or infinite distance at all (a NaN direction): plane 0 at +∞.
@@ -547,6 +563,44 @@ mod tests {
         assert_eq!(ConvexRoom::new(&prism(14)).unwrap().blocks.len(), 4);
         assert!(ConvexRoom::new(&box_mesh()).unwrap().axis_box.is_some());
         assert!(ConvexRoom::new(&prism(4)).unwrap().axis_box.is_none(), "a box turned 0.3 rad about z");
+    }
+
+    /// The box's plain comparisons and its rule for NaN lanes (an origin on a wall, the ray
+    /// along it: 0 / +0) against the loop over the planes ahead, on rays along the axes and
+    /// diagonals with every sign of zero, from the corners, edges and faces of the box.
+    #[test]
+    fn the_box_agrees_with_the_loop_where_lanes_are_nan() {
+        let room = ConvexRoom::new(&box_mesh()).unwrap();
+        let b = room.axis_box.expect("a box");
+        let coords = [[0.0, 1.5, 3.0], [0.0, 1.0, 2.0], [0.0, 0.75, 1.5]];
+        let comps = [0.0, -0.0, 1.0, -1.0, 0.6, -0.6];
+        let mut nan_lanes = 0;
+        for &x in &coords[0] {
+            for &y in &coords[1] {
+                for &z in &coords[2] {
+                    let o = DVec3::new(x, y, z);
+                    for &dx in &comps {
+                        for &dy in &comps {
+                            for &dz in &comps {
+                                let d = DVec3::new(dx, dy, dz);
+                                if d.length_squared() == 0.0 {
+                                    continue;
+                                }
+                                let d = d.normalize();
+                                let (k, t, towards) = b.nearest_plane(o, d);
+                                let (plane, t_loop) = exit_one_by_one(&room, o, d);
+                                assert_eq!(t.to_bits(), t_loop.to_bits(), "o {o} d {d}");
+                                let n = room.faces[k].normal;
+                                assert!(k == plane || n.dot(o + d * t) == room.faces[plane].normal.dot(o + d * t), "o {o} d {d}: plane {k} vs {plane}");
+                                assert_eq!(towards.to_bits(), n.dot(d).to_bits(), "o {o} d {d}");
+                                nan_lanes += usize::from((0..3).any(|a| d[a] == 0.0 && (o[a] == 0.0 || o[a] == coords[a][2])));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(nan_lanes > 1000, "{nan_lanes} rays with a NaN lane");
     }
 
     #[test]
