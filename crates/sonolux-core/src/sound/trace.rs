@@ -437,12 +437,14 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
 
 /// Whether the segment from `origin` along unit `dir` for `length` lies wholly beside the
 /// receivers' box: [`super::Receivers::crossings`]' own first test, the same expression, so
-/// that it rejects exactly the same segments.
+/// that it rejects exactly the same segments. Its six outcomes are or-ed into one bit mask,
+/// one branch: `any() || any()` branches on each axis, and which axis rejects a segment is as
+/// good as random (0.6 mispredicted branches a segment with one receiver, cachegrind).
 #[inline(always)]
 fn beside_receivers(scene: &Scene, origin: DVec3, dir: DVec3, length: f64) -> bool {
     let (lo, hi) = (scene.receivers.lo, scene.receivers.hi);
     let end = origin + dir * length;
-    (origin.cmplt(lo) & end.cmplt(lo)).any() || (origin.cmpgt(hi) & end.cmpgt(hi)).any()
+    ((origin.cmplt(lo) & end.cmplt(lo)).bitmask() | (origin.cmpgt(hi) & end.cmpgt(hi)).bitmask()) != 0
 }
 
 /// The air's absorption over `length_m`: each band's energy times exp(−m_b · length), what
