@@ -382,9 +382,9 @@ impl<'a> Surfaces<'a> {
         }
     }
 
-    /// [`Surfaces::nearest`] with the normal facing the side the ray comes from (−n when n · dir
-    /// > 0): for the planes the product their test computed, for the BVH the dot product, the
-    /// same bits either way.
+    /// [`Surfaces::nearest`] with the normal facing the side the ray comes from (−n when
+    /// n · dir is positive): for the planes the product their test computed, for the BVH the
+    /// dot product, the same bits either way.
     #[inline(always)]
     pub fn nearest_facing(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
         match &self.room {
