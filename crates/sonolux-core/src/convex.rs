@@ -27,6 +27,8 @@ pub const MAX_FACES: usize = 32;
 #[derive(Clone, Copy, Debug)]
 struct Face {
     normal: DVec3,
+    /// −normal: the side a ray inside the room comes from (negated once, here).
+    inward: DVec3,
     offset: f64,
     /// This face's triangles are `tris[first..first + count]`.
     first: u32,
@@ -99,25 +101,44 @@ impl AxisBox {
     /// parallel to an axis (±0) meets that side's plane at gap / +0 = +∞ (or NaN for an origin on
     /// the plane, which the minimum skips) instead of being masked; an origin inside the room
     /// (every tracer's) has gap > 0 there. At an exact tie (an edge) the plane of the lower axis.
+    /// Also the plane's normal · dir (its only non-zero product; NaN with no plane).
     #[inline(always)]
-    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64, f64) {
         let (o, d) = (origin.to_array(), dir.to_array());
         let mut t = [0.0; 3];
+        let mut towards = [0.0; 3];
         let mut k = [0u32; 3];
         for a in 0..3 {
             let side = usize::from(d[a].is_sign_positive());
             let n = self.normal[a][side];
-            t[a] = (self.offset[a][side] - n * o[a]) / (n * d[a]);
+            towards[a] = n * d[a];
+            t[a] = (self.offset[a][side] - n * o[a]) / towards[a];
             k[a] = self.face[a][side];
         }
+        // The first lane holding the smallest, by plain comparisons: the same lane and distance
+        // as the rule below whenever no lane is NaN (a NaN lane in the second or third place
+        // loses every comparison, as `f64::min` skips it); a NaN in the first place makes
+        // `low` NaN, and the rule below decides.
+        let (i01, m01) = if t[1] < t[0] { (1, t[1]) } else { (0, t[0]) };
+        let (a, low) = if t[2] < m01 { (2, t[2]) } else { (i01, m01) };
+        if low.is_nan() {
+            return Self::nearest_of_lanes(t, towards, k);
+        }
+        (k[a] as usize, low.max(0.0), towards[a])
+    }
+
+    /// [`AxisBox::nearest_plane`]'s rule with NaN lanes (an origin on a plane the ray runs
+    /// along: 0 / +0): the smallest by `f64::min`, which skips NaN, and the first lane holding it.
+    #[cold]
+    fn nearest_of_lanes(t: [f64; 3], towards: [f64; 3], k: [u32; 3]) -> (usize, f64, f64) {
         let low = t[0].min(t[1]).min(t[2]);
         let mask = (0..3).fold(0u32, |m, a| m | (u32::from(t[a] == low) << a));
         // No finite or infinite distance at all (a NaN direction): plane 0 at +∞.
-        let (plane, t) = match mask.trailing_zeros() as usize {
-            a @ 0..3 => (k[a] as usize, low),
-            _ => (0, f64::INFINITY),
+        let (plane, t, towards) = match mask.trailing_zeros() as usize {
+            a @ 0..3 => (k[a] as usize, low, towards[a]),
+            _ => (0, f64::INFINITY, f64::NAN),
         };
-        (plane, t.max(0.0))
+        (plane, t.max(0.0), towards)
     }
 }
 
@@ -140,6 +161,10 @@ pub struct Exit {
     pub triangle: u32,
     /// Outward unit normal of the plane.
     pub normal: DVec3,
+    /// The same normal facing the side the ray comes from: −normal when normal · dir > 0 (a
+    /// plane ahead, every exit but a degenerate one), else normal. The same bits as testing
+    /// `normal.dot(dir)`: the planes' test computed that product already.
+    pub facing: DVec3,
 }
 
 impl ConvexRoom {
@@ -180,7 +205,7 @@ impl ConvexRoom {
         let mut tris = Vec::with_capacity(live.len());
         for (normal, offset, members) in planes {
             let one_material = members.iter().all(|&i| mesh.material[i] == mesh.material[members[0]]);
-            faces.push(Face { normal, offset, first: tris.len() as u32, count: members.len() as u32, one_material });
+            faces.push(Face { normal, inward: -normal, offset, first: tris.len() as u32, count: members.len() as u32, one_material });
             for i in members {
                 let corners = mesh.corners(i).map(|v| v.as_dvec3());
                 let mut edge = [DVec3::ZERO; 3];
@@ -234,19 +259,22 @@ impl ConvexRoom {
     /// plane's triangles share a material.
     #[inline(always)]
     pub fn exit_with(&self, origin: DVec3, dir: DVec3, exact: bool) -> Exit {
-        let (k, t) = self.nearest_plane(origin, dir);
+        let (k, t, towards) = self.nearest_plane(origin, dir);
         let face = &self.faces[k];
         let triangle = if !exact && face.one_material { self.tris[face.first as usize].id } else { self.locate(face, origin + dir * t) };
-        Exit { t, triangle, normal: face.normal }
+        // With no plane ahead (t = +∞, towards NaN) the product is computed as the caller would.
+        let towards = if towards.is_nan() { face.normal.dot(dir) } else { towards };
+        Exit { t, triangle, normal: face.normal, facing: if towards > 0.0 { face.inward } else { face.normal } }
     }
 
     /// The plane the ray leaves through and the distance to it (≥ 0): every plane's distance
     /// gap / towards (towards = normal · dir > 0: the planes ahead; the others +∞), computed
     /// lane by lane with the same operations, in the same order, as the dot products of glam,
     /// then the first plane holding the smallest. No plane ahead (a zero or non-finite dir):
-    /// plane 0 at +∞.
+    /// plane 0 at +∞. Also that plane's normal · dir, bit for bit as glam's dot product computes
+    /// it (NaN with no plane ahead).
     #[inline(always)]
-    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+    fn nearest_plane(&self, origin: DVec3, dir: DVec3) -> (usize, f64, f64) {
         if let Some(b) = &self.axis_box {
             return b.nearest_plane(origin, dir);
         }
@@ -255,16 +283,18 @@ impl ConvexRoom {
 
     /// [`ConvexRoom::nearest_plane`] by testing every plane.
     #[inline]
-    fn nearest_of_all_planes(&self, origin: DVec3, dir: DVec3) -> (usize, f64) {
+    fn nearest_of_all_planes(&self, origin: DVec3, dir: DVec3) -> (usize, f64, f64) {
         let mut best_t = f64::INFINITY;
         let mut best = 0usize;
+        let mut best_towards = f64::NAN;
         for (j, b) in self.blocks.iter().enumerate() {
             let mut t = [f64::INFINITY; LANES];
+            let mut towards = [0.0; LANES];
             for l in 0..LANES {
-                let towards = b.nx[l] * dir.x + b.ny[l] * dir.y + b.nz[l] * dir.z;
+                towards[l] = b.nx[l] * dir.x + b.ny[l] * dir.y + b.nz[l] * dir.z;
                 let gap = b.offset[l] - (b.nx[l] * origin.x + b.ny[l] * origin.y + b.nz[l] * origin.z);
-                let q = gap / towards;
-                t[l] = if towards > 0.0 { q } else { f64::INFINITY };
+                let q = gap / towards[l];
+                t[l] = if towards[l] > 0.0 { q } else { f64::INFINITY };
             }
             // The block's smallest and its first lane, without a branch on the data (which
             // plane is nearest is as good as random from one segment to the next).
@@ -275,9 +305,10 @@ impl ConvexRoom {
             let first = mask.trailing_zeros() as usize; // LANES and more when low is NaN: unused then
             let better = low < best_t;
             best = if better { j * LANES + first } else { best };
+            best_towards = if better { towards[first & (LANES - 1)] } else { best_towards };
             best_t = if better { low } else { best_t };
         }
-        (best, best_t.max(0.0))
+        (best, best_t.max(0.0), best_towards)
     }
 
     /// The triangle of `face` that holds `p` (a point on its plane): the first that contains it,
@@ -336,7 +367,8 @@ impl<'a> Surfaces<'a> {
     }
 
     /// The nearest surface along origin + t·dir (unit dir): its distance, mesh triangle and unit
-    /// normal (facing either way; the planes' is precomputed).
+    /// normal (facing either way; the planes' is precomputed). [`Surfaces::nearest_facing`]
+    /// turns the normal towards the ray's side.
     /// The planes' test is inlined into the tracer (a call and its frame cost as much as the
     /// test); the BVH's query is a call, as it always was.
     #[inline(always)]
@@ -347,6 +379,20 @@ impl<'a> Surfaces<'a> {
                 Some((exit.t, exit.triangle as usize, exit.normal))
             }
             None => self.nearest_in_bvh(origin, dir),
+        }
+    }
+
+    /// [`Surfaces::nearest`] with the normal facing the side the ray comes from (−n when
+    /// n · dir is positive): for the planes the product their test computed, for the BVH the
+    /// dot product, the same bits either way.
+    #[inline(always)]
+    pub fn nearest_facing(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+        match &self.room {
+            Some(room) => {
+                let exit = room.exit_with(origin, dir, self.exact);
+                Some((exit.t, exit.triangle as usize, exit.facing))
+            }
+            None => self.nearest_in_bvh(origin, dir).map(|(t, tri, n)| (t, tri, if n.dot(dir) > 0.0 { -n } else { n })),
         }
     }
 
@@ -365,177 +411,5 @@ impl<'a> Surfaces<'a> {
 }
 
 #[cfg(test)]
-mod tests {
-    use glam::Vec3;
-
-    use super::*;
-    use crate::geometry::Ray;
-    use crate::rng::Stream;
-    use crate::sampling::uniform_sphere;
-
-    /// A 3 × 2 × 1.5 box with each wall split into 2 × 2 quads (8 triangles a wall).
-    fn box_mesh() -> Mesh {
-        let size = DVec3::new(3.0, 2.0, 1.5);
-        let mut vertices = Vec::new();
-        let mut triangles = Vec::new();
-        for axis in 0..3 {
-            for side in [0.0, 1.0] {
-                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-                let base = vertices.len() as u32;
-                for j in 0..3 {
-                    for i in 0..3 {
-                        let mut p = DVec3::ZERO;
-                        p[axis] = side * size[axis];
-                        p[u] = i as f64 * 0.5 * size[u];
-                        p[v] = j as f64 * 0.5 * size[v];
-                        vertices.push(p.as_vec3());
-                    }
-                }
-                for j in 0..2 {
-                    for i in 0..2 {
-                        let q = base + j * 3 + i;
-                        // Wound counter-clockwise seen from outside, as a closed mesh must be.
-                        let (t1, t2) = ([q, q + 1, q + 4], [q, q + 4, q + 3]);
-                        if side == 0.0 {
-                            triangles.push([t1[0], t1[2], t1[1]]);
-                            triangles.push([t2[0], t2[2], t2[1]]);
-                        } else {
-                            triangles.push(t1);
-                            triangles.push(t2);
-                        }
-                    }
-                }
-            }
-        }
-        let material = (0..triangles.len() as u32).collect();
-        Mesh::new(vertices, triangles, material).unwrap()
-    }
-
-    #[test]
-    fn a_box_has_six_faces_and_agrees_with_the_bvh() {
-        let mesh = box_mesh();
-        let room = ConvexRoom::new(&mesh).expect("a box is convex");
-        assert_eq!(room.n_faces(), 6);
-        let bvh = Bvh::build(&mesh).unwrap();
-        let mut rng = Stream::new(3, 0, 0);
-        let mut same = 0;
-        let n = 200_000;
-        for _ in 0..n {
-            let o = DVec3::new(0.01 + 2.98 * rng.uniform(), 0.01 + 1.98 * rng.uniform(), 0.01 + 1.48 * rng.uniform());
-            let d = uniform_sphere(rng.uniform(), rng.uniform());
-            let exit = room.exit(o, d);
-            let hit = bvh.closest_hit(&Ray::new(o.as_vec3(), d.as_vec3()), 0.0, f32::INFINITY).expect("closed box");
-            // Same distance to f32 precision, and the same triangle unless the point is on an edge.
-            assert!((exit.t - hit.t as f64).abs() < 1e-5 * (1.0 + exit.t), "t {} vs {}", exit.t, hit.t);
-            let on_plane = exit.normal.dot(o + d * exit.t);
-            assert!((on_plane - exit.normal.dot(mesh.corners(exit.triangle as usize)[0].as_dvec3())).abs() < 1e-9);
-            same += usize::from(exit.triangle == hit.triangle);
-        }
-        // Points within f32 rounding of a shared edge may go either way: a handful at most.
-        assert!(same as f64 > 0.9999 * n as f64, "{same} of {n}");
-    }
-
-    /// A prism over a regular `n`-gon (radius 2, height 1.5), wound counter-clockwise seen
-    /// from outside, with a material per side and one for both caps: n + 2 planes.
-    fn prism(n: usize) -> Mesh {
-        let mut vertices = Vec::new();
-        for z in [0.0f32, 1.5] {
-            for k in 0..n {
-                let a = std::f32::consts::TAU * k as f32 / n as f32 + 0.3;
-                vertices.push(Vec3::new(2.0 * a.cos(), 2.0 * a.sin(), z));
-            }
-        }
-        let n32 = n as u32;
-        let (mut triangles, mut material) = (Vec::new(), Vec::new());
-        for k in 1..n32 - 1 {
-            triangles.push([0, k + 1, k]); // bottom, seen from below
-            triangles.push([n32, n32 + k, n32 + k + 1]); // top
-            material.extend([0, 0]);
-        }
-        for k in 0..n32 {
-            let j = (k + 1) % n32;
-            triangles.push([k, j, n32 + j]);
-            triangles.push([k, n32 + j, n32 + k]);
-            material.extend([1 + k, 1 + k]);
-        }
-        Mesh::new(vertices, triangles, material).unwrap()
-    }
-
-    /// The rule the planes were tested by before they were tested at once: a loop over the
-    /// planes ahead comparing gap / towards as cross products. (plane, t).
-    fn exit_one_by_one(room: &ConvexRoom, origin: DVec3, dir: DVec3) -> (usize, f64) {
-        let (mut best_gap, mut best_towards, mut best) = (f64::INFINITY, 1.0, 0usize);
-        for (k, f) in room.faces.iter().enumerate() {
-            let towards = f.normal.dot(dir);
-            if towards > 0.0 {
-                let gap = f.offset - f.normal.dot(origin);
-                if gap * best_towards < best_gap * towards {
-                    (best_gap, best_towards, best) = (gap, towards, k);
-                }
-            }
-        }
-        (best, (best_gap / best_towards).max(0.0))
-    }
-
-    #[test]
-    fn planes_tested_at_once_agree_with_the_loop_over_them() {
-        // A box (6 planes, 2 blocks) and prisms of 5, 7 and 14 sides (7, 9, 16 planes: blocks
-        // partly and wholly filled); origins inside, on and a rounding error outside the walls.
-        let meshes = [box_mesh(), prism(5), prism(7), prism(14)];
-        for (m, mesh) in meshes.iter().enumerate() {
-            let room = ConvexRoom::new(mesh).expect("convex");
-            let (lo, hi) = (mesh.vertices.iter().fold(Vec3::INFINITY, |a, v| a.min(*v)).as_dvec3(), mesh.vertices.iter().fold(Vec3::NEG_INFINITY, |a, v| a.max(*v)).as_dvec3());
-            let mut rng = Stream::new(11, m as u64, 0);
-            let (mut n, mut same) = (0, 0);
-            while n < 100_000 {
-                let o = lo + (hi - lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
-                if !room.holds(o, 1e-9) {
-                    continue;
-                }
-                let d = uniform_sphere(rng.uniform(), rng.uniform());
-                // Every tenth origin moved onto the wall ahead of it (and a hair beyond).
-                let o = if n % 10 == 0 { o + d * (room.exit(o, d).t * (1.0 + 1e-15)) } else { o };
-                let (plane, t) = exit_one_by_one(&room, o, d);
-                let exit = room.exit(o, d);
-                // The box's slab test and the test of every plane: the same plane and bits.
-                assert_eq!(room.nearest_of_all_planes(o, d).1.to_bits(), t.to_bits());
-                n += 1;
-                // The same distance to the bit, the same plane except at an exact tie (an edge).
-                assert_eq!(exit.t.to_bits(), t.to_bits(), "mesh {m}: t {} vs {t}", exit.t);
-                same += usize::from(exit.normal == room.faces[plane].normal);
-                // Without the exact triangle: the same plane, distance and material.
-                let quick = room.exit_with(o, d, false);
-                assert_eq!((quick.t.to_bits(), quick.normal), (exit.t.to_bits(), exit.normal));
-                assert_eq!(mesh.material[quick.triangle as usize], mesh.material[exit.triangle as usize]);
-            }
-            assert!(same as f64 >= 0.9999 * n as f64, "mesh {m}: {same} of {n}");
-        }
-        assert_eq!(ConvexRoom::new(&prism(14)).unwrap().blocks.len(), 4);
-        assert!(ConvexRoom::new(&box_mesh()).unwrap().axis_box.is_some());
-        assert!(ConvexRoom::new(&prism(4)).unwrap().axis_box.is_none(), "a box turned 0.3 rad about z");
-    }
-
-    #[test]
-    fn origins_on_or_slightly_outside_a_wall_do_not_escape() {
-        let room = ConvexRoom::new(&box_mesh()).unwrap();
-        let exit = room.exit(DVec3::new(3.0 + 1e-12, 1.0, 0.7), DVec3::X);
-        assert_eq!(exit.t, 0.0);
-        assert!(exit.normal.x > 0.99);
-        assert!(room.contains(DVec3::new(1.0, 1.0, 1.0)));
-        assert!(!room.contains(DVec3::new(1.0, 1.0, 1.6)));
-        assert!(!room.contains(DVec3::new(1.0, 1.0, 1.5)) && room.holds(DVec3::new(1.0, 1.0, 1.5), 1e-9));
-        assert!(!room.holds(DVec3::new(1.0, 1.0, 1.5 + 1e-6), 1e-9));
-    }
-
-    #[test]
-    fn not_convex_or_open_means_none() {
-        let mut m = box_mesh();
-        m.vertices[4] = Vec3::new(0.3, 1.0, 0.75); // dent the centre of a wall
-        assert!(ConvexRoom::new(&m).is_none());
-        let mut open = box_mesh();
-        open.triangles.truncate(open.triangles.len() - 2);
-        open.material.truncate(open.triangles.len());
-        open.degenerate.truncate(open.triangles.len());
-        assert!(ConvexRoom::new(&open).is_none());
-    }
-}
+#[path = "convex_tests.rs"]
+mod tests;

@@ -20,9 +20,9 @@ pub struct Receivers {
     pub radius_m: f64,
     /// One pattern a receiver, or empty: every receiver omnidirectional.
     patterns: Vec<ReceiverPattern>,
-    /// The grid's box, and the size of its cells along each axis.
-    lo: DVec3,
-    hi: DVec3,
+    /// The grid's box (the tracer rejects segments beside it first), and the size of its cells.
+    pub(crate) lo: DVec3,
+    pub(crate) hi: DVec3,
     cell: DVec3,
     dims: [usize; 3],
     /// Receivers whose sphere overlaps each cell: `cells[i]..cells[i+1]` indexes `items`.

@@ -68,6 +68,9 @@ pub struct Walls {
     /// or a negative value for a band that keeps its coefficient (above Paris' maximum). Empty
     /// for [`WallModel::RandomIncidence`].
     admittance: Vec<f64>,
+    /// 1 − α of every coefficient, computed once for the tracer's kernel, which multiplies a
+    /// ray's energy by it at each reflection under [`WallModel::RandomIncidence`].
+    kept: Vec<f64>,
 }
 
 impl Walls {
@@ -80,7 +83,8 @@ impl Walls {
                 acoustics.absorption.iter().map(|&a| if a > peak { -1.0 } else if a <= 0.0 { 0.0 } else { admittance_from_random(a).0 }).collect()
             }
         };
-        Walls { model, admittance }
+        let kept = acoustics.absorption.iter().map(|&a| 1.0 - a).collect();
+        Walls { model, admittance, kept }
     }
 
     pub fn model(&self) -> WallModel {
@@ -91,6 +95,28 @@ impl Walls {
     /// where the band keeps its coefficient, or with the random-incidence model).
     pub fn admittance(&self, material: usize, band: usize, n_bands: usize) -> Option<f64> {
         self.admittance.get(material * n_bands + band).copied().filter(|g| *g >= 0.0)
+    }
+
+    /// Whether every band keeps its coefficient at every angle ([`WallModel::RandomIncidence`]).
+    pub fn random_incidence(&self) -> bool {
+        self.admittance.is_empty()
+    }
+
+    /// [`Walls::absorption`] and what the surface keeps, 1 − α per band (`out_kept`), the
+    /// random-incidence model's from a table made once: the same numbers, no subtraction a
+    /// reflection. `coefficients` is the [`Acoustics::absorption`] the walls were made from.
+    #[inline(always)]
+    pub fn absorption_and_kept<'a>(&'a self, coefficients: &'a [f64], m: usize, cos_incidence: f64, out: &'a mut [f64], out_kept: &'a mut [f64]) -> (&'a [f64], &'a [f64]) {
+        let nb = out.len();
+        if self.admittance.is_empty() {
+            debug_assert_eq!(coefficients.len(), self.kept.len());
+            return (&coefficients[m..m + nb], &self.kept[m..m + nb]);
+        }
+        let alpha = self.absorption(coefficients, m, cos_incidence, out);
+        for b in 0..nb {
+            out_kept[b] = 1.0 - alpha[b];
+        }
+        (alpha, out_kept)
     }
 
     /// (material, band) of every band that keeps its coefficient at every angle under the
