@@ -313,8 +313,9 @@ impl Accumulator {
         }
         // Group by shard (a counting sort: the order within a shard does not matter). While
         // counting, ask for every count's cache line: the adds below then find them in the
-        // cache, their misses overlapped here, where each add used to wait for its own (70 % of
-        // a flush's time in paper-large's grid, 11 % of the bake; now 7 %).
+        // cache, their misses overlapped here, where each add used to wait for its own (two
+        // thirds of a flush's time in paper-large's grid, the flush 11 % of the bake; now 7 %:
+        // docs/convex.md, session 10).
         let n = self.shards.len();
         buf.starts.clear();
         buf.starts.resize(n + 1, 0);
