@@ -442,6 +442,9 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
     let deposit = &mut deposit[..nb];
     let seg_id = st.segments;
     let mut deposits = 0u64;
+    // Every deposit of a segment arrives from −dir: its direction bin (an atan2) is found at
+    // the segment's first deposit and kept for the others.
+    let mut direction = None;
     scene.receivers.crossings(ray.pos, dir, length, stamp, seg_id, |c| {
         // The wavefront reaches the sphere's centre at its distance from the image source,
         // not where this ray passes nearest: exact times for specular paths.
@@ -466,7 +469,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
             }
         }
         scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
-        let base = lay.index(c.receiver as usize, tb, lay.direction_bin(-dir));
+        let base = lay.index(c.receiver as usize, tb, *direction.get_or_insert_with(|| lay.direction_bin(-dir)));
         let u = keyed_uniform_of_ray(ray.key, set.first_receiver + c.receiver as u64, 2 * ray.segments);
         acc.deposit(buf, base, &deposit[..nb], u);
         deposits += 1;
