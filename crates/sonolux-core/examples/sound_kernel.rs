@@ -1,7 +1,7 @@
 //! The sound tracer's kernel on the paper's rooms without Python around it: for profiling
 //! (`perf record`) and for checking that a change keeps the bits of a bake.
 //!
-//!   cargo run --release -p sonolux-core --example sound_kernel -- [ROOM] [one|grid] [air|noair] [RAYS] [THREADS] [REPEATS] [BANDS]
+//!   cargo run --release -p sonolux-core --example sound_kernel -- [ROOM] [one|grid] [air|noair] [RAYS] [THREADS] [REPEATS] [BANDS] [flat|rising]
 //!
 //! ROOM is paper-small, paper-medium or paper-large (default large), built as the scene files
 //! under python/sonolux/data/scenes build them: walls and ceiling absorb 5 %, the floor 30 %,
@@ -55,6 +55,9 @@ fn main() {
     // BANDS other than 7 (the kernel is compiled for 6, 7 and 18, any other count at run time):
     // the octaves' air repeated, the same materials in every band.
     let nb: usize = arg(6, "7").parse().expect("BANDS");
+    // `rising`: the scattering rises from 0.05 to 0.8 across the bands (the bands scatter
+    // unlike: hero-band sampling, sound/bounce.rs), instead of 0.1 in every band.
+    let rising = arg(7, "flat") == "rising";
     let r = room(&name);
     let [l, w, h] = r.size;
     // Materials: 0 the floor, 1 walls and ceiling (tests/common's order: floor, ceiling, 4 walls).
@@ -63,7 +66,7 @@ fn main() {
     let acoustics = Acoustics {
         n_bands: nb,
         absorption: [vec![0.3; nb], vec![0.05; nb]].concat(),
-        scattering: vec![0.1; 2 * nb],
+        scattering: if rising { (0..2 * nb).map(|i| 0.05 + 0.75 * (i % nb) as f64 / (nb - 1).max(1) as f64).collect() } else { vec![0.1; 2 * nb] },
     };
     let sources = [SoundSource { position: DVec3::new(l / 2.0, w / 2.0, 1.5), power_w: 1.0, directivity: Directivity::Omni }];
     let centres = if grid {

@@ -94,7 +94,8 @@ OCTAVE_RATIO = 10.0 ** 0.3
 def by_octave(levels: list[Level], bands_hz: Sequence[float]) -> list[Level]:
     """Each level's bands cut into groups within one octave, each traced with its own rays.
 
-    Why: a ray carries its group's bands and chooses each bounce by their mean scattering s',
+    Why (measured before hero-band sampling, docs/early-sound.md "One bounce for all bands"):
+    a ray carried its group's bands and chose each bounce by their mean scattering s',
     re-weighting each band by s'_b / p or (1 − s'_b)/(1 − p). With level of detail s' differs
     most between bands (Rindel's K ∝ f, or f², below a panel's cut-offs: a small face scatters
     almost everything at 250 Hz and little at 4 kHz), so the weights' products over many

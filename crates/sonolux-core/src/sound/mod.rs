@@ -13,6 +13,7 @@
 //!   bounded number of receivers drawn by importance and weighted by 1/(M p) ([`nee`]).
 //!   All three estimate the same mean over each receiver's sphere.
 
+mod bounce;
 mod direct;
 pub mod field;
 pub mod nee;
@@ -347,9 +348,11 @@ pub(crate) struct Scene<'a> {
     pub surfaces: Surfaces<'a>,
     /// Whether the air absorbs at all (its exponentials are skipped when not).
     pub air: bool,
-    /// Probability of a diffuse bounce on each material: its scattering averaged over bands.
+    /// Probability of a diffuse bounce on each material whose bands scatter alike: its
+    /// scattering (as the mean over its bands, the expression the bits were made with).
     pub p_diffuse: Vec<f64>,
-    /// Whether every material scatters every band alike (then no re-weighting is needed).
+    /// Whether every material scatters every band alike (then no hero band, no re-weighting:
+    /// sound/bounce.rs).
     pub uniform_scattering: bool,
     /// Specular-only paths counted elsewhere (None: the tracer counts everything).
     pub covered: Option<SpecularCoverage>,

@@ -7,7 +7,7 @@ use glam::DVec3;
 use super::field::{Accumulator, Deposits};
 use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
-use super::{Directivity, Estimator, Scene, SoundSource};
+use super::{bounce, Directivity, Estimator, Scene, SoundSource};
 use super::leave::{leave, on_surface};
 use crate::geometry::{offset_origin, Ray};
 use crate::rng::{keyed_uniform, keyed_uniform_of_ray, ray_key, Stream};
@@ -92,6 +92,10 @@ struct RayState<B: Bands> {
     next: SurfaceHit,
     /// Per band: the energy relative to `share`; the ray stops when all are below the floor.
     energy: B,
+    /// When the bands scatter unlike ([`bounce::hero_sampled`]): the ray's hero band, and per
+    /// band its bounces' product of probabilities over their mean (sound/bounce.rs).
+    hero: usize,
+    products: B,
     /// Per kind of tally ([`stats::EMITTED`]…) and band: the ray's energy balance (in units
     /// of its share), summed here and added to the fixed-point statistics once at its end: per
     /// segment that conversion would cost more than the tracing.
@@ -106,6 +110,8 @@ impl<B: Bands> RayState<B> {
             free_n: 0, free_sum: 0.0, free_sq: 0.0,
             spheres: false, specular_only: true, connected_until_s: 0.0, next_known: false, next: None,
             energy: B::zeros(n_bands),
+            hero: 0,
+            products: B::zeros(n_bands),
             tally: std::array::from_fn(|_| B::zeros(n_bands)),
         }
     }
@@ -272,6 +278,10 @@ fn start_ray<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, s: u
     ray.source = s;
     ray.index = index;
     ray.key = ray_key(set.seed, s as u64, index);
+    if bounce::hero_sampled(scene) {
+        ray.hero = bounce::hero_band(ray.key, nb);
+        ray.products.as_mut()[..nb].fill(1.0);
+    }
     ray.dir = dir;
     ray.share = share;
     ray.pos = scene.sources[s].position;
@@ -366,7 +376,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
         // (scattering.rs); level of detail below then adds the panel's diffraction to it.
         if table.scattering(material, -ray.dir.dot(normal), &mut scratch.by_angle[..nb]) {
             scat = &scratch.by_angle[..nb];
-            p_diffuse = scat.iter().sum::<f64>() / nb as f64;
+            p_diffuse = scat[0]; // used only when the bands scatter alike (bounce::alike)
         }
     }
     if let Some(lod) = scene.lod.filter(|_| !PLAIN) {
@@ -380,7 +390,6 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
             scratch.scattering[b] = crate::early::lod::effective_scattering(scat[b], scratch.shares[b]);
         }
         scat = &scratch.scattering[..nb];
-        p_diffuse = scat.iter().sum::<f64>() / nb as f64;
         (ray.next_known, ray.next) = (true, next);
     }
 
@@ -404,8 +413,14 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
         super::nee::connect(scene, ec.connections, point, normal, ray.path, &ray.energy.as_ref()[..nb], scat, ray.share, acc, buf, st, key, scratch_pair, ec.until_s);
     }
 
-    // Choose the bounce by the mean scattering, re-weighting bands whose scattering differs.
-    let diffuse = choose_bounce::<PLAIN>(scene, &mut ray.rng, p_diffuse, scat, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::REWEIGHTED].as_mut()[..nb]);
+    // Choose the bounce: by the material's scattering when the bands scatter alike, else by
+    // the ray's hero band's, the bands re-weighted (sound/bounce.rs).
+    let diffuse = if !PLAIN && bounce::hero_sampled(scene) {
+        let (e, reweighted) = (&mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::REWEIGHTED].as_mut()[..nb]);
+        bounce::hero(&mut ray.rng, ray.hero, scat, &mut ray.products.as_mut()[..nb], e, reweighted)
+    } else {
+        bounce::alike(&mut ray.rng, p_diffuse)
+    };
     if diffuse {
         ray.dir = cosine_hemisphere(&Frame::from_normal(normal), ray.rng.uniform(), ray.rng.uniform());
         ray.wave_radius = 0.0;
@@ -539,24 +554,6 @@ fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut
         absorbed[b] += e[b] * alpha[b];
         e[b] *= kept[b];
     }
-}
-
-/// Whether the bounce is diffuse, drawn with probability `p_diffuse` (the mean scattering over
-/// the bands) from the ray's stream; bands whose scattering `scat` differs from the mean are
-/// re-weighted (s_b / p for a diffuse bounce, (1 − s_b) / (1 − p) for a specular one) so that
-/// each keeps its expectation, the change tallied into `reweighted`.
-#[inline(always)]
-fn choose_bounce<const PLAIN: bool>(scene: &Scene, rng: &mut Stream, p_diffuse: f64, scat: &[f64], e: &mut [f64], reweighted: &mut [f64]) -> bool {
-    let diffuse = p_diffuse >= 1.0 || (p_diffuse > 0.0 && rng.uniform() < p_diffuse);
-    if !PLAIN && (!scene.uniform_scattering || scene.lod.is_some()) {
-        for b in 0..e.len() {
-            let w = if diffuse { scat[b] / p_diffuse } else { (1.0 - scat[b]) / (1.0 - p_diffuse) };
-            let before = e[b];
-            e[b] *= w;
-            reweighted[b] += e[b] - before;
-        }
-    }
-    diffuse
 }
 
 /// The ray stops with energy left: tallied as remaining.
