@@ -48,6 +48,7 @@ use super::field::{Accumulator, Deposits};
 use super::receivers::ball_mean_inverse_square;
 use super::stats::SoundStats;
 use super::Scene;
+use crate::geometry::{offset_origin, Ray};
 use crate::rng::keyed_uniform;
 
 /// Most receivers one diffuse reflection may connect to (the draws live on the stack).
@@ -292,8 +293,64 @@ pub(crate) fn connect(scene: &Scene, m: u32, point: DVec3, normal: DVec3, path: 
     for &(r, weight) in &picks[..n_picks] {
         // A receiver of another tile: that tile's run deposits it (the same draws there).
         let Some(r) = (r as usize).checked_sub(offset).filter(|&r| r < own) else { continue };
-        super::trace::connect(scene, r, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain), until_s);
+        connect_one(scene, r, weight, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain), until_s);
     }
+}
+
+/// Next-event estimation at a reflection: the diffusely scattered part s·E leaves the point as
+/// a Lambert source, so a receiver at distance d and angle θ from the normal receives
+/// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
+/// [`ball_mean_inverse_square`], and attenuated by the air on the way.
+/// `scratch` is the worker's (deposit, receiver gain), one value a band each; `key` is
+/// (source, ray, event), the rounding's key with the receiver.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
+    let (deposit, gain) = scratch;
+    for r in 0..scene.receivers.centres.len() {
+        connect_one(scene, r, 1.0, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain), f64::INFINITY);
+    }
+}
+
+/// One next-event connection of the rain and nee estimators: the diffusely reflected energy at
+/// `point` sent to receiver `r` (Lambert's cosine, the sphere's mean 1/(4πd²), air, the
+/// receiver's pattern) with an extra `weight` (1 for rain; 1/(M p) for a sampled receiver),
+/// if the receiver is in front of the surface and sees the point, and it arrives before
+/// `until_s` (infinite for rain and nee; the window of [`super::nee::EarlyConnections`]).
+#[allow(clippy::too_many_arguments)]
+fn connect_one(scene: &Scene, r: usize, weight: f64, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64]), until_s: f64) {
+    let (deposit, gain) = scratch;
+    let set = scene.settings;
+    let lay = &scene.layout;
+    let nb = e.len();
+    let c = scene.receivers.centres[r];
+    let to = c - point;
+    let d = to.length();
+    let cos = normal.dot(to) / d;
+    if !(cos > 0.0) {
+        return;
+    }
+    let time_s = (path + d) / set.speed_of_sound_m_s;
+    if !(time_s < until_s) {
+        return;
+    }
+    let Some(tb) = lay.time_bin(time_s) else { return };
+    if !scene.convex {
+        let from = offset_origin(point, normal, point + normal);
+        let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
+        st.shadow_rays += 1;
+        if scene.bvh.occluded(&ray, 0.0, 1.0) {
+            return;
+        }
+    }
+    // weight × share: the same bits as share alone for rain's weight 1.
+    let g = weight * share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius_m);
+    for b in 0..nb {
+        deposit[b] = e[b] * scat[b] * g * (-set.air_attenuation_per_m[b] * d).exp();
+    }
+    scene.receivers.weigh(r, -to / d, &mut deposit[..nb], gain);
+    let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
+    acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
+    st.deposits += 1;
 }
 
 #[cfg(test)]

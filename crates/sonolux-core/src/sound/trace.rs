@@ -5,12 +5,10 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::field::{Accumulator, Deposits};
-use super::receivers::ball_mean_inverse_square;
 use super::stats::{self, Escape, SoundStats};
 use super::{bounce, Directivity, Estimator, Scene, SoundSource};
 use super::leave::{leave, on_surface};
-use crate::geometry::{offset_origin, Ray};
-use crate::rng::{keyed_uniform, keyed_uniform_of_ray, ray_key, Stream};
+use crate::rng::{keyed_uniform_of_ray, ray_key, Stream};
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
 /// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
@@ -399,7 +397,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
         let key = [s as u64, index, 2 * ray.reflections + 1];
         let scratch_pair = (&mut scratch.deposit[..nb], &mut scratch.gain[..nb]);
         match set.estimator {
-            Estimator::Rain => rain(scene, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair),
+            Estimator::Rain => super::nee::rain(scene, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair),
             Estimator::Nee { connections } => super::nee::connect(scene, connections, point, normal, ray.path, e, scat, ray.share, acc, buf, st, key, scratch_pair, f64::INFINITY),
             Estimator::Paper => {}
         }
@@ -582,60 +580,4 @@ fn finish_ray<const NB: usize, B: Bands>(ray: &RayState<B>, limits: &Limits<NB>,
             st.add_energy(kind, b, t[b] * ray.share);
         }
     }
-}
-
-/// Next-event estimation at a reflection: the diffusely scattered part s·E leaves the point as
-/// a Lambert source, so a receiver at distance d and angle θ from the normal receives
-/// s·E·cos θ / (π d²) per unit area, taken here as the mean over its sphere, 4 cos θ ×
-/// [`ball_mean_inverse_square`], and attenuated by the air on the way.
-#[allow(clippy::too_many_arguments)]
-/// `scratch` is the worker's (deposit, receiver gain), one value a band each; `key` is
-/// (source, ray, event), the rounding's key with the receiver.
-fn rain(scene: &Scene, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64])) {
-    let (deposit, gain) = scratch;
-    for r in 0..scene.receivers.centres.len() {
-        connect(scene, r, 1.0, point, normal, path, e, scat, share, acc, buf, st, key, (&mut *deposit, &mut *gain), f64::INFINITY);
-    }
-}
-
-/// One next-event connection of the rain and nee estimators: the diffusely reflected energy at
-/// `point` sent to receiver `r` (Lambert's cosine, the sphere's mean 1/(4πd²), air, the
-/// receiver's pattern) with an extra `weight` (1 for rain; 1/(M p) for a sampled receiver),
-/// if the receiver is in front of the surface and sees the point, and it arrives before
-/// `until_s` (infinite for rain and nee; the window of [`super::nee::EarlyConnections`]).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn connect(scene: &Scene, r: usize, weight: f64, point: DVec3, normal: DVec3, path: f64, e: &[f64], scat: &[f64], share: f64, acc: &Accumulator, buf: &mut Deposits, st: &mut SoundStats, key: [u64; 3], scratch: (&mut [f64], &mut [f64]), until_s: f64) {
-    let (deposit, gain) = scratch;
-    let set = scene.settings;
-    let lay = &scene.layout;
-    let nb = e.len();
-    let c = scene.receivers.centres[r];
-    let to = c - point;
-    let d = to.length();
-    let cos = normal.dot(to) / d;
-    if !(cos > 0.0) {
-        return;
-    }
-    let time_s = (path + d) / set.speed_of_sound_m_s;
-    if !(time_s < until_s) {
-        return;
-    }
-    let Some(tb) = lay.time_bin(time_s) else { return };
-    if !scene.convex {
-        let from = offset_origin(point, normal, point + normal);
-        let ray = Ray::new(from.as_vec3(), (c - from).as_vec3());
-        st.shadow_rays += 1;
-        if scene.bvh.occluded(&ray, 0.0, 1.0) {
-            return;
-        }
-    }
-    // weight × share: the same bits as share alone for rain's weight 1.
-    let g = weight * share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius_m);
-    for b in 0..nb {
-        deposit[b] = e[b] * scat[b] * g * (-set.air_attenuation_per_m[b] * d).exp();
-    }
-    scene.receivers.weigh(r, -to / d, &mut deposit[..nb], gain);
-    let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
-    acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
-    st.deposits += 1;
 }
