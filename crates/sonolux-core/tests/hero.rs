@@ -14,24 +14,12 @@ mod common;
 
 fn settings(rays: u64, estimator: Estimator, threads: usize, n_bands: usize, max_time_s: f64) -> SoundSettings {
     SoundSettings {
-        rays,
-        first_ray: 0,
-        end_ray: rays,
-        first_receiver: 0,
-        only_source: None,
-        seed: 11,
-        threads,
-        estimator,
-        speed_of_sound_m_s: 343.0,
         air_attenuation_per_m: vec![0.0; n_bands],
         energy_drop_db: 70.0,
         max_time_s,
-        sample_rate_hz: 48_000.0,
         early_s: 0.05,
         late_bin_s: 0.002,
-        n_azimuth: 4,
-        n_elevation: 1,
-        max_field_bytes: 1 << 32,
+        ..common::sound_settings(rays, estimator, threads)
     }
 }
 

@@ -13,29 +13,9 @@ use sonolux_core::{Bvh, Mesh};
 mod common;
 
 const C: f64 = 343.0;
-const FS: f64 = 48_000.0;
 
 fn settings(rays: u64, estimator: Estimator, threads: usize) -> SoundSettings {
-    SoundSettings {
-        rays,
-        first_ray: 0,
-        end_ray: rays,
-        first_receiver: 0,
-        only_source: None,
-        seed: 11,
-        threads,
-        estimator,
-        speed_of_sound_m_s: C,
-        air_attenuation_per_m: vec![0.0, 0.0],
-        energy_drop_db: 60.0,
-        max_time_s: 0.3,
-        sample_rate_hz: FS,
-        early_s: 0.3,
-        late_bin_s: 0.001,
-        n_azimuth: 4,
-        n_elevation: 1,
-        max_field_bytes: 1 << 32,
-    }
+    common::sound_settings(rays, estimator, threads)
 }
 
 fn omni(p: DVec3) -> SoundSource {

@@ -14,26 +14,7 @@ const C: f64 = 343.0;
 const N_COS: usize = 17;
 
 fn settings(rays: u64, estimator: Estimator, threads: usize) -> SoundSettings {
-    SoundSettings {
-        rays,
-        first_ray: 0,
-        end_ray: rays,
-        first_receiver: 0,
-        only_source: None,
-        seed: 5,
-        threads,
-        estimator,
-        speed_of_sound_m_s: C,
-        air_attenuation_per_m: vec![0.0, 0.0],
-        energy_drop_db: 60.0,
-        max_time_s: 0.3,
-        sample_rate_hz: 48_000.0,
-        early_s: 0.3,
-        late_bin_s: 0.001,
-        n_azimuth: 4,
-        n_elevation: 1,
-        max_field_bytes: 1 << 32,
-    }
+    SoundSettings { seed: 5, ..common::sound_settings(rays, estimator, threads) }
 }
 
 /// A shoebox of three materials, two bands.

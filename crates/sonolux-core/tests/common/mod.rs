@@ -1,4 +1,4 @@
-//! What the integration tests share: rooms, a spectrum.
+//! What the integration tests share: rooms, sound and wave settings, a spectrum.
 
 use glam::Vec3;
 use sonolux_core::Mesh;
@@ -79,4 +79,32 @@ pub fn spectrum(x: &[f64], len: usize) -> Vec<num_complex::Complex64> {
     let mut out = fft.make_output_vec();
     fft.process(&mut buf, &mut out).unwrap();
     out.iter().map(|c| num_complex::Complex64::new(c.re, c.im)).collect()
+}
+
+/// A sound bake's settings as the wall, surface and bounce tests start from them: rays
+/// 0..`rays`, seed 11, 343 m/s, two bands without air, stopped 60 dB down or at 0.3 s, all of
+/// it one-sample bins at 48 kHz (1 ms late bins), 4 × 1 directions. A test changes what it
+/// needs with `SoundSettings { field: …, ..sound_settings(…) }`.
+#[allow(dead_code)]
+pub fn sound_settings(rays: u64, estimator: sonolux_core::sound::Estimator, threads: usize) -> sonolux_core::sound::SoundSettings {
+    sonolux_core::sound::SoundSettings {
+        rays,
+        first_ray: 0,
+        end_ray: rays,
+        first_receiver: 0,
+        only_source: None,
+        seed: 11,
+        threads,
+        estimator,
+        speed_of_sound_m_s: 343.0,
+        air_attenuation_per_m: vec![0.0, 0.0],
+        energy_drop_db: 60.0,
+        max_time_s: 0.3,
+        sample_rate_hz: 48_000.0,
+        early_s: 0.3,
+        late_bin_s: 0.001,
+        n_azimuth: 4,
+        n_elevation: 1,
+        max_field_bytes: 1 << 32,
+    }
 }
