@@ -69,7 +69,7 @@ SCENES = {"l-room": EXAMPLES / "l-room" / "l-room.toml",
 SHARE_GROUPS = ((0.0, 0.2), (0.2, 0.5), (0.5, 1.01))
 
 
-def load(room: Path, early: bool, seed: int, connections: bool = True):
+def load(room: Path, early: bool, seed: int, connections: bool = False):
     data = tomllib.loads(room.read_text())
     for g in data["geometry"]:
         if "file" in g:
@@ -114,7 +114,7 @@ class Runs:
         self.edt, self.c80, self.seconds = [], [], []
 
     def bake(self, room: Path, early: bool, rays: int, seed: int, max_time_s: float,
-             connections: bool = True):
+             connections: bool = False):
         sc = load(room, early, seed, connections)
         started = time.perf_counter()
         field = bake(sc, rays=rays, max_time_s=max_time_s)
@@ -183,8 +183,9 @@ def main() -> None:
     # The hybrid and the particles at the hybrid's rays, seed by seed in turn (paired: same
     # seeds, so the same rays: the noise per ray, without the spread of two sets of seeds);
     # their median wall times give the particles' rays for equal time.
-    # The hybrid without its early diffuse connections too (same seeds): what they change.
-    hybrid, paired, unconnected = Runs(), Runs(), Runs()
+    # The hybrid as the scene bakes it (early diffuse connections off by default), and with
+    # them too (same seeds): what they change.
+    hybrid, paired, connected = Runs(), Runs(), Runs()
     for seed in range(1, args.seeds + 1):
         field, sc = hybrid.bake(room, True, args.rays, seed, args.max_time)
         if seed == 1:
@@ -192,11 +193,11 @@ def main() -> None:
             print("share of the first 80 ms held by the image sources [listener, band]:\n",
                   np.round(share, 3))
         paired.bake(room, False, args.rays, seed, args.max_time)
-        unconnected.bake(room, True, args.rays, seed, args.max_time, connections=False)
+        connected.bake(room, True, args.rays, seed, args.max_time, connections=True)
     hybrid_s, particles_s = np.median(hybrid.seconds), np.median(paired.seconds)
-    unconnected_s = float(np.median(unconnected.seconds))
-    print(f"median bake of {args.rays} rays: hybrid without early diffuse connections "
-          f"{unconnected_s:.2f} s")
+    connected_s = float(np.median(connected.seconds))
+    print(f"median bake of {args.rays} rays: hybrid with early diffuse connections "
+          f"{connected_s:.2f} s")
     rays_particles = int(round(args.rays * hybrid_s / particles_s))
     print(f"median bake of {args.rays} rays: hybrid {hybrid_s:.2f} s, particles "
           f"{particles_s:.2f} s; particles get {rays_particles} rays for equal time")
@@ -216,7 +217,7 @@ def main() -> None:
               "bands_hz": bands, "image_share_first_80ms": share.tolist(),
               "median_seconds_hybrid": float(hybrid_s),
               "median_seconds_particles_at_hybrid_rays": float(particles_s),
-              "median_seconds_hybrid_without_connections": unconnected_s,
+              "median_seconds_hybrid_with_connections": connected_s,
               "max_time_s": args.max_time}
     # A ratio of two standard deviations of n values each: sqrt(F(n-1, n-1)), 16th-84th %.
     dof = args.seeds - 1
@@ -228,12 +229,13 @@ def main() -> None:
     # An EDT undefined in every seed (NaN) is counted and printed below, not warned about.
     for text in ("All-NaN slice", "Mean of empty slice", "Degrees of freedom"):
         warnings.filterwarnings("ignore", message=text, category=RuntimeWarning)
-    for name, h, p, q, u in (("edt_s", h_edt, p_edt, q_edt, unconnected.edt),
-                             ("c80_db", h_c80, p_c80, q_c80, unconnected.c80)):
+    for name, h, p, q, u in (("edt_s", h_edt, p_edt, q_edt, connected.edt),
+                             ("c80_db", h_c80, p_c80, q_c80, connected.c80)):
         h, p, q, u = np.asarray(h), np.asarray(p), np.asarray(q), np.asarray(u)
         paired = np.nanstd(q, axis=0, ddof=1) / np.nanstd(h, axis=0, ddof=1)
-        # [seed, listener, band]; the connections' own effect per ray (same seeds).
-        connections = np.nanstd(u, axis=0, ddof=1) / np.nanstd(h, axis=0, ddof=1)
+        # [seed, listener, band]; the connections' own effect per ray (same seeds): the
+        # noise without them over the noise with them.
+        connections = np.nanstd(h, axis=0, ddof=1) / np.nanstd(u, axis=0, ddof=1)
         sh, sp = np.nanstd(h, axis=0, ddof=1), np.nanstd(p, axis=0, ddof=1)
         per_listener = sp / sh
         ratio = np.nanmedian(per_listener, axis=0)
@@ -245,7 +247,7 @@ def main() -> None:
                         "noise_ratio_particles_over_hybrid": per_listener.tolist(),
                         "noise_ratio_particles_over_hybrid_median": ratio.tolist(),
                         "equal_rays_paired_ratio": paired.tolist(),
-                        "mean_hybrid_without_connections": np.nanmean(u, axis=0).tolist(),
+                        "mean_hybrid_with_connections": np.nanmean(u, axis=0).tolist(),
                         "connections_paired_ratio": connections.tolist()}
         print(f"{name}: noise ratio particles / hybrid (median over listeners) per band "
               + ", ".join(f"{b:g} Hz {r:.2f}" for b, r in zip(bands, ratio)))

@@ -217,7 +217,8 @@ def windows(field, edges_s=(0.025, 0.06)):
 def test_early_diffuse_connections_keep_bits_on_threads_and_ranges():
     # The draws and the roundings are keyed by (seed, source, ray, event): 1 and 2 threads and
     # two ray ranges give the bits of one bake.
-    sc = scene(scattering=(0.3, 0.3), early={"max_order": 2, "transition_ms": 30},
+    sc = scene(scattering=(0.3, 0.3),
+               early={"max_order": 2, "transition_ms": 30, "diffuse_connections": True},
                receivers=GRID, radius=0.3)
     run = dict(rays=3000, air_absorption=False, max_time_s=0.2)
     one, two = (bake(replace(sc, settings=replace(sc.settings, threads=t)), **run)

@@ -18,10 +18,11 @@ s' = 1 − (1 − s)K, on panels with a diffracting edge; with ``max_order = 0``
 as one, in (0, 10] m), ``level_of_detail_rays`` (``"octave"``, the default: with level of
 detail each octave of bands traces its own rays; ``"level"``: the bands of one geometry share
 rays, faster, with noisier late decays where the panels' K differs between bands),
-``diffuse_connections`` (default true: with the sphere estimator the particles send the
+``diffuse_connections`` (default false; true: with the sphere estimator the particles send the
 diffusely reflected part of each reflection straight to the receivers that see it, for the
 arrivals before the transition, as ODEON's early scattering; false: the spheres collect it,
-as before; docs/early-sound.md "Early diffuse connections").
+which at equal wall time was the less noisy in both benchmark rooms; docs/early-sound.md
+"Early diffuse connections").
 
 With ``level_of_detail``, features small against a band's wavelength (ka < 1) are also left out
 of that band's geometry, replaced by the surface they sit on (:mod:`sonolux.scene.simplify`).
@@ -52,7 +53,7 @@ class EarlySpec:
     level_of_detail: bool = False
     diffraction_piece_m: float = 0.25
     level_of_detail_rays: str = "octave"
-    diffuse_connections: bool = True
+    diffuse_connections: bool = False
 
 
 def _boolean(t: Table, name: str, default: bool) -> bool:

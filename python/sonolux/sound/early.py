@@ -8,7 +8,7 @@ Berkley 1979; Borish 1984); the particle tracer, run with the same :class:`Early
 the deposits of exactly those paths (a ray that has only reflected specularly, at most
 ``max_order`` times, before the transition), and keeps everything with a diffuse bounce. The
 diffracted arrivals (Svensson, Fred and Vanderkooy 1999) are sound the particles never carry.
-With ``diffuse_connections`` (the default) the particles also send each reflection's diffuse
+With ``diffuse_connections`` (off by default) the particles also send each reflection's diffuse
 share straight to the receivers that see it for the arrivals before the transition (ODEON's early
 scattering: Naylor 1993; Rindel and Christensen 2003), and their spheres skip exactly those legs
 (``sonolux_core::sound::nee::EarlyConnections``).
