@@ -133,7 +133,8 @@ def test_a_hybrid_in_receiver_tiles_has_the_bits_of_the_untiled_bake(small):
     from dataclasses import replace
 
     from sonolux.scene.early import EarlySpec
-    hybrid = replace(small, early=EarlySpec(max_order=1, diffraction=False))
+    hybrid = replace(small, early=EarlySpec(max_order=1, diffraction=False,
+                                            diffuse_connections=True))
     whole = bake(hybrid, rays=1200, nee_receivers=3)
     tiled = bake(hybrid, rays=1200, nee_receivers=3, memory_bytes=TILE_BYTES)
     assert tiled.stats["tiles"] > 1 and whole.stats["draws"] > 0
