@@ -167,13 +167,7 @@ fn unlike_bands_give_the_same_bits_whatever_threads_and_ranges() {
     let src = [omni(DVec3::new(2.0, 2.0, 1.5))];
     let extras = Extras::default();
     for e in [Estimator::Paper, Estimator::Rain, Estimator::Nee { connections: 2 }] {
-        let one = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &settings(3000, e, 1, 4, 0.4), extras, |_| true).unwrap();
-        let mut parts = settings(3000, e, 2, 4, 0.4);
-        parts.end_ray = 1300;
-        let mut two = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &parts, extras, |_| true).unwrap();
-        parts.first_ray = 1300;
-        parts.end_ray = 3000;
-        two.merge(&trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &parts, extras, |_| true).unwrap()).unwrap();
+        let (one, two) = common::whole_and_merged(&mesh, &bvh, &ac, &src, &rc, &settings(3000, e, 1, 4, 0.4), 1300, extras);
         assert_eq!(one.counts(1), two.counts(2), "{e:?}");
         assert_eq!(one.stats.energy("reweighted"), two.stats.energy("reweighted"), "{e:?}");
     }

@@ -193,13 +193,7 @@ fn locally_reacting_bakes_have_the_same_bits_whatever_threads_and_ranges() {
     let bvh = Bvh::build(&mesh).unwrap();
     let extras = Extras { wall_model: WallModel::LocallyReacting, ..Extras::default() };
     for estimator in [Estimator::Paper, Estimator::Rain, Estimator::Nee { connections: 2 }] {
-        let one = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &settings(6000, estimator, 1), extras, |_| true).unwrap();
-        let mut parts = settings(6000, estimator, 2);
-        parts.end_ray = 2500;
-        let mut two = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &parts, extras, |_| true).unwrap();
-        parts.first_ray = 2500;
-        parts.end_ray = 6000;
-        two.merge(&trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &parts, extras, |_| true).unwrap()).unwrap();
+        let (one, two) = common::whole_and_merged(&mesh, &bvh, &ac, &src, &rc, &settings(6000, estimator, 1), 2500, extras);
         assert_eq!(one.counts(1), two.counts(2), "{estimator:?}");
         // And the model is in effect: the default gives other bits.
         let plain = trace_sound(&mesh, &bvh, &ac, &src, &rc, &settings(6000, estimator, 1), |_| true).unwrap();

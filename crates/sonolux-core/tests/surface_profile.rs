@@ -62,13 +62,7 @@ fn a_varying_table_has_the_same_bits_whatever_threads_and_ranges() {
     let table = ScatteringByAngle::new(2, N_COS, &[None, Some(floor), None]).unwrap();
     let extras = Extras { scattering_by_angle: Some(&table), ..Extras::default() };
     for estimator in [Estimator::Paper, Estimator::Rain, Estimator::Nee { connections: 2 }] {
-        let one = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &settings(5000, estimator, 1), extras, |_| true).unwrap();
-        let mut parts = settings(5000, estimator, 2);
-        parts.end_ray = 2000;
-        let mut two = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &parts, extras, |_| true).unwrap();
-        parts.first_ray = 2000;
-        parts.end_ray = 5000;
-        two.merge(&trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &parts, extras, |_| true).unwrap()).unwrap();
+        let (one, two) = common::whole_and_merged(&mesh, &bvh, &ac, &src, &rc, &settings(5000, estimator, 1), 2000, extras);
         assert_eq!(one.counts(1), two.counts(2), "{estimator:?}");
         // And the table is in effect.
         let plain = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &settings(5000, estimator, 1), Extras::default(), |_| true).unwrap();

@@ -108,3 +108,26 @@ pub fn sound_settings(rays: u64, estimator: sonolux_core::sound::Estimator, thre
         max_field_bytes: 1 << 32,
     }
 }
+
+/// The same rays traced two ways, for a test to assert they give the same bits: one bake of
+/// `settings` on one thread, and on two threads as the ranges `0..split_ray` and
+/// `split_ray..settings.rays` merged.
+#[allow(dead_code, clippy::too_many_arguments)]
+pub fn whole_and_merged(
+    mesh: &Mesh,
+    bvh: &sonolux_core::Bvh,
+    acoustics: &sonolux_core::sound::Acoustics,
+    sources: &[sonolux_core::sound::SoundSource],
+    receivers: &sonolux_core::sound::Receivers,
+    settings: &sonolux_core::sound::SoundSettings,
+    split_ray: u64,
+    extras: sonolux_core::sound::Extras,
+) -> (sonolux_core::sound::SoundResult, sonolux_core::sound::SoundResult) {
+    use sonolux_core::sound::{trace_sound_with, SoundSettings};
+    let trace = |s: &SoundSettings| trace_sound_with(mesh, bvh, acoustics, sources, receivers, s, extras, |_| true).unwrap();
+    let whole = trace(&SoundSettings { threads: 1, ..settings.clone() });
+    let first = SoundSettings { threads: 2, first_ray: 0, end_ray: split_ray, ..settings.clone() };
+    let mut merged = trace(&first);
+    merged.merge(&trace(&SoundSettings { first_ray: split_ray, end_ray: settings.rays, ..first })).unwrap();
+    (whole, merged)
+}
