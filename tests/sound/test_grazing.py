@@ -109,3 +109,25 @@ def test_grazing_modes_keep_the_bits_on_one_and_two_threads():
         fields.append(bake(scene, rays=3000, wall_model="locally-reacting-modes"))
     assert fields[0].settings["wall_model"] == "locally-reacting-modes"
     assert np.array_equal(np.asarray(fields[0].energy), np.asarray(fields[1].energy))
+
+
+def test_the_wall_model_is_validated_and_refused_with_level_of_detail_groups():
+    """The name is one of the scene's wall models (validated where the others are); the core
+    gets the locally reacting walls plus the table; level-of-detail band groups, which rebuild
+    the materials per group without the table, refuse it by name."""
+    from sonolux.errors import SettingError
+    from sonolux.scene.schema import WALL_MODELS
+    from sonolux.sound import walls
+    from sonolux.sound.options import SoundOptions
+
+    assert "locally-reacting-modes" in WALL_MODELS
+    SoundOptions(wall_model="locally-reacting-modes").validate()
+    assert walls.core_model("locally-reacting-modes") == "locally-reacting"
+    assert walls.core_model("random-incidence") == "random-incidence"
+    with pytest.raises(SettingError, match="locally-reacting-modes"):
+        walls.refuse_with_levels("locally-reacting-modes")
+    walls.refuse_with_levels("locally-reacting")
+    scene = _paper_small_flat(500)
+    assert walls.grazing_table(scene, "locally-reacting", np.zeros((2, 1))) is None
+    table = walls.grazing_table(scene, "locally-reacting-modes", np.array([[0.05], [0.3]]))
+    assert table is not None and table[0].shape == (3, 3) and table[2].shape == (3, 1)
