@@ -74,16 +74,20 @@ impl GrazingModes {
     /// loses what that mode loses over the distance, tallied into `absorbed` (it is the walls').
     #[inline]
     pub fn attenuate(&self, dir: DVec3, length_m: f64, e: &mut [f64], absorbed: &mut [f64]) {
-        let nb = e.len();
-        for (p, n) in self.normals.iter().enumerate() {
-            let u = dir.dot(*n).abs();
-            let row = p * self.n_bands;
-            for b in 0..nb {
-                if u < self.cos_limit[row + b] {
-                    let kept = e[b] * (-self.rate_per_m[row + b] * length_m).exp();
-                    absorbed[b] += e[b] - kept;
-                    e[b] = kept;
+        // One exponential a band: the rates of every pair the ray grazes add (a ray along the
+        // intersection of two pairs' planes, a room's edge, is the grazing mode of both).
+        for b in 0..e.len() {
+            let mut rate = 0.0;
+            for (p, n) in self.normals.iter().enumerate() {
+                let row = p * self.n_bands;
+                if dir.dot(*n).abs() < self.cos_limit[row + b] {
+                    rate += self.rate_per_m[row + b];
                 }
+            }
+            if rate > 0.0 {
+                let kept = e[b] * (-rate * length_m).exp();
+                absorbed[b] += e[b] - kept;
+                e[b] = kept;
             }
         }
     }
@@ -123,6 +127,14 @@ mod tests {
         assert_eq!(g.pair_limits(DVec3::new(1.0, 1.0, 2.0), DVec3::new(0.0, 0.0, -1.0)), Some(&[0.2, 0.1][..]));
         assert_eq!(g.pair_limits(DVec3::new(0.0, 1.0, 1.0), DVec3::new(1.0, 0.0, 0.0)), None);
         assert_eq!(g.pair_limits(DVec3::new(1.0, 1.0, 0.8), DVec3::new(0.0, 0.0, 1.0)), None);
+    }
+
+    #[test]
+    fn a_ray_along_a_rooms_edge_is_the_grazing_mode_of_both_pairs() {
+        let g = GrazingModes::new(1, &[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], &[[0.0, 2.0], [0.0, 6.0]], vec![0.2, 0.1], vec![0.03, 0.002]).unwrap();
+        let (mut e, mut absorbed) = ([1.0], [0.0]);
+        g.attenuate(DVec3::Y, 10.0, &mut e, &mut absorbed);
+        assert!((e[0] - (-0.32f64).exp()).abs() < 1e-15 && (e[0] + absorbed[0] - 1.0).abs() < 1e-15);
     }
 
     #[test]
