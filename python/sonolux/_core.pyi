@@ -82,6 +82,8 @@ class Acoustics:
         scattering: NDArray[np.float64],
         wall_model: str = "random-incidence",
         by_angle: Mapping[int, NDArray[np.float64]] | None = None,
+        grazing: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                       NDArray[np.float64]] | None = None,
     ) -> Acoustics: ...
     @property
     def n_bands(self) -> int: ...

@@ -270,7 +270,9 @@ def test_paper_room_decay_continuous_across_the_crossover():
                    "coefficient but a fitted one (test_the_rays_t30_in_this_room_is_their_"
                    "scattering; issue 18, docs/waves.md). A coefficient alone keeps the waves' "
                    "walls flat by decision (session 10: its angle dependence is not in the data); "
-                   "described surfaces on both sides did not close it either (docs/waves.md)")
+                   "described surfaces on both sides did not close it either (docs/waves.md); "
+                   "nor do the rays' grazing modes (wall_model 'locally-reacting-modes', session "
+                   "11: −32 % with the scene's scattering, −6.8 % with flat walls on both sides)")
 def test_paper_room_t30_step_across_the_crossover_is_the_rooms():
     """The hybrid's T30 step from 500 Hz (waves) to 1 kHz (rays) against the room's own step
     (its exact modes; at 1 kHz the room's decay bends, curvature 12 %, so its T30 is the fitted

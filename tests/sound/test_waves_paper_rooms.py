@@ -134,7 +134,9 @@ def test_paper_rooms_waves_follow_the_exact_modes(name):
                    "floor-grazing late decay that the waves' flat walls and the room's exact modes "
                    "keep; paper-medium steps −20 % against the room's, paper-large −12.5 % (3σ "
                    "9.4 % and 9.6 %; issue 18, docs/waves.md: a coefficient alone keeps the "
-                   "waves' walls flat by decision, session 10)")
+                   "waves' walls flat by decision, session 10). The rays' grazing modes "
+                   "(wall_model 'locally-reacting-modes', session 11) do not change that: "
+                   "−24 % / −17 % with them; with flat walls on both sides +2.1 % / +11.9 %")
 def test_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
     """The hybrid's T30 step from its last wave band to its first ray band against the room's
     (exact modes, fitted line), within three σ of both bands combined (ISO 3382-2 annex A, 4

@@ -27,23 +27,41 @@ fn per_material(a: &PyReadonlyArray2<'_, f64>) -> (usize, Vec<f64>) {
 /// `early_arrivals` both use it, so a hybrid of the two agrees. by_angle: None, or
 /// {material: float64[2, angle, band]}, the absorption then the scattering of materials whose
 /// surface is described, at angles evenly spaced in cos θ from grazing (0) to normal incidence
-/// (1), at least 2 (sonolux_core::sound::scattering); both calls use it too.
+/// (1), at least 2 (sonolux_core::sound::scattering); both calls use it too. grazing: None, or
+/// (normals float64[pair, 3], offsets float64[pair, 2], cos_limit float64[pair, band],
+/// rate_per_m float64[pair, band]): the grazing modes of parallel surface pairs
+/// (sonolux_core::sound::grazing; python/sonolux/sound/grazing.py); the tracer uses it.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Acoustics {
     inner: core::Acoustics,
     wall_model: core::WallModel,
     by_angle: Option<core::ScatteringByAngle>,
+    grazing: Option<core::GrazingModes>,
+}
+
+/// The grazing table's four arrays (see [`Acoustics`]).
+type GrazingArrays<'py> = (PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>);
+
+fn grazing_modes(n_bands: usize, (normals, offsets, cos_limit, rate): GrazingArrays<'_>) -> PyResult<core::GrazingModes> {
+    let (normals, offsets) = (normals.as_array(), offsets.as_array());
+    if normals.ncols() != 3 || offsets.ncols() != 2 || cos_limit.as_array().dim() != (normals.nrows(), n_bands) || rate.as_array().dim() != (normals.nrows(), n_bands) {
+        return Err(invalid(format!("grazing: shapes {:?}, {:?}, {:?}, {:?}; (pairs, 3), (pairs, 2), (pairs, {n_bands}) and (pairs, {n_bands}) expected", normals.dim(), offsets.dim(), cos_limit.as_array().dim(), rate.as_array().dim())));
+    }
+    let n: Vec<[f64; 3]> = normals.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let o: Vec<[f64; 2]> = offsets.rows().into_iter().map(|r| [r[0], r[1]]).collect();
+    core::GrazingModes::new(n_bands, &n, &o, cos_limit.as_array().iter().copied().collect(), rate.as_array().iter().copied().collect()).map_err(to_py)
 }
 
 #[pymethods]
 impl Acoustics {
     #[new]
-    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence", by_angle = None))]
+    #[pyo3(signature = (absorption, scattering, wall_model = "random-incidence", by_angle = None, grazing = None))]
     fn new(
         absorption: PyReadonlyArray2<'_, f64>,
         scattering: PyReadonlyArray2<'_, f64>,
         wall_model: &str,
         by_angle: Option<std::collections::BTreeMap<usize, PyReadonlyArray3<'_, f64>>>,
+        grazing: Option<GrazingArrays<'_>>,
     ) -> PyResult<Self> {
         let (a, s) = (absorption.as_array().dim(), scattering.as_array().dim());
         if a != s {
@@ -75,7 +93,8 @@ impl Acoustics {
                 }
             }
         };
-        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering }, wall_model: wall, by_angle })
+        let grazing = grazing.map(|g| grazing_modes(n_bands, g)).transpose()?;
+        Ok(Acoustics { inner: core::Acoustics { n_bands, absorption, scattering }, wall_model: wall, by_angle, grazing })
     }
 
     #[getter]
@@ -107,6 +126,10 @@ impl Acoustics {
 
     pub(crate) fn by_angle(&self) -> Option<&core::ScatteringByAngle> {
         self.by_angle.as_ref()
+    }
+
+    pub(crate) fn grazing(&self) -> Option<&core::GrazingModes> {
+        self.grazing.as_ref()
     }
 }
 
@@ -457,6 +480,7 @@ pub(crate) fn trace_sound<'py>(
             early_connections,
             quantum: settings.quantum,
             scattering_by_angle: acoustics.by_angle(),
+            grazing_modes: acoustics.grazing(),
         };
         let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)

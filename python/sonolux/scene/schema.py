@@ -101,7 +101,7 @@ class Material:
 
 
 #: The tracer's wall models (``[settings] wall_model``; sonolux_core::sound::reflectance).
-WALL_MODELS = ("random-incidence", "locally-reacting")
+WALL_MODELS = ("random-incidence", "locally-reacting", "locally-reacting-modes")
 
 
 @dataclass(frozen=True)

@@ -208,8 +208,11 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         keep_counts=options.ray_range is not None)
     settings = engine.SoundSettings(**base)
     wall_model, wall_why = sound_walls.resolve(scene, options)
-    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model=wall_model,
-                                 by_angle=sound_surfaces.tables_by_angle(scene))
+    acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"],
+                                 wall_model=sound_walls.core_model(wall_model),
+                                 by_angle=sound_surfaces.tables_by_angle(scene),
+                                 grazing=sound_walls.grazing_table(scene, wall_model,
+                                                                   arrays["absorption"]))
     wall_kept = [list(k) for k in acoustics.kept_constant()]
     if log:
         log(wall_why)
@@ -230,6 +233,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     levels = sound_levels.plan(scene, arrays, log)
     if levels is not None:
         sound_surfaces.refuse_with_levels(scene)
+        sound_walls.refuse_with_levels(wall_model)
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
         """A level's bands: its sources' directivities, early settings and air."""

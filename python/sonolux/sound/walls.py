@@ -8,6 +8,9 @@ the angle at which sound meets it, in the tracer and in the image sources alike
   α(θ) = 4g·cos θ/(cos θ + g)² of the sound arriving at θ from its normal (Kuttruff, *Room
   Acoustics*, §2.3 and §2.5; London, JASA 22, 1950). A bake with waves uses it unless told
   otherwise, so that the hybrid has one wall model on both sides of its crossover.
+- "locally-reacting-modes": the same walls, and rays nearly parallel to a pair of parallel
+  planes (a flat floor under a flat ceiling) stand for the pair's grazing mode and lose its
+  energy along their path (:mod:`sonolux.sound.grazing`; Morse and Ingard 1968, §9.4).
 
 What the options say wins, then the scene's ``[settings] wall_model``, then the automatic choice.
 """
@@ -18,6 +21,22 @@ from typing import Any
 
 RANDOM_INCIDENCE = "random-incidence"
 LOCALLY_REACTING = "locally-reacting"
+LOCALLY_REACTING_MODES = "locally-reacting-modes"
+
+
+def core_model(name: str) -> str:
+    """The core's wall model of ``name`` (the grazing modes are a table beside it)."""
+    return LOCALLY_REACTING if name == LOCALLY_REACTING_MODES else name
+
+
+def grazing_table(scene: Any, name: str, absorption: Any) -> Any:
+    """``Acoustics(grazing=...)`` of ``scene`` under wall model ``name``: the grazing modes'
+    table with "locally-reacting-modes", else None."""
+    if name != LOCALLY_REACTING_MODES:
+        return None
+    from sonolux.sound.grazing import modes_table
+    return modes_table(scene.vertices_m, scene.triangles, scene.material_index, absorption,
+                       scene.settings.band_set.exact_hz, scene.settings.speed_of_sound_m_s)
 
 
 def resolve(scene: Any, options: Any) -> tuple[str, str]:
@@ -34,6 +53,14 @@ def resolve(scene: Any, options: Any) -> tuple[str, str]:
     return RANDOM_INCIDENCE, f"walls {RANDOM_INCIDENCE} (each band's coefficient at every angle)"
 
 
+def refuse_with_levels(name: str) -> None:
+    """Level-of-detail band groups rebuild the materials per group without the grazing table."""
+    if name == LOCALLY_REACTING_MODES:
+        from sonolux.errors import SettingError
+        raise SettingError(f"wall_model: '{name}' cannot be baked with level-of-detail band "
+                           "groups yet; use 'locally-reacting' or leave level of detail off")
+
+
 def describe_kept(kept: list[tuple[int, int]], material_names: list[str],
                   bands_hz: Any) -> str | None:
     """A note naming the bands that keep their coefficient at every angle under the locally
@@ -46,4 +73,5 @@ def describe_kept(kept: list[tuple[int, int]], material_names: list[str],
             + ", ".join(parts))
 
 
-__all__ = ["LOCALLY_REACTING", "RANDOM_INCIDENCE", "describe_kept", "resolve"]
+__all__ = ["LOCALLY_REACTING", "LOCALLY_REACTING_MODES", "RANDOM_INCIDENCE", "core_model",
+           "describe_kept", "grazing_table", "refuse_with_levels", "resolve"]

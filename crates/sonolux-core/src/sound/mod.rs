@@ -16,6 +16,7 @@
 mod bounce;
 mod direct;
 pub mod field;
+pub mod grazing;
 pub mod nee;
 pub mod pattern;
 pub mod receiver_pattern;
@@ -37,6 +38,7 @@ use crate::error::CoreError;
 use crate::mesh::Mesh;
 use crate::parallel::{fill_blocks, run_chunks, Progress};
 pub use field::{Accumulator, Deposits, Layout};
+pub use grazing::GrazingModes;
 pub use pattern::Pattern;
 pub use receivers::{ReceiverPattern, Receivers};
 pub use reflectance::{WallModel, Walls};
@@ -371,6 +373,8 @@ pub(crate) struct Scene<'a> {
     /// The absorption α(θ) and scattering s(θ) of materials with a surface profile
     /// ([`scattering`]); None: every material keeps its coefficients.
     pub by_angle: Option<&'a ScatteringByAngle>,
+    /// The grazing modes of parallel surface pairs ([`grazing`]); None: rays only.
+    pub grazing: Option<&'a GrazingModes>,
 }
 
 /// Rays traced per work item; small for the rain estimator, whose rays cost more.
@@ -426,6 +430,10 @@ pub struct Extras<'a> {
     /// ([`scattering`]): at each bounce on them the rays take both at the angle of incidence
     /// instead of the coefficients (and the wall model).
     pub scattering_by_angle: Option<&'a ScatteringByAngle>,
+    /// The grazing modes of parallel surface pairs ([`grazing`]): a ray nearly parallel to
+    /// both planes of a pair loses that pair's grazing mode's energy along its path instead of
+    /// its own absorption at their hits. None: off.
+    pub grazing_modes: Option<&'a GrazingModes>,
 }
 
 /// The fixed-point quantum (J/m² a count) of a bake of these sources into these receivers: set
@@ -474,6 +482,11 @@ pub fn trace_sound_with(
     if let Some(t) = extras.scattering_by_angle {
         if t.n_bands() != nb || t.n_materials() < n_mat {
             return Err(CoreError::invalid("scattering_by_angle", format!("a table of {} materials × {} bands given; the bake needs {n_mat} × {nb}", t.n_materials(), t.n_bands())));
+        }
+    }
+    if let Some(g) = extras.grazing_modes {
+        if g.n_bands() != nb {
+            return Err(CoreError::invalid("grazing_modes", format!("a table of {} bands given; the bake has {nb}", g.n_bands())));
         }
     }
     if sources.is_empty() {
@@ -536,6 +549,7 @@ pub fn trace_sound_with(
         walls: Walls::new(extras.wall_model, acoustics),
         early_connections,
         by_angle: extras.scattering_by_angle,
+        grazing: extras.grazing_modes,
     };
     let own_quantum = sound_quantum(sources, receivers);
     let quantum = match extras.quantum {

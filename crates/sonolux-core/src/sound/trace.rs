@@ -242,7 +242,7 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
 /// scattering its bands alike (no re-weighting) and the random-incidence walls. A kernel
 /// compiled for it (`PLAIN`) skips those tests, and takes the same branches.
 fn plain(scene: &Scene) -> bool {
-    matches!(scene.settings.estimator, Estimator::Paper) && scene.lod.is_none() && scene.covered.is_none() && scene.uniform_scattering && scene.walls.random_incidence() && scene.by_angle.is_none() && scene.early_connections.is_none()
+    matches!(scene.settings.estimator, Estimator::Paper) && scene.lod.is_none() && scene.covered.is_none() && scene.uniform_scattering && scene.walls.random_incidence() && scene.by_angle.is_none() && scene.early_connections.is_none() && scene.grazing.is_none()
 }
 
 /// [`trace_rays`] for `NB` bands (0: any), the ray's band values held in `B` (`[f64; NB]`,
@@ -349,6 +349,9 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
     if scene.air {
         absorb_air(&set.air_attenuation_per_m[..nb], length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
     }
+    if let Some(g) = scene.grazing.filter(|_| !PLAIN) {
+        g.attenuate(ray.dir, length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb]);
+    }
     if ray.reflections > 0 {
         ray.free_n += 1;
         ray.free_sum += length;
@@ -366,7 +369,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = scene.mesh.material[tri] as usize;
     let m = material * nb;
-    absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], (&mut scratch.absorption[..nb], &mut scratch.kept[..nb]));
+    absorb_at_surface(scene, m, point, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], (&mut scratch.absorption[..nb], &mut scratch.kept[..nb]));
     let mut scat = &scene.acoustics.scattering[m..m + nb];
     let mut p_diffuse = scene.p_diffuse[material];
     if let Some(table) = scene.by_angle.filter(|_| !PLAIN) {
@@ -534,7 +537,8 @@ fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f
 /// (sound/reflectance.rs): on incidence, so it acts on the whole reflection, specular and
 /// scattered parts alike, what it takes tallied into `absorbed`; `scratch` two values a band.
 #[inline(always)]
-fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut [f64], absorbed: &mut [f64], scratch: (&mut [f64], &mut [f64])) {
+#[allow(clippy::too_many_arguments)]
+fn absorb_at_surface(scene: &Scene, m: usize, point: DVec3, dir: DVec3, normal: DVec3, e: &mut [f64], absorbed: &mut [f64], scratch: (&mut [f64], &mut [f64])) {
     let nb = e.len();
     let cos_incidence = -dir.dot(normal);
     let (alpha, kept) = match scene.by_angle {
@@ -548,7 +552,9 @@ fn absorb_at_surface(scene: &Scene, m: usize, dir: DVec3, normal: DVec3, e: &mut
         _ => scene.walls.absorption_and_kept(&scene.acoustics.absorption, m, cos_incidence, scratch.0, scratch.1),
     };
     let (alpha, kept) = (&alpha[..nb], &kept[..nb]);
-    for b in 0..nb {
+    // A grazing mode's loss is taken along its path (grazing.rs), not at its pair's planes.
+    let grazing = scene.grazing.and_then(|g| g.pair_limits(point, normal));
+    for b in (0..nb).filter(|&b| grazing.is_none_or(|lim| cos_incidence >= lim[b])) {
         absorbed[b] += e[b] * alpha[b];
         e[b] *= kept[b];
     }

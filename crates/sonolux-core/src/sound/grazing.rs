@@ -1,0 +1,148 @@
+//! Sound travelling nearly parallel to two parallel surfaces (a flat floor under a flat ceiling):
+//! the tracer's stand-in for the pair's grazing mode (docs/waves.md, "Continuity").
+//!
+//! Why. Between two parallel locally reacting planes a distance D apart, of normalised
+//! admittances β_a and β_b, the field's dependence across the gap is one of the 1D modes
+//! cos(κz) + (jkβ_a/κ) sin(κz), whose κ solves the boundary conditions at both planes
+//! (Morse and Ingard, *Theoretical Acoustics*, 1968, §9.4). For small admittance
+//! κ_n² ≈ (nπ/D)² + jk ε_n (β_a + β_b)/D, ε₀ = 1 and ε_n = 2 otherwise: the grazing mode
+//! (n = 0) loses energy at half the rate of the others, not at none (Kuttruff, *Room Acoustics*,
+//! 6th ed., §3.5, the damping constants of axial, tangential and oblique modes). A ray has no
+//! such floor: one launched at cos θ → 0 to the pair's normal meets it ever more rarely and, by
+//! the plane-wave α(θ) = 4g cos θ/(cos θ + g)², ever more weakly, so a specular tracer keeps it
+//! for ever. Counted in the direction cosine u = |cos θ|, the modes of the pair sit at
+//! u_n = nπ/(kD); the rays that stand for mode n are those with u in [u_n, u_{n+1}): each mode
+//! the same share π/(kD) of the diffuse field's uniform u, as the lattice count of the modes
+//! (its boundary plane n = 0 included, Weyl's surface term) gives each. The rays below
+//! u₁ = π/(kD) therefore stand for the grazing mode: they lose energy along their path at the
+//! mode's rate, Im κ₀²/k per metre (the energy of exp(−j√(k² − κ₀²) x)), and not at their hits on
+//! the pair's planes (their absorption is the mode's). Every other ray is untouched.
+//!
+//! Python finds the pairs (python/sonolux/sound/grazing.py: parallel planes that both cover the
+//! room's plan) and solves κ₀ per pair and band at the band's centre; this table carries the
+//! result into the segment and the bounce. Measured: docs/waves.md.
+
+use glam::DVec3;
+
+use crate::CoreError;
+
+/// Per pair of parallel planes and band: the cosine below which a ray is the pair's grazing
+/// mode, and that mode's energy loss per metre.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GrazingModes {
+    n_bands: usize,
+    /// The pairs' unit normals.
+    normals: Vec<DVec3>,
+    /// The pairs' planes, n·x = offset, one [a, b] a pair.
+    offsets: Vec<[f64; 2]>,
+    /// `[pair][band]`: u₁ = π/(kD), the first non-grazing mode's cosine.
+    cos_limit: Vec<f64>,
+    /// `[pair][band]`: the grazing mode's energy attenuation, 1/m (Im κ₀²/k).
+    rate_per_m: Vec<f64>,
+    /// How far from a pair's plane a hit may lie and still be on it, m.
+    tolerance_m: f64,
+}
+
+impl GrazingModes {
+    /// From each pair's normal, its planes' offsets along it, and `[pair][band]` flattened
+    /// `cos_limit` (in [0, 1]) and `rate_per_m` (≥ 0, finite).
+    pub fn new(n_bands: usize, normals: &[[f64; 3]], offsets: &[[f64; 2]], cos_limit: Vec<f64>, rate_per_m: Vec<f64>) -> Result<Self, CoreError> {
+        let n = normals.len();
+        let bad = |what: String| Err(CoreError::invalid("grazing", what));
+        if n_bands == 0 || offsets.len() != n || cos_limit.len() != n * n_bands || rate_per_m.len() != n * n_bands {
+            return bad(format!("{n} normals, {} offset pairs, {} limits and {} rates for {n_bands} bands: one offset pair a normal and one limit and rate a pair and band expected", offsets.len(), cos_limit.len(), rate_per_m.len()));
+        }
+        let normals: Vec<DVec3> = normals.iter().map(|v| DVec3::from_array(*v)).collect();
+        if normals.iter().any(|v| !v.is_finite() || (v.length() - 1.0).abs() > 1e-9) {
+            return bad("every normal must be a finite unit vector".into());
+        }
+        if offsets.iter().any(|o| !(o[0].is_finite() && o[1].is_finite() && o[0] != o[1])) {
+            return bad("each pair's two planes must be finite and apart".into());
+        }
+        if cos_limit.iter().any(|c| !(0.0..=1.0).contains(c)) || rate_per_m.iter().any(|r| !(r.is_finite() && *r >= 0.0)) {
+            return bad("every limit must lie in [0, 1] and every rate be finite and ≥ 0".into());
+        }
+        let extent = offsets.iter().flatten().fold(1.0f64, |m, o| m.max(o.abs()));
+        Ok(GrazingModes { n_bands, normals, offsets: offsets.to_vec(), cos_limit, rate_per_m, tolerance_m: 1e-6 * extent })
+    }
+
+    pub fn n_bands(&self) -> usize {
+        self.n_bands
+    }
+
+    /// Over a segment of `length_m` along `dir`: each band whose ray is some pair's grazing mode
+    /// loses what that mode loses over the distance, tallied into `absorbed` (it is the walls').
+    #[inline]
+    pub fn attenuate(&self, dir: DVec3, length_m: f64, e: &mut [f64], absorbed: &mut [f64]) {
+        // One exponential a band: the rates of every pair the ray grazes add (a ray along the
+        // intersection of two pairs' planes, a room's edge, is the grazing mode of both).
+        for b in 0..e.len() {
+            let mut rate = 0.0;
+            for (p, n) in self.normals.iter().enumerate() {
+                let row = p * self.n_bands;
+                if dir.dot(*n).abs() < self.cos_limit[row + b] {
+                    rate += self.rate_per_m[row + b];
+                }
+            }
+            if rate > 0.0 {
+                let kept = e[b] * (-rate * length_m).exp();
+                absorbed[b] += e[b] - kept;
+                e[b] = kept;
+            }
+        }
+    }
+
+    /// At a reflection at `point` on a surface of normal `normal`: the cosine limits per band
+    /// of the pair whose plane it lies on (a ray meeting it below the limit is that pair's
+    /// grazing mode, whose loss is taken along the path, not here), or None.
+    #[inline]
+    pub fn pair_limits(&self, point: DVec3, normal: DVec3) -> Option<&[f64]> {
+        self.normals.iter().enumerate().find_map(|(p, n)| {
+            let o = point.dot(*n);
+            let on_plane = (o - self.offsets[p][0]).abs() <= self.tolerance_m || (o - self.offsets[p][1]).abs() <= self.tolerance_m;
+            (normal.dot(*n).abs() >= 1.0 - 1e-9 && on_plane).then(|| &self.cos_limit[p * self.n_bands..(p + 1) * self.n_bands])
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn floor_and_ceiling() -> GrazingModes {
+        GrazingModes::new(2, &[[0.0, 0.0, 1.0]], &[[0.0, 2.0]], vec![0.2, 0.1], vec![0.03, 0.05]).unwrap()
+    }
+
+    #[test]
+    fn a_grazing_ray_loses_the_modes_rate_along_its_path_and_nothing_at_the_pairs_planes() {
+        let g = floor_and_ceiling();
+        // cos 0.15 to the floor: grazing in band 0 (limit 0.2), not in band 1 (0.1).
+        let dir = DVec3::new((1.0f64 - 0.15 * 0.15).sqrt(), 0.0, 0.15);
+        let (mut e, mut absorbed) = ([1.0, 1.0], [0.0, 0.0]);
+        g.attenuate(dir, 10.0, &mut e, &mut absorbed);
+        assert!((e[0] - (-0.3f64).exp()).abs() < 1e-15 && e[1] == 1.0);
+        assert!((e[0] + absorbed[0] - 1.0).abs() < 1e-15 && absorbed[1] == 0.0);
+        // On the ceiling: the pair's limits; on a wall or a plane between the two (a table
+        // top): none.
+        assert_eq!(g.pair_limits(DVec3::new(1.0, 1.0, 2.0), DVec3::new(0.0, 0.0, -1.0)), Some(&[0.2, 0.1][..]));
+        assert_eq!(g.pair_limits(DVec3::new(0.0, 1.0, 1.0), DVec3::new(1.0, 0.0, 0.0)), None);
+        assert_eq!(g.pair_limits(DVec3::new(1.0, 1.0, 0.8), DVec3::new(0.0, 0.0, 1.0)), None);
+    }
+
+    #[test]
+    fn a_ray_along_a_rooms_edge_is_the_grazing_mode_of_both_pairs() {
+        let g = GrazingModes::new(1, &[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], &[[0.0, 2.0], [0.0, 6.0]], vec![0.2, 0.1], vec![0.03, 0.002]).unwrap();
+        let (mut e, mut absorbed) = ([1.0], [0.0]);
+        g.attenuate(DVec3::Y, 10.0, &mut e, &mut absorbed);
+        assert!((e[0] - (-0.32f64).exp()).abs() < 1e-15 && (e[0] + absorbed[0] - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bad_tables_are_refused() {
+        assert!(GrazingModes::new(2, &[[0.0, 0.0, 2.0]], &[[0.0, 2.0]], vec![0.2, 0.1], vec![0.0, 0.0]).is_err());
+        assert!(GrazingModes::new(2, &[[0.0, 0.0, 1.0]], &[[1.0, 1.0]], vec![0.2, 0.1], vec![0.0, 0.0]).is_err());
+        assert!(GrazingModes::new(2, &[[0.0, 0.0, 1.0]], &[[0.0, 2.0]], vec![1.2, 0.1], vec![0.0, 0.0]).is_err());
+        assert!(GrazingModes::new(2, &[[0.0, 0.0, 1.0]], &[[0.0, 2.0]], vec![0.2, 0.1], vec![-1.0, 0.0]).is_err());
+        assert!(GrazingModes::new(2, &[[0.0, 0.0, 1.0]], &[[0.0, 2.0]], vec![0.2], vec![0.0]).is_err());
+    }
+}

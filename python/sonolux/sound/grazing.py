@@ -1,0 +1,150 @@
+"""The grazing modes of parallel surface pairs, for the rays (wall model
+"locally-reacting-modes"; sonolux_core::sound::grazing, docs/waves.md "Continuity").
+
+Between two parallel locally reacting planes a distance D apart, the field across the gap is one
+of the gap's 1D modes, κ solving the boundary conditions at both planes (Morse and Ingard,
+*Theoretical Acoustics*, 1968, §9.4). The grazing one (n = 0) is damped, at about half the rate
+of the others (Kuttruff, *Room Acoustics*, §3.5: ε₀ = 1), where a specular ray parallel to the
+planes is not damped at all. The rays with |cos θ| < π/(kD) to the pair's normal stand for that
+mode (each mode of the gap holds the share π/(kD) of the diffuse field's cosines): they lose
+its energy along their path, Im κ₀²/k per metre, and nothing at the pair's planes.
+
+Pairs are found from the mesh: along a direction, the two extreme planes form a pair when each
+alone is the whole room seen along that direction (its area is half the room's projected
+surface, Σ|n·nₜ|Aₜ/2): a flat floor under a flat ceiling, or a shoebox's three pairs. A plane's
+admittance is the area-weighted mean of its triangles' (first order in β, the n = 0 mode's
+damping is the plane's integral of β, its |ψ|² being uniform there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sonolux.acoustics.surface import PARIS_PEAK_G, conductance_from_random, paris_absorption
+
+#: Two planes are one when their offsets differ by less than this share of the room's size, and
+#: a plane covers the room's plan when its area is within this share of it.
+RELATIVE_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Two parallel planes n·x = offsets[0] and offsets[1] that each cover the room's plan;
+    ``triangles`` of each, in that order."""
+
+    normal: np.ndarray
+    offsets: tuple[float, float]
+    triangles: tuple[np.ndarray, np.ndarray]
+
+    @property
+    def spacing_m(self) -> float:
+        return abs(self.offsets[1] - self.offsets[0])
+
+
+def parallel_pairs(vertices_m: np.ndarray, triangles: np.ndarray) -> list[Pair]:
+    """The mesh's pairs of parallel planes that each cover the room along their normal."""
+    v = np.asarray(vertices_m, float)
+    p0, p1, p2 = (v[np.asarray(triangles)[:, i]] for i in range(3))
+    cross = np.cross(p1 - p0, p2 - p0)
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    ok = area > 0
+    normal = np.zeros_like(cross)
+    normal[ok] = cross[ok] / (2 * area[ok, None])
+    size = float(np.ptp(v, axis=0).max()) or 1.0
+    tol = RELATIVE_TOLERANCE * size
+    pairs: list[Pair] = []
+    seen: list[np.ndarray] = []
+    for t in np.flatnonzero(ok):
+        n = normal[t] if _first_nonzero(normal[t]) > 0 else -normal[t]
+        if any(abs(float(n @ s)) > 1 - 1e-9 for s in seen):
+            continue
+        seen.append(n)
+        along = v @ n
+        lo, hi = float(along.min()), float(along.max())
+        parallel = ok & (np.abs(np.abs(normal @ n) - 1) < 1e-9)
+        offset = np.einsum("ij,j->i", p0, n)
+        bottom = np.flatnonzero(parallel & (np.abs(offset - lo) < tol))
+        top = np.flatnonzero(parallel & (np.abs(offset - hi) < tol))
+        projected = 0.5 * float(np.sum(area * np.abs(normal @ n)))
+        covers = [abs(float(area[s].sum()) - projected) <= RELATIVE_TOLERANCE * projected
+                  for s in (bottom, top)]
+        if hi - lo > tol and all(covers):
+            pairs.append(Pair(n, (lo, hi), (bottom, top)))
+    return pairs
+
+
+def _first_nonzero(n: np.ndarray) -> float:
+    nz = n[np.abs(n) > 1e-12]
+    return float(nz[0]) if nz.size else 1.0
+
+
+def grazing_wavenumber_squared(k: float, spacing_m: float, beta_a: float, beta_b: float) -> complex:
+    """κ₀² of the gap's grazing mode: the root near jk(β_a + β_b)/D of the 1D problem
+    p'(0) = jkβ_a p(0), p'(D) = −jkβ_b p(D) (e^{jωt}; Morse and Ingard 1968, §9.4), p = cos κz +
+    (jkβ_a/κ) sin κz, by Newton's method on κ from the small-admittance root."""
+    d = spacing_m
+    ja, jb = 1j * k * beta_a, 1j * k * beta_b
+
+    def f(q: complex) -> complex:
+        s, c = np.sin(q * d), np.cos(q * d)
+        return -q * q * s + ja * q * c + jb * (q * c + ja * s)
+
+    def df(q: complex) -> complex:
+        s, c = np.sin(q * d), np.cos(q * d)
+        return (-2 * q * s - q * q * d * c + ja * (c - q * d * s)
+                + jb * (c - q * d * s + ja * d * c))
+
+    q = complex(np.sqrt((ja + jb) / d))
+    if q == 0:
+        return 0j
+    for _ in range(100):
+        step = f(q) / df(q)
+        q -= step
+        if abs(step) <= 1e-14 * abs(q):
+            break
+    return complex(q * q)
+
+
+def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np.ndarray,
+                absorption: np.ndarray, centres_hz: np.ndarray, speed_of_sound_m_s: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """(normals float64[pair, 3], offsets float64[pair, 2], cos_limit float64[pair, band],
+    rate_per_m float64[pair, band]) for ``Acoustics(grazing=...)``, or None without pairs.
+    ``absorption`` float64[material, band]: random-incidence coefficients, each turned into
+    Paris' conductance as the locally reacting walls do; a band of a plane above the 0.951 a
+    locally reacting wall absorbs keeps its rays as they are (limit 0)."""
+    pairs = parallel_pairs(vertices_m, triangles)
+    if not pairs:
+        return None
+    absorption = np.asarray(absorption, float)
+    peak = float(paris_absorption(PARIS_PEAK_G))
+    g = conductance_from_random(np.minimum(absorption, peak))
+    too_high = absorption > peak
+    v, tri = np.asarray(vertices_m, float), np.asarray(triangles)
+    area = 0.5 * np.linalg.norm(np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]),
+                                axis=1)
+    k = 2 * np.pi * np.asarray(centres_hz, float) / speed_of_sound_m_s
+    nb = k.size
+    normals = np.array([p.normal for p in pairs])
+    offsets = np.array([p.offsets for p in pairs])
+    cos_limit = np.zeros((len(pairs), nb))
+    rate = np.zeros((len(pairs), nb))
+    for i, p in enumerate(pairs):
+        betas, high = [], np.zeros(nb, bool)
+        for side in p.triangles:
+            m = np.asarray(material_index)[side]
+            betas.append(np.sum(area[side, None] * g[m], axis=0) / area[side].sum())
+            high |= too_high[m].any(axis=0)
+        for b in range(nb):
+            if high[b]:
+                continue
+            kappa2 = grazing_wavenumber_squared(float(k[b]), p.spacing_m, float(betas[0][b]),
+                                                float(betas[1][b]))
+            cos_limit[i, b] = min(1.0, np.pi / (k[b] * p.spacing_m))
+            rate[i, b] = max(kappa2.imag, 0.0) / k[b]
+    return normals, offsets, cos_limit, rate
+
+
+__all__ = ["Pair", "grazing_wavenumber_squared", "modes_table", "parallel_pairs"]
