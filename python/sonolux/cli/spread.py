@@ -77,8 +77,7 @@ def add_progressive_flags(bake: argparse.ArgumentParser) -> None:
     g.add_argument("--accuracy", type=parse.number(0.0, 10.0, lo_open=True), default=None,
                    metavar="F", help="stop when the standard error of T30, EDT and C80 is below "
                    "F just-noticeable differences at every receiver and band (default 0.25)")
-    # At least one round block: progressive.GROUPS × BLOCK_RAYS = 16 × 256 rays.
-    g.add_argument("--max-rays", type=parse.number(4096, MAX_RAYS, integer=True), default=None,
+    g.add_argument("--max-rays", type=parse.number(2048, MAX_RAYS, integer=True), default=None,
                    metavar="N", help="rays per source at most (default 5e7)")
     g.add_argument("--max-seconds", type=parse.number(0.0, 1e7, lo_open=True, unit="s"),
                    default=None, metavar="S", help="stop after the round that passes S seconds")

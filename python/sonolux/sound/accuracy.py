@@ -20,20 +20,17 @@ from sonolux.analysis.decay import CURVATURE_LIMIT_PERCENT, XI_LIMIT_PERMILLE, c
 from sonolux.analysis.params import onsets_s
 from sonolux.sound.reach import UNREACHED, Reach
 
-#: Independent ray groups of the delete-a-group jackknife (:mod:`sonolux.sound.rounds`). The
-#: stopping rule asks every counted entry's estimated SE to be below its target, so it stops on
-#: the largest of many noisy estimates: with G groups an estimate has G − 1 degrees of freedom
-#: and its square scatters as χ²(G − 1)/(G − 1) about the truth (relative SD √(2/(G − 1)): 53 %
-#: at 8 groups, 37 % at 16). With 8 groups the L-room (65 counted entries) ran on to 26 M rays
-#: where its bake at 8.6 M had already reported every SE below target, honestly (its intervals
-#: held the 30 M bake's values): at 16.8 M one of the 65 estimates stood at 1.19 × its target
-#: (docs/progressive.md, "Why 16 groups"). 16 groups cost twice the groups' memory (8 bytes ×
-#: receivers × bands × time bins a group) and jackknife time, and a round's minimum (the
-#: rain/nee pilots') of 4,096 rays; 32 would make it 8,192.
-GROUPS = 16
-#: Student's t, 97.5 % quantile, GROUPS − 1 = 15 degrees of freedom: the 95 % interval of the
-#: reported error (scipy.stats.t.ppf(0.975, 15) = 2.1314; tests/sound/test_progressive.py).
-T_95 = 2.131
+#: Independent ray groups of the delete-a-group jackknife (:mod:`sonolux.sound.rounds`): an SE
+#: estimate has GROUPS − 1 degrees of freedom. More groups estimate it better, but each is one
+#: more call of the tracer per round, one more [receiver, band, time] array of 8-byte counts and
+#: a larger minimum round (GROUPS × 256 rays, the rain and nee pilots' too). 16 groups were
+#: measured in session 11 (docs/progressive.md, "Why the L-room ran on to 26 M rays") and not
+#: kept: paper-medium's automatic bake took 65 % more CPU time (its 55-receiver grid: twice the
+#: tracer calls and pilots of twice the rays) and the L-room benchmark's bake 15 % more rays.
+GROUPS = 8
+#: Student's t, 97.5 % quantile, GROUPS − 1 = 7 degrees of freedom: the 95 % interval of the
+#: reported error (scipy.stats.t.ppf(0.975, 7) = 2.3646; tests/sound/test_progressive.py).
+T_95 = 2.365
 #: Just-noticeable differences (ISO 3382-1:2009 Table A.1; T30 as EDT, see the module's doc):
 #: (value, "relative" or "absolute").
 JND = {"t30": (0.05, "relative"), "edt": (0.05, "relative"), "c80": (1.0, "absolute")}

@@ -86,9 +86,8 @@ from sonolux.sound.waves import with_scene
 #: A round's rays are whole blocks of GROUPS × BLOCK_RAYS. Equal to the core's DIRECT_BLOCK_RAYS
 #: (sound/trace.rs): each group then holds whole blocks, and its exact share of the direct sound.
 BLOCK_RAYS = 256
-#: The first round: at least this many rays per group (GROUPS × FIRST_GROUP_RAYS = 16,384 rays,
-#: as with 8 groups of 2,048 before GROUPS became 16).
-FIRST_GROUP_RAYS = 1024
+#: The first round: at least this many rays per group.
+FIRST_GROUP_RAYS = 2048
 #: The cap when none is given: the largest automatic ray count before progressive bakes.
 DEFAULT_MAX_RAYS = 50_000_000
 @dataclass(frozen=True)
