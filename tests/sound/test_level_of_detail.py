@@ -271,8 +271,9 @@ def test_small_boxes_leave_the_low_bands_and_keep_their_absorption_area(tmp_path
 def test_what_is_traced_as_one_geometry(tmp_path):
     # Without level of detail, or with rays shared by a level and no small feature (the flat
     # wall's room is one piece, its shell), the bake is the plain one: the same bits as before.
-    # With the default rays per octave an octave bake traces each band alone; the box wall's
-    # two levels (63-125 Hz without the boxes) then share one simplified geometry.
+    # With rays per octave (box_room's; the scene default shares rays) an octave bake traces
+    # each band alone; the box wall's two levels (63-125 Hz without the boxes) then share one
+    # simplified geometry.
     from sonolux.sound import levels
     from sonolux.sound.bake import band_arrays
     for scene in (box_room(tmp_path, True, level_of_detail=False),

@@ -280,3 +280,10 @@ def test_an_entry_at_a_limit_counts_by_its_fitted_values_error():
     s = e.summary()["t30"]
     assert s["at_limit"] == {"double slope": [[0, 0]]} and s["undefined"] == 0
     assert "T30 at an ISO 3382-2 limit at 1 (double slope)" in progressive._describe(e, 0.25)
+    # Its SE is projected like any other: the round's outlook is no lower bound ("at least")
+    # for it (it said so before session 11 while any entry was at a limit).
+    text = progressive.outlook(e, progressive.Accuracy(0.25), 16_384, 1_000_000, 1000.0)
+    assert "rays to converge (" in text and "at least" not in text
+    e.at_limit_error = None  # the same entry without a fitted SE: undefined by noise
+    assert "rays to converge at least" in progressive.outlook(e, progressive.Accuracy(0.25),
+                                                              16_384, 1_000_000, 1000.0)

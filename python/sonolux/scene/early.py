@@ -15,9 +15,9 @@ finite-panel specular share K on every reflection of the image sources and the p
 s' = 1 − (1 − s)K, on panels with a diffracting edge; with ``max_order = 0`` and
 ``diffraction = false`` it is a particles-only bake with level of detail),
 ``diffraction_piece_m`` (default 0.25: the longest piece of an edge whose visibility is tested
-as one, in (0, 10] m), ``level_of_detail_rays`` (``"octave"``, the default: with level of
-detail each octave of bands traces its own rays; ``"level"``: the bands of one geometry share
-rays, faster, with noisier late decays where the panels' K differs between bands),
+as one, in (0, 10] m), ``level_of_detail_rays`` (``"level"``, the default since session 11:
+the bands of one geometry share rays, hero-band sampled; ``"octave"``: with level of detail each
+octave of bands traces its own rays, about 2.3–3.2× the time; measured in docs/early-sound.md),
 ``diffuse_connections`` (default false; true: with the sphere estimator the particles send the
 diffusely reflected part of each reflection straight to the receivers that see it, for the
 arrivals before the transition, as ODEON's early scattering; false: the spheres collect it,
@@ -52,7 +52,7 @@ class EarlySpec:
     diffraction: bool = True
     level_of_detail: bool = False
     diffraction_piece_m: float = 0.25
-    level_of_detail_rays: str = "octave"
+    level_of_detail_rays: str = "level"
     diffuse_connections: bool = False
 
 

@@ -20,8 +20,16 @@ from sonolux.analysis.decay import CURVATURE_LIMIT_PERCENT, XI_LIMIT_PERMILLE, c
 from sonolux.analysis.params import onsets_s
 from sonolux.sound.reach import UNREACHED, Reach
 
-#: Student's t, 97.5 % quantile, 7 degrees of freedom (8 groups): the 95 % interval of the
-#: reported error.
+#: Independent ray groups of the delete-a-group jackknife (:mod:`sonolux.sound.rounds`): an SE
+#: estimate has GROUPS − 1 degrees of freedom. More groups estimate it better, but each is one
+#: more call of the tracer per round, one more [receiver, band, time] array of 8-byte counts and
+#: a larger minimum round (GROUPS × 256 rays, the rain and nee pilots' too). 16 groups were
+#: measured in session 11 (docs/progressive.md, "Why the L-room ran on to 26 M rays") and not
+#: kept: paper-medium's automatic bake took 65 % more CPU time (its 55-receiver grid: twice the
+#: tracer calls and pilots of twice the rays) and the L-room benchmark's bake 15 % more rays.
+GROUPS = 8
+#: Student's t, 97.5 % quantile, GROUPS − 1 = 7 degrees of freedom: the 95 % interval of the
+#: reported error (scipy.stats.t.ppf(0.975, 7) = 2.3646; tests/sound/test_progressive.py).
 T_95 = 2.365
 #: Just-noticeable differences (ISO 3382-1:2009 Table A.1; T30 as EDT, see the module's doc):
 #: (value, "relative" or "absolute").

@@ -8,8 +8,9 @@ choose their bounces by their own bands' scattering and stop when their own band
 so a group of low bands keeps its rays alive as long as those bands need (no re-weighting across
 bands with very different scattering). Light keeps the full mesh.
 
-With ``[early] level_of_detail_rays = "octave"`` (the default) each level's bands are further
-cut into groups within one octave (:func:`by_octave`), each with its own rays.
+With ``[early] level_of_detail_rays = "octave"`` (the default is ``"level"`` since session 11)
+each level's bands are further cut into groups within one octave (:func:`by_octave`), each with
+its own rays.
 
 A scene without level of detail is traced exactly as before (one call, the same bits).
 """

@@ -65,6 +65,7 @@ from sonolux.ranges import Checkpointing
 from sonolux.scene.schema import Scene
 from sonolux.sound.accuracy import (  # noqa: F401  (the error estimate, used through here too)
     DECAY_TIMES,
+    GROUPS,
     JND,
     PARAMETERS,
     T_95,
@@ -82,10 +83,6 @@ from sonolux.sound.reach import SEALED_OR_COUPLED, reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
 from sonolux.sound.waves import with_scene
 
-#: Independent ray groups of the jackknife. More groups estimate the error better (the interval
-#: uses Student's t with GROUPS − 1 degrees of freedom) but each is one more call of the tracer
-#: per round and one more [receiver, band, time] array.
-GROUPS = 8
 #: A round's rays are whole blocks of GROUPS × BLOCK_RAYS. Equal to the core's DIRECT_BLOCK_RAYS
 #: (sound/trace.rs): each group then holds whole blocks, and its exact share of the direct sound.
 BLOCK_RAYS = 256
@@ -360,7 +357,9 @@ def outlook(errors: Errors, accuracy: Accuracy, done: int, ceiling: int, rate: f
     worst = max((float(np.nanmax(r)) for r in (
         errors.counted(p, waiting=np.nan) / (fraction * JND[p][0]) for p in PARAMETERS)
         if np.isfinite(r).any()), default=math.nan)
-    waiting = sum(int(errors.waiting(p).sum()) for p in PARAMETERS)
+    # Entries at a limit count their fitted value's SE (projected above); only those undefined
+    # by noise make the projection a lower bound.
+    waiting = sum(int((errors.waiting(p) & ~errors.at_limit(p)).sum()) for p in PARAMETERS)
     if not math.isfinite(worst):
         return "nothing defined yet to project from"
     needed = done * max(worst, 1.0) ** 2
