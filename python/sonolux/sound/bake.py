@@ -228,8 +228,6 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
     levels = sound_levels.plan(scene, arrays, log)
-    if levels is not None:
-        sound_surfaces.refuse_with_levels(scene)
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
         """A level's bands: its sources' directivities, early settings and air."""
