@@ -202,7 +202,9 @@ class WaveSettings:
     @property
     def memory_limit_bytes(self) -> int: ...
     def memory_estimate(
-        self, geometry: Geometry, n_receivers: int, band_centres_hz: Sequence[float]
+        self, geometry: Geometry, n_receivers: int, band_centres_hz: Sequence[float],
+        absorption: NDArray[np.float64] | None = None,
+        wells: Mapping[int, tuple[Sequence[float], float]] | None = None,
     ) -> dict[str, int]: ...
     def max_frequency_within(
         self, geometry: Geometry, n_receivers: int, band_centres_hz: Sequence[float],

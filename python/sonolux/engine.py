@@ -26,7 +26,7 @@ first use, so that the pure-Python parts (schema, theory, analysis) work without
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -317,10 +317,19 @@ def simulate_waves(geometry: Geometry, absorption: np.ndarray, band_centres_hz: 
 
 
 def wave_memory_estimate(settings: WaveSettings, geometry: Geometry, n_receivers: int,
-                         band_centres_hz: Sequence[float]) -> dict[str, int]:
-    """What a wave run would take, before anything is allocated (cells, steps, bytes)."""
+                         band_centres_hz: Sequence[float], absorption: Any = None,
+                         wells: Mapping[int, tuple[Sequence[float], float]] | None = None,
+                         ) -> dict[str, int]:
+    """What a wave run would take, before anything is allocated (cells, steps, bytes). With
+    ``absorption`` float64[material, band] the walls are fitted as the run will fit them and
+    their branches counted; ``wells`` as for :func:`simulate_waves` (their branches too)."""
+    extra: dict[str, Any] = {}
+    if absorption is not None:
+        extra["absorption"] = np.ascontiguousarray(absorption, dtype=np.float64)
+    if wells:
+        extra["wells"] = {int(m): ([float(d) for d in w[0]], float(w[1])) for m, w in wells.items()}
     return dict(settings.memory_estimate(geometry._native, int(n_receivers),
-                                         [float(f) for f in band_centres_hz]))
+                                         [float(f) for f in band_centres_hz], **extra))
 
 
 def wave_max_frequency(settings: WaveSettings, geometry: Geometry, n_receivers: int,

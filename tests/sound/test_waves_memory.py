@@ -90,3 +90,56 @@ def test_paper_large_default_waves_fit_with_a_wide_margin():
     memory = bake_module.check_waves(scene, SoundOptions(waves=True), from_ray_zero=False)
     assert memory.wave_bands < memory.bands
     assert memory.total_bytes < 4e9, memory.describe()
+
+
+def described_room(surface: bool):
+    """The 5 × 4 × 3 m box with a quadratic-residue floor (N = 7, 500 Hz: Cox and D'Antonio,
+    "Acoustic Absorbers and Diffusers", §9.2) as a described surface, or the same floor flat."""
+    floor = {"absorption": 0.15}
+    if surface:
+        floor["surface"] = {"depths_m": [0.0, 0.049, 0.196, 0.098, 0.098, 0.196, 0.049],
+                            "patch_m": 0.5}
+    else:
+        floor["scattering"] = 0.1
+    return sonolux.load_scene({
+        "name": "qrd-box", "settings": {"bands_hz": [125, 250, 500, 1000], "seed": 3},
+        "materials": {"m": {"absorption": 0.15, "scattering": 0.7}, "floor": floor},
+        "geometry": [{"type": "shoebox", "size_m": [5.0, 4.0, 3.0],
+                      "materials": {"default": "m", "floor": "floor"}}],
+        "sources": [{"position_m": [1.3, 1.1, 1.4]}],
+        "receivers": {"type": "points", "positions_m": PTS, "radius_m": 0.3},
+    })
+
+
+def test_the_estimate_counts_a_described_surfaces_wells_and_bounds_what_the_run_holds():
+    """The estimate the edge makes (fitted walls, wells) is not below the bytes the solver holds
+    once built (``stats["allocated_bytes"]``, its vectors' capacities) and not far above (the
+    per-face bound: every face a node of its own, < 1.3×, tests/wave_memory.rs); the wells add
+    their branches' state, which an estimate blind to them misses."""
+    from sonolux.sound.surfaces import wells_of
+    settings = engine.WaveSettings(max_frequency_hz=300.0, duration_s=0.02)
+    for surface in (False, True):
+        scene = described_room(surface)
+        bands = scene.settings.bands_hz
+        absorption = np.stack([m.absorption_in(scene.settings.band_set)
+                               for m in scene.materials])
+        wells = wells_of(scene)
+        est = engine.wave_memory_estimate(settings, scene.geometry, 1, bands,
+                                          absorption=absorption, wells=wells)
+        run = engine.simulate_waves(scene.geometry, absorption, bands, [[1.3, 1.1, 1.4]],
+                                    [PTS[0]], settings, wells=wells)
+        held = run["stats"]["allocated_bytes"]
+        bound = est["grid_bytes"] + est["boundary_bytes"]
+        assert held <= bound < 1.3 * held, (surface, bound, held)
+        if surface:
+            blind = engine.wave_memory_estimate(settings, scene.geometry, 1, bands,
+                                                absorption=absorption)
+            assert blind["boundary_bytes"] < est["boundary_bytes"]
+            # The edge's estimate (bake.check_waves) counts them too.
+            with_wells = bake_module.check_waves(scene, SoundOptions(waves=True),
+                                                 from_ray_zero=False)
+            flat = bake_module.check_waves(described_room(False), SoundOptions(waves=True),
+                                           from_ray_zero=False)
+            assert with_wells.grid_bytes > flat.grid_bytes
+    with pytest.raises(InvalidInputError, match="wells"):
+        engine.wave_memory_estimate(settings, scene.geometry, 1, bands, wells={7: ([0.1], 0.5)})

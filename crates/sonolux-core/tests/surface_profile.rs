@@ -114,3 +114,79 @@ fn an_image_source_keeps_what_the_table_gives_at_its_angle() {
         assert!((profiled[b] / flat[b] - kept).abs() < 1e-12, "band {b}: {} vs {kept}", profiled[b] / flat[b]);
     }
 }
+
+#[test]
+fn a_diffracted_legs_reflection_keeps_what_the_table_gives_at_its_angle() {
+    // A screen 2 m high (y = 0, material 1, rigid) standing on a floor (z = 0, material 0), the
+    // source in front of it and the receiver in the shadow behind it, where neither the direct
+    // nor the floor's reflection arrives (no geometric wave to cross the diffracted ones). The
+    // wave of the source's image in the floor diffracts at the screen's top edge after
+    // reflecting on the floor: with a table its energy against the rigid, specular floor's is
+    // (1 − α(cos θ))(1 − s(cos θ)), read at that leg's own angle, from the image to the apex
+    // (linear between nodes: 1e-12, rounding); the source's own diffracted waves do not reflect
+    // and keep their energy exactly.
+    let (w, top) = (30.0f32, 2.0f32);
+    let v = vec![
+        Vec3::new(-w, -w, 0.0), Vec3::new(w, -w, 0.0), Vec3::new(w, w, 0.0), Vec3::new(-w, w, 0.0),
+        Vec3::new(-w, 0.0, 0.0), Vec3::new(w, 0.0, 0.0), Vec3::new(w, 0.0, top), Vec3::new(-w, 0.0, top),
+    ];
+    let mesh = Mesh::new(v, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]], vec![0, 0, 1, 1]).unwrap();
+    let bvh = Bvh::build(&mesh).unwrap();
+    let rigid = Acoustics { n_bands: 2, absorption: vec![0.0; 4], scattering: vec![0.0; 4] };
+    let source = DVec3::new(0.0, -2.0, 1.0);
+    let src = [SoundSource { position: source, power_w: 1.0, directivity: Directivity::Omni }];
+    let receiver = DVec3::new(0.0, 3.0, 1.0);
+    let image = DVec3::new(source.x, source.y, -source.z);
+    let alpha = |c: f64, b: usize| 0.2 + 0.3 * c * c + 0.1 * b as f64;
+    let scat = |c: f64, b: usize| 0.4 * (1.0 - c) + 0.05 * b as f64;
+    let mut set = EarlySettings::octaves(2);
+    set.max_order = 1;
+    set.max_time_s = 0.2;
+    set.speed_of_sound_m_s = C;
+    set.diffraction = true;
+    // Each diffracted arrival: (image, apex on the screen's plane, band energies), in a fixed order.
+    let diffracted = |settings: &EarlySettings| {
+        let r = early_arrivals(&mesh, &bvh, &rigid, &src, &[receiver], settings, None).unwrap();
+        let mut out: Vec<(u32, DVec3, [f64; 2])> = r
+            .arrivals
+            .iter()
+            .enumerate()
+            .filter(|(_, a)| matches!(a.kind, ArrivalKind::Diffracted { .. }))
+            .map(|(k, a)| {
+                let d = a.from_direction;
+                (a.image, receiver + d * (-receiver.y / d.y), [r.energy[2 * k], r.energy[2 * k + 1]])
+            })
+            .collect();
+        out.sort_by(|x, y| (x.0, x.1.x, x.1.z).partial_cmp(&(y.0, y.1.x, y.1.z)).unwrap());
+        out
+    };
+    let flat = diffracted(&set);
+    set.by_angle = Some(ScatteringByAngle::new(2, N_COS, &[Some(rows(alpha, scat)), None]).unwrap());
+    let profiled = diffracted(&set);
+    assert_eq!(flat.len(), profiled.len());
+    let mut reflected = 0;
+    for (f, p) in flat.iter().zip(&profiled) {
+        assert_eq!((f.0, f.1), (p.0, p.1));
+        if f.0 == 0 {
+            assert_eq!(f.2, p.2, "the source's own diffracted wave at {:?}", f.1);
+            continue;
+        }
+        if (f.1.z - top as f64).abs() > 1e-6 {
+            continue; // a side edge's, 30 m away
+        }
+        reflected += 1;
+        let cos = (f.1 - image).normalize().z.abs();
+        let x = cos * (N_COS - 1) as f64;
+        let (i, t) = (x.floor(), x - x.floor());
+        let lerp = |g: &dyn Fn(f64, usize) -> f64, b: usize| {
+            let (c0, c1) = (i / (N_COS - 1) as f64, (i + 1.0) / (N_COS - 1) as f64);
+            g(c0, b) + (g(c1, b) - g(c0, b)) * t
+        };
+        for b in 0..2 {
+            let kept = (1.0 - lerp(&alpha, b)) * (1.0 - lerp(&scat, b));
+            let ratio = p.2[b] / f.2[b];
+            assert!((ratio - kept).abs() < 1e-12, "band {b}, cos θ {cos}: {ratio} vs {kept}");
+        }
+    }
+    assert_eq!(reflected, 1, "the image's wave over the top edge: {flat:?}");
+}

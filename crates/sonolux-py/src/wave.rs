@@ -88,8 +88,21 @@ impl WaveSettings {
 
     /// What a run on `geometry` with `n_receivers` would take, before anything is allocated:
     /// a dict of cells, steps, boundary_faces, grid/boundary/receiver/setup/total bytes.
-    fn memory_estimate<'py>(&self, py: Python<'py>, geometry: &Geometry, n_receivers: usize, band_centres_hz: Vec<f64>) -> PyResult<Bound<'py, PyDict>> {
-        let scene = core::SceneSize::of(&geometry.mesh);
+    /// `absorption` float64[material, band]: the walls are fitted as the run will fit them and
+    /// their branches counted (else one per fitted band is assumed); `wells`: {material: (depths
+    /// m, patch m)} as for simulate_waves (their branches' state).
+    #[pyo3(signature = (geometry, n_receivers, band_centres_hz, absorption = None, wells = None))]
+    fn memory_estimate<'py>(&self, py: Python<'py>, geometry: &Geometry, n_receivers: usize, band_centres_hz: Vec<f64>, absorption: Option<PyReadonlyArray2<'py, f64>>, wells: Option<std::collections::BTreeMap<usize, (Vec<f64>, f64)>>) -> PyResult<Bound<'py, PyDict>> {
+        let n_mat = geometry.mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+        let mut scene = core::SceneSize::of(&geometry.mesh).with_wells(&wells_per_material(wells, n_mat, "the geometry")?);
+        if let Some(a) = absorption {
+            let a = a.as_array();
+            let materials = core::WaveMaterials { band_centres_hz: band_centres_hz.clone(), absorption: a.iter().copied().collect(), wells: Vec::new() };
+            if a.ncols() != band_centres_hz.len() || a.nrows() < n_mat {
+                return Err(invalid(format!("absorption: shape {:?}, expected (at least {n_mat} materials, {} bands)", a.shape(), band_centres_hz.len())));
+            }
+            scene = scene.with_fitted_branches(py.detach(|| core::wall_branches(&materials, &self.inner)).map_err(to_py)?);
+        }
         let fitted = core::settings::bands_fitted(&band_centres_hz, self.inner.max_frequency_hz);
         let e = self.inner.memory_estimate(&scene, n_receivers, fitted);
         let d = PyDict::new(py);
@@ -110,6 +123,21 @@ impl WaveSettings {
         let scene = core::SceneSize::of(&geometry.mesh);
         self.inner.max_frequency_within(&scene, n_receivers, &band_centres_hz, budget_bytes)
     }
+}
+
+/// {material: (depths m, patch m)} as one entry per material (None: a flat wall).
+fn wells_per_material(given: Option<std::collections::BTreeMap<usize, (Vec<f64>, f64)>>, n_materials: usize, what: &str) -> PyResult<Vec<Option<core::Wells>>> {
+    let Some(given) = given else { return Ok(Vec::new()) };
+    let mut per_material = vec![None; n_materials];
+    for (m, (depths_m, patch_m)) in given {
+        if m >= n_materials {
+            return Err(invalid(format!("wells: material {m} given; {what} names {n_materials} materials")));
+        }
+        let w = core::Wells { depths_m, patch_m };
+        w.validate(m).map_err(|e| invalid(e.to_string()))?;
+        per_material[m] = Some(w);
+    }
+    Ok(per_material)
 }
 
 fn dvec3s(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
@@ -191,19 +219,7 @@ pub(crate) fn simulate_waves<'py>(
     if a.ncols() != band_centres_hz.len() {
         return Err(invalid(format!("absorption: {} bands per material but {} band centres", a.ncols(), band_centres_hz.len())));
     }
-    let wells = match wells {
-        None => Vec::new(),
-        Some(given) => {
-            let mut per_material = vec![None; a.nrows()];
-            for (m, (depths_m, patch_m)) in given {
-                if m >= a.nrows() {
-                    return Err(invalid(format!("wells: material {m} given; the absorption names {} materials", a.nrows())));
-                }
-                per_material[m] = Some(core::Wells { depths_m, patch_m });
-            }
-            per_material
-        }
-    };
+    let wells = wells_per_material(wells, a.nrows(), "the absorption")?;
     let materials = core::WaveMaterials { band_centres_hz: band_centres_hz.clone(), absorption: a.iter().copied().collect(), wells };
     let sources = dvec3s("sources_m", &sources_m)?;
     let receivers = dvec3s("receivers_m", &receivers_m)?;
@@ -291,6 +307,7 @@ pub(crate) fn simulate_waves<'py>(
     s.set_item("run_s", st.run_s)?;
     s.set_item("air_updates_per_s", st.air_updates_per_s)?;
     s.set_item("total_bytes", st.estimate.total_bytes)?;
+    s.set_item("allocated_bytes", st.allocated_bytes)?;
     s.set_item("fit_error_db", st.fits.iter().map(|f| f.error_db.clone()).collect::<Vec<_>>())?;
     s.set_item("fit_branches", st.fits.iter().map(|f| f.admittance.branches.len()).collect::<Vec<_>>())?;
     s.set_item("fit_clamped", st.fits.iter().map(|f| f.clamped).collect::<Vec<_>>())?;

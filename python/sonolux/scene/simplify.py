@@ -78,6 +78,10 @@ class Level:
     volume_added_m3: float = 0.0
     #: Absorption area per band that a capped α' could not hold (m²).
     area_lost_m2: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: Per appended material, in order: (the scene material it was made from, ΔA/S added to its
+    #: α per band, s_add per band): what a described surface's α(θ)/s(θ) table of that
+    #: material becomes on it (:mod:`sonolux.sound.levels`).
+    seats: tuple[tuple[int, np.ndarray, np.ndarray], ...] = ()
 
 
 def features(vertices_m: np.ndarray, triangles: np.ndarray) -> tuple[list[Feature], int]:
@@ -175,11 +179,12 @@ def simplified(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np
                absorption: np.ndarray, scattering: np.ndarray, removed: Sequence[int],
                feats: list[Feature], bands_hz: np.ndarray,
                speed_of_sound_m_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                   np.ndarray, float, np.ndarray]:
+                                                   np.ndarray, float, np.ndarray, tuple]:
     """The mesh without the ``removed`` features, their absorption area and scattering given to
     the surfaces they sit on: (triangle ids kept, material per kept triangle, absorption,
     scattering [material, band] with the new materials appended, volume given back (m³),
-    absorption area lost to capping per band (m²))."""
+    absorption area lost to capping per band (m²), per new material (its origin, ΔA/S,
+    s_add))."""
     gone = np.zeros(triangles.shape[0], bool)
     for i in removed:
         gone[feats[i].triangles] = True
@@ -204,6 +209,7 @@ def simplified(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np
     lost = np.zeros_like(k)
     position = {t: j for j, t in enumerate(kept.tolist())}
     n_mat = absorption.shape[0]
+    seats = []
     for seat, (area_alpha, sigma) in added.items():
         ids = np.array(seat, dtype=np.int64)
         s_area = float(areas[ids].sum())
@@ -213,9 +219,10 @@ def simplified(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np
         s_add = np.minimum(4.0 * sigma / s_area, 1.0)
         alpha.append(np.minimum(a_new, 1.0)[None])
         scat.append((1.0 - (1.0 - scattering[m]) * (1.0 - s_add))[None])
+        seats.append((m, area_alpha / s_area, s_add))
         mats[[position[t] for t in seat]] = n_mat
         n_mat += 1
-    return (kept, mats, np.concatenate(alpha), np.concatenate(scat), volume, lost)
+    return (kept, mats, np.concatenate(alpha), np.concatenate(scat), volume, lost, tuple(seats))
 
 
 def band_levels(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np.ndarray,
@@ -233,11 +240,11 @@ def band_levels(vertices_m: np.ndarray, triangles: np.ndarray, material_index: n
             continue
         removed = sets[lo]
         if removed:
-            kept, mats, alpha, scat, volume, lost = simplified(
+            kept, mats, alpha, scat, volume, lost, seats = simplified(
                 vertices_m, triangles, material_index, absorption, scattering, removed, feats,
                 bands, speed_of_sound_m_s)
             levels.append(Level(slice(lo, hi), np.ascontiguousarray(triangles[kept]), mats,
-                                alpha, scat, len(removed), volume, lost))
+                                alpha, scat, len(removed), volume, lost, seats))
         else:
             levels.append(Level(slice(lo, hi), triangles, material_index, absorption, scattering))
         lo = hi

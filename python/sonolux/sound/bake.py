@@ -232,7 +232,6 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
     levels = sound_levels.plan(scene, arrays, log)
     if levels is not None:
-        sound_surfaces.refuse_with_levels(scene)
         sound_walls.refuse_with_levels(wall_model)
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
@@ -356,7 +355,8 @@ def check_waves(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarra
             _directivity(s, scene.settings.band_set.edges_hz) for s in scene.sources])
     memory = wave_memory.estimate(scene, cross, duration_s=end_s, time_bins=time_bins,
                                   directions=options.azimuth_bands * options.elevation_bands,
-                                  max_field_bytes=options.max_field_bytes)
+                                  max_field_bytes=options.max_field_bytes,
+                                  absorption=arrays["absorption"])
     if from_ray_zero:
         if log:
             log(f"waves: about {wave_memory.gb(memory.total_bytes)} at most ({memory.describe()})")

@@ -28,14 +28,18 @@ from sonolux.errors import SonoluxError
 from sonolux.scene.schema import Scene
 from sonolux.scene.simplify import Level, band_levels
 from sonolux.sound.receiver_patterns import banded_patterns
+from sonolux.sound.surfaces import level_tables, tables_by_angle
 
 
 @dataclass
 class LevelGeometry:
-    """A level and the core's handle of its mesh (its BVH built once)."""
+    """A level and the core's handle of its mesh (its BVH built once), with the α(θ)/s(θ)
+    tables of its described surfaces cut to its bands (:func:`sonolux.sound.surfaces.level_tables`;
+    None without)."""
 
     level: Level
     geometry: Any
+    by_angle: dict[int, np.ndarray] | None = None
 
 
 def plan(scene: Scene, arrays: dict[str, np.ndarray],
@@ -53,6 +57,7 @@ def plan(scene: Scene, arrays: dict[str, np.ndarray],
         return None
     out: list[LevelGeometry] = []
     labels = scene.settings.band_set.labels()
+    tables = tables_by_angle(scene)
     for lv in levels:
         if not lv.removed:
             geometry = scene.geometry
@@ -60,7 +65,7 @@ def plan(scene: Scene, arrays: dict[str, np.ndarray],
             geometry = out[-1].geometry
         else:
             geometry = engine.Geometry(scene.vertices_m, lv.triangles, lv.material_index)
-        out.append(LevelGeometry(lv, geometry))
+        out.append(LevelGeometry(lv, geometry, level_tables(tables, lv)))
         if log:
             b = lv.bands
             span = f"{labels[b.start]}–{labels[b.stop - 1]} Hz"
@@ -162,7 +167,7 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
         src, early_b, air = parts(b)
         acoustics_b = engine.Acoustics(np.ascontiguousarray(lg.level.absorption[:, b]),
                                        np.ascontiguousarray(lg.level.scattering[:, b]),
-                                       wall_model=acoustics.wall_model)
+                                       wall_model=acoustics.wall_model, by_angle=lg.by_angle)
         step = None if progress is None else _level_progress(progress, j, len(levels))
         rec, extra = (receivers, whole) if receivers_of is None else receivers_of(b)
         part = engine.trace_sound(lg.geometry, acoustics_b, src, rec,
@@ -224,7 +229,7 @@ def early_arrivals(levels: list[LevelGeometry], scene: Scene, receivers: Any, se
         src, early_b, _ = parts(b)
         acoustics_b = engine.Acoustics(np.ascontiguousarray(lg.level.absorption[:, b]),
                                        np.ascontiguousarray(lg.level.scattering[:, b]),
-                                       wall_model=wall_model)
+                                       wall_model=wall_model, by_angle=lg.by_angle)
         rec = receivers if receivers_of is None else receivers_of(b)
         found = engine.early_arrivals(lg.geometry, acoustics_b, src, rec, early_b, settings)
         for k, v in found["stats"].items():

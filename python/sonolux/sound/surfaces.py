@@ -10,6 +10,7 @@ import numpy as np
 from sonolux.acoustics.surface import rays_table
 from sonolux.errors import SettingError
 from sonolux.scene.schema import Scene
+from sonolux.scene.simplify import Level
 
 
 def tables_by_angle(scene: Scene) -> dict[int, np.ndarray] | None:
@@ -27,13 +28,24 @@ def tables_by_angle(scene: Scene) -> dict[int, np.ndarray] | None:
     return tables or None
 
 
-def refuse_with_levels(scene: Scene) -> None:
-    """Level-of-detail band groups rebuild the materials per group and do not carry s(θ) yet."""
-    named = [m.name for m in scene.materials if m.surface is not None]
-    if named:
-        raise SettingError(f"materials {', '.join(named)}: a surface profile (surface = {{...}}) "
-                         "cannot be baked with level-of-detail band groups yet; give those "
-                         "materials a scattering coefficient instead, or leave level of detail off")
+def level_tables(tables: dict[int, np.ndarray] | None, level: Level,
+                 ) -> dict[int, np.ndarray] | None:
+    """The tables of a level-of-detail band group (:mod:`sonolux.scene.simplify`): each
+    profiled material's own, cut to the group's bands; and for a material the level appended (a
+    profiled surface that took in the small features sitting on it), the same surface with what
+    they added, as the level adds it to the coefficients: α'(θ) = min(α(θ) + ΔA/S, 1) and
+    s'(θ) = 1 − (1 − s(θ))(1 − s_add) at every angle. None when no material has a profile."""
+    if tables is None:
+        return None
+    b = level.bands
+    out = {m: np.ascontiguousarray(t[:, :, b]) for m, t in tables.items()}
+    first_added = level.absorption.shape[0] - len(level.seats)
+    for j, (m, extra_alpha, s_add) in enumerate(level.seats):
+        if m in tables:
+            alpha = np.minimum(tables[m][0] + np.asarray(extra_alpha)[None, :], 1.0)
+            scattering = 1.0 - (1.0 - tables[m][1]) * (1.0 - np.asarray(s_add)[None, :])
+            out[first_added + j] = np.ascontiguousarray(np.stack([alpha, scattering])[:, :, b])
+    return out
 
 
 def wells_of(scene: Scene) -> dict[int, tuple[tuple[float, ...], float]] | None:

@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sonolux.sound.wave_stencils import RESOLVED_AMPLITUDE
+
 
 def surface_gradient(values: np.ndarray, rings_z: np.ndarray, azimuths: int) -> np.ndarray:
     """complex[direction, band, 3]: the surface gradient ∇_S of ``values`` [direction, band]
@@ -97,6 +99,59 @@ def refer_to_centre(a: np.ndarray, u: np.ndarray, weight: np.ndarray, rings_z: n
     n = k.size if centre_bands is None else max(1, min(int(centre_bands), k.size))
     d = acoustic_centre_m(a[:, :n], u, weight, rings_z, azimuths, k[:n])
     return a * np.exp(-1j * np.outer(u @ d, k)), d
+
+
+#: The share of its offset by which a centre found from measured phase may be off: the
+#: tolerance tests/sound/test_wave_sources_centre.py holds it to (phase interpolated on a
+#: triangulation of 500 directions, ≈ h²/8 = 0.4 % measured, 2 % asserted).
+CENTRE_UNCERTAINTY = 0.02
+
+
+def band_centres_m(pattern: np.ndarray, directions: np.ndarray, weights: np.ndarray,
+                   rings_z: np.ndarray, azimuths: int, k_per_m: np.ndarray) -> np.ndarray:
+    """float64[band, 3]: each band's own acoustic centre (:func:`acoustic_centre_m` on that
+    band alone), where the measured phase puts it band by band (a loudspeaker's centre moves
+    with frequency: Jacobsen, Barrera-Figueroa and Rasmussen, JASA 115(4), 2004)."""
+    k = np.asarray(k_per_m, float)
+    return np.array([acoustic_centre_m(pattern[:, [b]], directions, weights, rings_z, azimuths,
+                                       k[[b]]) for b in range(k.size)]).reshape(k.size, 3)
+
+
+def translation_spill(k_per_m: np.ndarray, distance_m: np.ndarray,
+                      orders: np.ndarray) -> np.ndarray:
+    """float64[band]: the share of a monopole's energy that a translation by ``distance_m``
+    puts above order ``orders`` (per band): 1 − Σ_{n≤L} (2n + 1)·j_n(kδ)², from the plane
+    wave's expansion e^{ik u·δ} = Σ (2n + 1) iⁿ j_n(kδ) P_n(u·δ̂) and Σ (2n + 1) j_n² = 1
+    (Abramowitz and Stegun 10.1.47, 10.1.50). What radiating a band from a centre δ off its
+    own costs in the fit's orders, for the energy the band's pattern holds at order 0."""
+    from scipy.special import spherical_jn
+    x = np.asarray(k_per_m, float) * np.asarray(distance_m, float)
+    out = np.empty(x.size)
+    for b, (xb, L) in enumerate(zip(x, np.asarray(orders, int))):
+        n = np.arange(int(L) + 1)
+        out[b] = max(0.0, 1.0 - float(np.sum((2 * n + 1) * spherical_jn(n, xb) ** 2)))
+    return out
+
+
+def centres_differ(shared_m: np.ndarray, band_centres: np.ndarray, k_per_m: np.ndarray,
+                   orders: np.ndarray, residual_shared: np.ndarray,
+                   residual_own: np.ndarray) -> np.ndarray:
+    """bool[band]: whether the measured phase says a band's centre differs from the shared one:
+    radiated from the shared centre, the band's fit leaves more of its energy above its orders
+    (``residual_shared``) than from its own centre (``residual_own``) by more than it leaves
+    there anyway (sharing at least doubles the loss), more than the centres' own uncertainty
+    would (:func:`translation_spill` of :data:`CENTRE_UNCERTAINTY` of the band's offset), and
+    at least the share for which the fit radiates an order at all
+    (``wave_stencils.RESOLVED_AMPLITUDE``², 4·10⁻⁴: less is not worth a term). False
+    where one centre costs the band nothing measurable: the fit's orders carry a small
+    translation (a translation by δ moves a pattern's energy above its orders only as the
+    spherical Bessel functions j_n(kδ), n > L, allow)."""
+    uncertain = CENTRE_UNCERTAINTY * np.linalg.norm(band_centres, axis=1)
+    excess = np.asarray(residual_shared, float) - np.asarray(residual_own, float)
+    floor = np.maximum(np.maximum(np.asarray(residual_own, float), RESOLVED_AMPLITUDE ** 2),
+                       translation_spill(k_per_m, uncertain, orders))
+    apart = np.linalg.norm(band_centres - np.asarray(shared_m)[None], axis=1)
+    return (apart > uncertain) & (excess > floor)
 
 
 def meridian_derivative(v: np.ndarray, theta: np.ndarray, points: int = 7) -> np.ndarray:

@@ -5,7 +5,9 @@ rays (issue 18).
 The waves' memory has phases that do not overlap, and one that does (the join):
 
 - **grid**: the wave run itself (cells, boundary, the receiver points' responses), the core's own
-  estimate (``WaveSettings.memory_estimate``, ``crates/sonolux-core/src/wave/settings.rs``);
+  estimate (``WaveSettings.memory_estimate``, ``crates/sonolux-core/src/wave/settings.rs``), with
+  each wall's branches as its fit will have them and a described surface's wells' branches at
+  every face of its material (tests/wave_memory.rs checks it against the solver's allocation);
 - **binning**: the responses kept, plus the energy per receiver point, direction, *wave* band
   and time bin, 8 bytes while it is summed and 4 for the array handed back
   (``bands::reflected_energies`` bins only the bands below the crossover);
@@ -89,13 +91,15 @@ def field_axis(early_s: float, stored_late_bin_s: float, split: int, sample_rate
 
 
 def estimate(scene: Any, cross: Any, *, duration_s: float, time_bins: int, directions: int,
-             max_field_bytes: int | None) -> WaveMemory:
+             max_field_bytes: int | None, absorption: np.ndarray | None = None) -> WaveMemory:
     """The estimate for a hybrid bake of ``scene`` at the crossover ``cross`` (the one
     :func:`sonolux.sound.waves.choose_crossover` chose for it, without the timing run), whose
     field has ``time_bins`` bins over ``duration_s`` (:func:`field_axis`) and ``directions``
-    direction bins."""
+    direction bins. ``absorption`` float64[material, band], the bake's: the walls' branches are
+    counted from their fits (else one per fitted band is assumed)."""
     from sonolux.sound import wave_sources
     from sonolux.sound import waves as wave_sound
+    from sonolux.sound.surfaces import wells_of
 
     bands = np.asarray(scene.settings.bands_hz, float)
     c = scene.settings.speed_of_sound_m_s
@@ -107,7 +111,10 @@ def estimate(scene: Any, cross: Any, *, duration_s: float, time_bins: int, direc
                                         wave_sound.memory_limit(max_field_bytes))
     centres = scene.receivers.count
     points = centres * wave_sound.BALL_POINTS
-    grid = engine.wave_memory_estimate(settings, scene.geometry, points, bands)
+    # The walls fitted as the run will fit them, and a described surface's wells: their
+    # branches' state at every boundary face (wave/settings.rs, tests/wave_memory.rs).
+    grid = engine.wave_memory_estimate(settings, scene.geometry, points, bands,
+                                       absorption=absorption, wells=wells_of(scene))
     k = cross.wave_bands
     cells = directions * k * time_bins
     return WaveMemory(

@@ -90,7 +90,7 @@ from scipy import fft as sfft
 
 from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
-from sonolux.sound.wave_centre import refer_to_centre
+from sonolux.sound.wave_centre import band_centres_m, centres_differ, refer_to_centre
 from sonolux.sound.wave_stencils import DIFFERENCES as DIFFERENCES
 from sonolux.sound.wave_stencils import FIRST_DIFFERENCE as FIRST_DIFFERENCE
 from sonolux.sound.wave_stencils import FOURTH_DIFFERENCE as FOURTH_DIFFERENCE
@@ -157,6 +157,13 @@ class SourceFit:
     #: float64[3]: the cluster's centre from the source's position
     #: (:func:`acoustic_centre_offset_m`).
     centre_offset_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    #: float64[band, 3]: each centred band's own acoustic centre from the measured phase
+    #: (``wave_centre.band_centres_m``; no rows without a measured phase), for
+    #: :func:`centred`'s check that the bands share one.
+    band_centres_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
+    #: bool[band] of those: whether the band's own centre differs measurably from the shared
+    #: one (``wave_centre.centres_differ``).
+    centres_differ: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, bool))
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -268,6 +275,31 @@ def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) ->
     return np.where(magnitude > 0, z / np.where(magnitude > 0, magnitude, 1.0), 1.0)
 
 
+def moments(a: np.ndarray, u: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The spherical-harmonic parts of ``a`` [direction, band] on the quadrature (``u``,
+    ``weight``): (c₀, c [axis, band], M, D, T, Q, each order's share of the energy [order, band],
+    the energy [band]) as :func:`fit` uses them."""
+    wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
+    c0 = wa.sum(axis=0)
+    c = 3.0 * (u.T @ wa)  # [axis, band]
+    m = np.einsum("di,dj,db->bij", u, u, wa)
+    d = 7.5 * (m - np.einsum("bii->b", m)[:, None, None] * np.eye(3) / 3.0)  # [band, 3, 3]
+    n = np.einsum("di,dj,dk,db->bijk", u, u, u, wa)
+    m1 = (c / 3.0).T  # [band, axis]: ⟨A·v⟩
+    eye = np.eye(3)
+    t = 17.5 * n - 3.5 * (np.einsum("bi,jk->bijk", m1, eye) + np.einsum("bj,ik->bijk", m1, eye)
+                          + np.einsum("bk,ij->bijk", m1, eye))  # [band, 3, 3, 3]
+    q = fourth_order(u, wa, m, c0)  # [band, 3, 3, 3, 3]
+    total = weight @ (np.abs(a) ** 2)
+    # Each order's share of the pattern's energy (the means of its part's square; :func:`fit`
+    # leaves out an order above every one that carries RESOLVED_AMPLITUDE² of it).
+    shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
+                       2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
+                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real,
+                       8.0 / 315.0 * np.einsum("bijkl,bijkl->b", q, q.conj()).real])
+    return c0, c, m, d, t, q, shares, total
+
+
 def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None,
         bands_hz: np.ndarray | None = None, *, centre_bands: int | None = None,
         speed_of_sound_m_s: float = 343.0) -> SourceFit:
@@ -296,28 +328,15 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     u, weight = fit_directions()
     a = amplitude(source, directivity, u, n_bands, bands_hz)  # [direction, band]
     centre = acoustic_centre_offset_m(source)
+    own = np.zeros((0, 3))
     if np.iscomplexobj(a) and bands_hz is not None:  # a measured phase: its acoustic centre
         k = 2.0 * math.pi * np.asarray(bands_hz, float) / speed_of_sound_m_s
-        a, centre = refer_to_centre(a, u, weight, np.polynomial.legendre.leggauss(FIT_RINGS)[0],
-                                    FIT_AZIMUTHS, k, centre_bands)
-    wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
-    c0 = wa.sum(axis=0)
-    c = 3.0 * (u.T @ wa)  # [axis, band]
-    m = np.einsum("di,dj,db->bij", u, u, wa)
-    d = 7.5 * (m - np.einsum("bii->b", m)[:, None, None] * np.eye(3) / 3.0)  # [band, 3, 3]
-    n = np.einsum("di,dj,dk,db->bijk", u, u, u, wa)
-    m1 = (c / 3.0).T  # [band, axis]: ⟨A·v⟩
-    eye = np.eye(3)
-    t = 17.5 * n - 3.5 * (np.einsum("bi,jk->bijk", m1, eye) + np.einsum("bj,ik->bijk", m1, eye)
-                          + np.einsum("bk,ij->bijk", m1, eye))  # [band, 3, 3, 3]
-    q = fourth_order(u, wa, m, c0)  # [band, 3, 3, 3, 3]
-    total = weight @ (np.abs(a) ** 2)
-    # Each order's share of the pattern's energy (the means of its part's square); an order
-    # above every one that carries RESOLVED_AMPLITUDE² of it is left out (see the docstring).
-    shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
-                       2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
-                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real,
-                       8.0 / 315.0 * np.einsum("bijkl,bijkl->b", q, q.conj()).real])
+        rings = np.polynomial.legendre.leggauss(FIT_RINGS)[0]
+        n_centre = k.size if centre_bands is None else max(1, min(int(centre_bands), k.size))
+        own = band_centres_m(a[:, :n_centre], u, weight, rings, FIT_AZIMUTHS, k[:n_centre])
+        measured = a
+        a, centre = refer_to_centre(a, u, weight, rings, FIT_AZIMUTHS, k, centre_bands)
+    c0, c, m, d, t, q, shares, total = moments(a, u, weight)
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
     highest = np.max(np.where(carried, np.arange(MAX_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
@@ -337,7 +356,21 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
-    return SourceFit(components, orders, residual, centre_offset_m=centre)
+    differ = np.zeros(len(own), bool)
+    if len(own):
+        # Each centred band referred to its own centre instead, with the same orders: what the
+        # fit would leave out there, against what the shared centre leaves.
+        n_own = len(own)
+        k_own = 2.0 * math.pi * np.asarray(bands_hz, float)[:n_own] / speed_of_sound_m_s
+        at_own = measured[:, :n_own] * np.exp(-1j * (u @ own.T) * k_own[None])
+        *_, shares_own, total_own = moments(at_own, u, weight)
+        power_own = shares_own[0] + sum(np.where(orders[:n_own] >= L, shares_own[L], 0.0)
+                                        for L in range(1, MAX_ORDER + 1))
+        residual_own = np.clip(1.0 - power_own / np.maximum(total_own, 1e-300), 0.0, 1.0)
+        differ = centres_differ(centre, own, k_own, orders[:n_own], residual[:n_own],
+                                residual_own)
+    return SourceFit(components, orders, residual, centre_offset_m=centre, band_centres_m=own,
+                     centres_differ=differ)
 
 
 def fourth_order(u: np.ndarray, wa: np.ndarray, m: np.ndarray, c0: np.ndarray) -> np.ndarray:
@@ -529,5 +562,10 @@ def centred(source_fit: SourceFit) -> str:
     d = source_fit.centre_offset_m
     if not np.any(d != 0.0):
         return ""
-    return (f"; radiated from its acoustic centre, ({', '.join(f'{1e3 * v:+.0f}' for v in d)}) "
-            "mm from its position")
+    words = (f"; radiated from its acoustic centre, ({', '.join(f'{1e3 * v:+.0f}' for v in d)}) "
+             "mm from its position")
+    if np.any(source_fit.centres_differ):
+        apart = np.linalg.norm(source_fit.band_centres_m - d[None], axis=1)
+        words += (f"; its bands' own centres lie {'/'.join(f'{1e3 * x:.0f}' for x in apart)} mm "
+                  "from it (measured phase): one centre costs them more than the fit leaves out")
+    return words

@@ -290,7 +290,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                              scene.settings.threads, memory_limit_bytes)
     centres = np.ascontiguousarray(scene.receivers.positions_m, float)
     receivers = ball_points(scene.geometry, centres, scene.receivers.radius_m)
-    est = engine.wave_memory_estimate(settings, scene.geometry, len(receivers), bands)
+    est = engine.wave_memory_estimate(settings, scene.geometry, len(receivers), bands,
+                                      absorption=arrays["absorption"], wells=wells_of(scene))
     k = cross.wave_bands
     if log:
         log(f"waves: {cross.why}; grid {settings.spacing_m * 1e3:.1f} mm up to "

@@ -163,9 +163,21 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
             }
             if e != 0 {
                 if let Some(tri) = reflection_triangle(ctx, tree, e, apex + offset) {
-                    let m = ctx.mesh.material[tri as usize] as usize * nb;
+                    let material = ctx.mesh.material[tri as usize] as usize;
+                    let m = material * nb;
+                    let (mut alpha, mut scat) = (ctx.acoustics.absorption[m..m + nb].to_vec(), ctx.acoustics.scattering[m..m + nb].to_vec());
+                    if let Some(table) = ctx.settings.by_angle.as_ref().filter(|t| t.profiled(material)) {
+                        // A described surface's α and s at this leg's own angle of incidence
+                        // (sound/scattering.rs), as an image source's reflection takes them: the
+                        // image-to-edge line meets the plane at the angle the leg from the
+                        // emitter does (mirror symmetry).
+                        let normal = ctx.planes.planes[ctx.planes.plane_of_triangle[tri as usize] as usize].normal;
+                        let cos_incidence = (apex - tree.nodes[e as usize].position).normalize_or_zero().dot(normal).abs();
+                        table.absorption(material, cos_incidence, &mut alpha);
+                        table.scattering(material, cos_incidence, &mut scat);
+                    }
                     for b in 0..nb {
-                        amp2[b] *= (1.0 - ctx.acoustics.absorption[m + b]) * (1.0 - ctx.acoustics.scattering[m + b]);
+                        amp2[b] *= (1.0 - alpha[b]) * (1.0 - scat[b]);
                     }
                 }
             }

@@ -66,6 +66,13 @@ impl DiscreteWall {
     }
 }
 
+impl DiscreteWall {
+    /// Bytes this wall holds besides itself.
+    pub fn allocated_bytes(&self) -> u64 {
+        (std::mem::size_of::<DiscreteWall>() + self.branches.capacity() * std::mem::size_of::<DiscreteBranch>()) as u64
+    }
+}
+
 /// The walls of one node for one material: the node's faces of that material summed.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
@@ -95,6 +102,14 @@ pub(crate) struct BoundarySlab {
     /// u⁻ of each lossy node, kept before the sweep overwrites it.
     saved: Vec<f32>,
 }
+
+/// The most a boundary face can hold, in bytes, besides its branches' state: a lossy node of its
+/// own (index, gain, γ, 1/(1 + γ), entry start, saved pressure), one entry, and the solid node
+/// behind it in the slab's shell. The memory estimate's per-face bytes (settings.rs).
+pub(crate) const BYTES_PER_FACE: u64 =
+    (3 * std::mem::size_of::<u32>() + 3 * std::mem::size_of::<f64>() + std::mem::size_of::<f32>() + std::mem::size_of::<Entry>()) as u64;
+/// Per admittance branch of an entry: its two f64 states, w and g.
+pub(crate) const BYTES_PER_BRANCH: u64 = 2 * std::mem::size_of::<f64>() as u64;
 
 /// Counts of the boundary, for the run's statistics.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -177,11 +192,34 @@ pub(crate) fn build(
     for s in &mut slabs {
         s.entry_start.push(s.entries.len() as u32);
         s.saved = vec![0.0; s.lossy.len()];
+        s.shrink();
     }
     (slabs, stats)
 }
 
 impl BoundarySlab {
+    /// Gives back what the vectors' growth over-allocated while they were built: the run holds
+    /// what it uses (the memory estimate bounds that).
+    fn shrink(&mut self) {
+        self.rigid.shrink_to_fit();
+        self.lossy.shrink_to_fit();
+        self.lossy_gain.shrink_to_fit();
+        self.gamma.shrink_to_fit();
+        self.inverse.shrink_to_fit();
+        self.entry_start.shrink_to_fit();
+        self.entries.shrink_to_fit();
+        self.state.shrink_to_fit();
+    }
+
+    /// Bytes this slab holds (its vectors' capacities).
+    pub fn allocated_bytes(&self) -> u64 {
+        fn bytes<T>(v: &Vec<T>) -> u64 {
+            (v.capacity() * std::mem::size_of::<T>()) as u64
+        }
+        bytes(&self.rigid) + bytes(&self.lossy) + bytes(&self.lossy_gain) + bytes(&self.gamma) + bytes(&self.inverse)
+            + bytes(&self.entry_start) + bytes(&self.entries) + bytes(&self.state) + bytes(&self.saved)
+    }
+
     /// Keeps u⁻ of every lossy node; `prev` is the slab's part of the previous field, starting at
     /// grid index `base`.
     pub fn save(&mut self, prev: &[f32], base: usize) {

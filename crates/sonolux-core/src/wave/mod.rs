@@ -104,6 +104,9 @@ pub struct WaveStats {
     /// Each material's fit, by material id.
     pub fits: Vec<MaterialFit>,
     pub estimate: MemoryEstimate,
+    /// Bytes the solver holds once built ([`WaveSolver::allocated_bytes`]): what the estimate's
+    /// grid and boundary parts bound.
+    pub allocated_bytes: u64,
     pub steps: u64,
     pub setup_s: f64,
     pub run_s: f64,
@@ -155,23 +158,39 @@ pub fn build_solver(
     let start = Instant::now();
     settings.validate()?;
     materials.validate(mesh)?;
-    let scene = SceneSize::of(mesh);
+    // The walls are fitted first (small and quick): the estimate counts their branches.
+    let fits = fit_walls(materials, settings)?;
+    let scene = SceneSize::of(mesh).with_wells(&materials.wells).with_fitted_branches(fits.iter().map(|f| f.admittance.branches.len()).collect());
     let fitted = settings::bands_fitted(&materials.band_centres_hz, settings.max_frequency_hz);
     let estimate = settings.memory_estimate(&scene, n_receivers, fitted);
     settings.check_memory(&estimate, &scene, n_receivers, &materials.band_centres_hz)?;
 
     let nb = materials.n_bands();
-    let (a2, _) = scheme::coefficients(settings.courant);
-    let scheme = admittance::Discretisation { time_step_s: settings.time_step_s(), courant: (a2 as f64).sqrt() };
-    let fits = materials
-        .absorption
-        .chunks(nb)
-        .map(|a| fit::fit_material(&materials.band_centres_hz, a, settings.absorption_kind, settings.max_frequency_hz, Some(scheme)))
-        .collect::<Result<Vec<_>, _>>()?;
     let (walls, choice) = wells::expand(fits, &materials.wells, settings.speed_of_sound_m_s, settings.max_frequency_hz)?;
     let (solver, mut stats) = assemble(mesh, walls, &choice, settings, estimate, start)?;
     stats.fits.truncate(materials.absorption.len() / nb);
     Ok((solver, stats))
+}
+
+/// Each material's wall fitted to its absorption per band at `settings`' grid (by material id).
+fn fit_walls(materials: &WaveMaterials, settings: &WaveSettings) -> Result<Vec<fit::MaterialFit>, CoreError> {
+    let (a2, _) = scheme::coefficients(settings.courant);
+    let scheme = admittance::Discretisation { time_step_s: settings.time_step_s(), courant: (a2 as f64).sqrt() };
+    materials
+        .absorption
+        .chunks(materials.n_bands())
+        .map(|a| fit::fit_material(&materials.band_centres_hz, a, settings.absorption_kind, settings.max_frequency_hz, Some(scheme)))
+        .collect()
+}
+
+/// The branches of each material's fitted wall (by material id) as [`build_solver`] will fit
+/// them: for the memory estimate before a run ([`SceneSize::with_fitted_branches`]).
+pub fn wall_branches(materials: &WaveMaterials, settings: &WaveSettings) -> Result<Vec<usize>, CoreError> {
+    settings.validate()?;
+    if materials.n_bands() == 0 {
+        return Err(CoreError::invalid("band_centres_hz", "at least one band is needed"));
+    }
+    Ok(fit_walls(materials, settings)?.iter().map(|f| f.admittance.branches.len()).collect())
 }
 
 /// [`build_solver`] with each material's wall admittance given (one per material id of the
@@ -190,10 +209,8 @@ pub fn build_solver_with_walls(mesh: &Mesh, walls: &[Admittance], settings: &Wav
     if let Some(i) = walls.iter().position(|w| !(w.conductance >= 0.0) || !w.branches.iter().all(passive)) {
         return Err(CoreError::invalid("walls", format!("material {i}'s admittance is not passive (every conductance, mass, resistance and stiffness must be ≥ 0, and each branch needs a mass or a resistance)")));
     }
-    let scene = SceneSize::of(mesh);
-    // The estimate counts branch state by fitted bands, about three branches a band.
-    let bands = walls.iter().map(|w| w.branches.len().div_ceil(3)).max().unwrap_or(0);
-    let estimate = settings.memory_estimate(&scene, n_receivers, bands);
+    let scene = SceneSize::of(mesh).with_fitted_branches(walls.iter().map(|w| w.branches.len()).collect());
+    let estimate = settings.memory_estimate(&scene, n_receivers, 0);
     if estimate.total_bytes > settings.memory_limit_bytes {
         return Err(CoreError::invalid("max_frequency_hz", format!("the run needs {} bytes, more than the limit of {}", estimate.total_bytes, settings.memory_limit_bytes)));
     }
@@ -235,6 +252,7 @@ fn assemble(mesh: &Mesh, fits: Vec<fit::MaterialFit>, choice: &wells::WallChoice
         .map(|(i, (boundary, mut shell))| {
             shell.sort_unstable();
             shell.dedup();
+            shell.shrink_to_fit();
             let first = i * thickness;
             scheme::Slab { first, planes: thickness.min(nx - first), boundary, shell }
         })
@@ -250,13 +268,15 @@ fn assemble(mesh: &Mesh, fits: Vec<fit::MaterialFit>, choice: &wells::WallChoice
         boundary: boundary_stats,
         fits,
         estimate,
+        allocated_bytes: 0,
         steps: 0,
         setup_s: 0.0,
         run_s: 0.0,
         air_updates_per_s: 0.0,
     };
     let solver = WaveSolver::assemble(grid, slabs, walls, settings.courant, settings.threads)?;
-    Ok((solver, WaveStats { setup_s: start.elapsed().as_secs_f64(), ..stats }))
+    let allocated_bytes = solver.allocated_bytes();
+    Ok((solver, WaveStats { setup_s: start.elapsed().as_secs_f64(), allocated_bytes, ..stats }))
 }
 
 /// Simulates the response at `receivers` to every source in `sources` emitting the same pulse at

@@ -107,6 +107,18 @@ impl WaveSolver {
         Ok(WaveSolver { grid, runs, plane_runs, cur: vec![0.0; cells], prev: vec![0.0; cells], slabs, walls, a1, a2, pool, arch: Arch::new(), steps: 0 })
     }
 
+    /// Bytes the solver holds: the grid's air mask, the two pressure fields, the sweep's runs,
+    /// the slabs' boundary nodes and shells, the walls (vector capacities; what the memory
+    /// estimate's grid and boundary parts bound, tests/wave_memory.rs).
+    pub fn allocated_bytes(&self) -> u64 {
+        fn bytes<T>(v: &Vec<T>) -> u64 {
+            (v.capacity() * std::mem::size_of::<T>()) as u64
+        }
+        let slabs: u64 = self.slabs.iter().map(|s| s.boundary.allocated_bytes() + bytes(&s.shell)).sum();
+        let walls: u64 = self.walls.iter().map(|w| w.allocated_bytes()).sum();
+        bytes(&self.grid.air) + bytes(&self.cur) + bytes(&self.prev) + bytes(&self.runs) + bytes(&self.plane_runs) + slabs + walls
+    }
+
     pub fn grid(&self) -> &Grid {
         &self.grid
     }
@@ -256,6 +268,7 @@ fn sweep_runs(grid: &Grid) -> (Vec<[u32; 2]>, Vec<u32>) {
         }
         plane_runs.push(runs.len() as u32);
     }
+    runs.shrink_to_fit();
     (runs, plane_runs)
 }
 

@@ -125,8 +125,23 @@ impl WaveSettings {
     /// What a run on `scene` with `n_receivers` receivers would hold at its peak, before anything
     /// is voxelised or allocated. `n_bands_fitted` is the number of bands whose centre lies
     /// below the fit's limit (each is at most one boundary branch; see [`super::fit`]).
+    ///
+    /// Each material's faces carry its wall's branches: its fit's count where the scene knows it
+    /// ([`SceneSize::with_fitted_branches`], [`super::wall_branches`]: what the run will build),
+    /// else one per fitted band (the fit usually needs no more, but can: 4 for 2 bands was
+    /// measured, tests/wave_memory.rs); and where the material has wells (a described surface,
+    /// [`super::wells`]), [`super::wells::well_branch_count`] of its deepest well at this
+    /// `max_frequency_hz` ([`SceneSize::with_wells`]).
     pub fn memory_estimate(&self, scene: &SceneSize, n_receivers: usize, n_bands_fitted: usize) -> MemoryEstimate {
-        estimate(self.spacing_m(), self.n_steps(), scene, n_receivers, n_bands_fitted)
+        let h = self.spacing_m();
+        let branches: Vec<u64> = (0..scene.staircase_by_material_m2.len())
+            .map(|m| {
+                let fit = scene.fitted_branches.get(m).copied().unwrap_or(n_bands_fitted);
+                let well = scene.deepest_well_m.get(m).map_or(0, |&d| super::wells::well_branch_count(d, self.speed_of_sound_m_s, self.max_frequency_hz));
+                (fit + well) as u64
+            })
+            .collect();
+        estimate(h, self.n_steps(), scene, n_receivers, &branches)
     }
 
     /// The highest `max_frequency_hz` (other settings kept) whose estimate fits `budget_bytes`,
@@ -138,6 +153,9 @@ impl WaveSettings {
         band_centres_hz: &[f64],
         budget_bytes: u64,
     ) -> Option<f64> {
+        // The fits' own counts hold at this frequency only: the bisection counts a branch per
+        // fitted band (the largest frequency named is a suggestion, checked when it is run).
+        let scene = &SceneSize { fitted_branches: Vec::new(), ..scene.clone() };
         let bytes = |f: f64| {
             let s = WaveSettings { max_frequency_hz: f, ..self.clone() };
             let fitted = bands_fitted(band_centres_hz, f);
@@ -198,25 +216,48 @@ pub fn bands_fitted(band_centres_hz: &[f64], max_frequency_hz: f64) -> usize {
 
 /// What the memory estimate needs to know of a scene: its box, and the staircase area of its
 /// surfaces, Σ area · (|n_x| + |n_y| + |n_z|), which is the number of air–solid cell faces
-/// times Δx² once voxelised.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// times Δx² once voxelised; per material too, with the depth of its deepest well where the
+/// material has wells (their branches add state to each of its faces).
+#[derive(Clone, Debug, PartialEq)]
 pub struct SceneSize {
     pub extent_m: DVec3,
     pub staircase_area_m2: f64,
+    /// Per material id, its part of `staircase_area_m2`.
+    pub staircase_by_material_m2: Vec<f64>,
+    /// Per material id, its deepest well (m), 0 for a flat wall; empty: no wells.
+    pub deepest_well_m: Vec<f64>,
+    /// Per material id, the branches of its fitted wall; empty: one per fitted band is assumed.
+    pub fitted_branches: Vec<usize>,
 }
 
 impl SceneSize {
     pub fn of(mesh: &Mesh) -> SceneSize {
         let b = mesh.bounds();
-        let staircase_area_m2 = (0..mesh.triangles.len())
-            .filter(|&i| !mesh.degenerate[i])
-            .map(|i| {
-                let n = mesh.normal(i).as_dvec3();
-                mesh.area(i) * (n.x.abs() + n.y.abs() + n.z.abs())
-            })
-            .sum();
+        let n_mat = mesh.material.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+        let mut staircase_by_material_m2 = vec![0.0; n_mat];
+        for i in (0..mesh.triangles.len()).filter(|&i| !mesh.degenerate[i]) {
+            let n = mesh.normal(i).as_dvec3();
+            staircase_by_material_m2[mesh.material[i] as usize] += mesh.area(i) * (n.x.abs() + n.y.abs() + n.z.abs());
+        }
+        let staircase_area_m2 = staircase_by_material_m2.iter().sum();
         let extent_m = if b.min.x <= b.max.x { (b.max - b.min).as_dvec3() } else { DVec3::ZERO };
-        SceneSize { extent_m, staircase_area_m2 }
+        SceneSize { extent_m, staircase_area_m2, staircase_by_material_m2, deepest_well_m: Vec::new(), fitted_branches: Vec::new() }
+    }
+
+    /// The same scene whose materials' fitted walls have `counts` branches (per material id, at
+    /// the settings' `max_frequency_hz`; [`super::wall_branches`]).
+    pub fn with_fitted_branches(mut self, counts: Vec<usize>) -> SceneSize {
+        self.fitted_branches = counts;
+        self
+    }
+
+    /// The same scene whose materials have `wells` (per material id, as
+    /// [`super::WaveMaterials::wells`]; empty: none).
+    pub fn with_wells(mut self, wells: &[Option<super::Wells>]) -> SceneSize {
+        self.deepest_well_m = (0..self.staircase_by_material_m2.len())
+            .map(|m| wells.get(m).and_then(|w| w.as_ref()).map_or(0.0, |w| w.depths_m.iter().fold(0.0, |a: f64, &d| a.max(d))))
+            .collect();
+        self
     }
 }
 
@@ -228,7 +269,7 @@ pub struct MemoryEstimate {
     pub steps: u64,
     /// Air–solid cell faces (an upper bound on boundary entries).
     pub boundary_faces: u64,
-    /// Two pressure grids and the air mask.
+    /// Two pressure grids, the air mask and the sweep's runs.
     pub grid_bytes: u64,
     /// Boundary nodes and the state of their admittance branches.
     pub boundary_bytes: u64,
@@ -242,19 +283,25 @@ pub struct MemoryEstimate {
 
 /// Bytes per grid node: two f32 pressure grids and one byte of air mask.
 const BYTES_PER_CELL: u64 = 4 + 4 + 1;
-/// Per boundary face (at most one entry each): node index, coefficients, saved pressure.
-const BYTES_PER_FACE: u64 = 32;
-/// Per branch of an entry: its two f64 states.
-const BYTES_PER_BRANCH: u64 = 16;
+use super::boundary::{BYTES_PER_BRANCH, BYTES_PER_FACE};
 /// A surface crossing of a grid line during voxelisation (position, triangle, line, sign).
 const BYTES_PER_CROSSING: u64 = 24;
 
-fn estimate(h: f64, steps: u64, scene: &SceneSize, n_receivers: usize, branches: usize) -> MemoryEstimate {
+/// `branches`: per material id, the branches each of its faces carries.
+fn estimate(h: f64, steps: u64, scene: &SceneSize, n_receivers: usize, branches: &[u64]) -> MemoryEstimate {
     let n = |e: f64| (e / h - 1e-6).ceil().max(1.0) as u64 + 2;
-    let cells = n(scene.extent_m.x) * n(scene.extent_m.y) * n(scene.extent_m.z);
+    let (nx, ny) = (n(scene.extent_m.x), n(scene.extent_m.y));
+    let cells = nx * ny * n(scene.extent_m.z);
     let boundary_faces = (scene.staircase_area_m2 / (h * h)).ceil() as u64;
-    let grid_bytes = cells * BYTES_PER_CELL;
-    let boundary_bytes = boundary_faces * (BYTES_PER_FACE + branches as u64 * BYTES_PER_BRANCH);
+    // The sweep's runs: at most one (start, length) of u32 per row of a plane, and an offset per
+    // plane (scheme.rs `sweep_runs`).
+    let grid_bytes = cells * BYTES_PER_CELL + nx * ny * 8 + (nx + 1) * 4;
+    let boundary_bytes = scene
+        .staircase_by_material_m2
+        .iter()
+        .zip(branches)
+        .map(|(&area, &b)| (area / (h * h)).ceil() as u64 * (BYTES_PER_FACE + b * BYTES_PER_BRANCH))
+        .sum();
     // Pressure and three velocity components per receiver and step, in f32, and the source's
     // pulse in f64.
     let receiver_bytes = n_receivers as u64 * steps * 16 + steps * 8;

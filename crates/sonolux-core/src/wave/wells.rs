@@ -57,8 +57,7 @@ pub fn well_branches(depth_m: f64, speed_of_sound_m_s: f64, max_frequency_hz: f6
         return Vec::new();
     }
     let (d, c) = (depth_m, speed_of_sound_m_s);
-    let below = ((4.0 * d * max_frequency_hz / c + 1.0) / 2.0).floor().max(0.0) as usize;
-    let n_kept = below + 3;
+    let n_kept = well_branch_count(d, c, max_frequency_hz);
     let compliance = |n: usize| {
         let a = (n as f64 - 0.5) * std::f64::consts::PI;
         2.0 * d / (a * a * c)
@@ -72,6 +71,16 @@ pub fn well_branches(depth_m: f64, speed_of_sound_m_s: f64, max_frequency_hz: f6
             Branch { mass_s: d / (2.0 * c), resistance: 0.0, stiffness_per_s: 1.0 / (compliance(n) + extra) }
         })
         .collect()
+}
+
+/// How many branches [`well_branches`] keeps for a well of depth `depth_m`: those resonating at
+/// (2n − 1)c/(4d) ≤ `max_frequency_hz`, and three more (0 for d ≤ 0). The memory estimate counts
+/// them before anything is built (settings.rs).
+pub fn well_branch_count(depth_m: f64, speed_of_sound_m_s: f64, max_frequency_hz: f64) -> usize {
+    if depth_m <= 0.0 {
+        return 0;
+    }
+    ((4.0 * depth_m * max_frequency_hz / speed_of_sound_m_s + 1.0) / 2.0).floor().max(0.0) as usize + 3
 }
 
 /// Each face's wall: a material without wells keeps its own (index = material id); a material
