@@ -35,7 +35,7 @@ Schema ``sonolux-field/2`` (lengths in metres, times in seconds, energies in J/m
                            schroeder_hz
     /sound/waves/energy    (the ray-range part from ray 0 of a hybrid bake only) float32[receiver,
                            direction, wave band, time]: the waves' energy, not yet in
-                           /sound/energy; joined when the parts are merged (docs/waves.md)
+                           /sound/energy; joined when the parts are merged (docs/waves-hybrid.md)
     /light                 attrs: settings (JSON), stats (JSON), patch_size_m
     /light/patch_resolution uint32[triangle];  /light/patch_offset  uint64[triangle + 1]
     /light/patch_area_m2   float64[patch];  /light/flux_w  float64[patch, channel]
@@ -163,7 +163,7 @@ def _write_sound(f: Any, field: SoundField) -> None:
                          chunks=(1, p.shape[1]) if p.size else None)
         for k in WAVE_ATTRS:
             w.attrs[k] = field.waves[k]
-        if "energy" in field.waves:  # a ray range's waves, not yet joined (docs/waves.md)
+        if "energy" in field.waves:  # a ray range's waves, not yet joined (docs/waves-hybrid.md)
             w.create_dataset("energy", data=np.asarray(field.waves["energy"], np.float32),
                              compression="gzip", shuffle=True)
 

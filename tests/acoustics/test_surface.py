@@ -26,7 +26,7 @@ OCTAVES = BandSet("octave", (125, 250, 500, 1000, 2000))
 
 def test_lossless_wells_give_the_published_angle_dependence():
     """Depths uniform in [0, d_max] with k·d_max = 0.33, lossless (g = 0): s(θ) = 1 − |⟨R⟩|² at
-    one frequency, the numbers session 9 computed for this model (docs/waves.md, "Scattering on
+    one frequency, the numbers session 9 computed for this model (docs/waves-walls.md, "Scattering on
     the waves' side"): 0.036 / 0.116 / 0.341 / 0.391 / 0.199 at 0 / 60 / 80 / 85 / 89°, and 0.098
     at random incidence. Tolerance 0.002: the quadrature of 4,000 depths and the rounding of the
     quoted numbers."""

@@ -1,7 +1,7 @@
 """The rays' grazing modes of parallel surface pairs (wall model "locally-reacting-modes";
 python/sonolux/sound/grazing.py, sonolux_core::sound::grazing): the pairs a mesh has, the
 grazing mode's wavenumber against the exact rooms' independent solver, and the flat paper room's
-decay against its exact modes (docs/waves.md, "Continuity")."""
+decay against its exact modes (docs/waves-hybrid.md, "Continuity")."""
 
 from __future__ import annotations
 

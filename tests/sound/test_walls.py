@@ -126,7 +126,7 @@ def test_locally_reacting_rays_follow_the_locally_reacting_rooms_models():
     ISO 3382-2 annex A over 4 independent points (``iso_3382_2_sigma``): EDT at 500 Hz (15 %)
     and 1 kHz (11 %). Measured (2026-11-27): EDT 0.611 s vs 0.665 (−8.1 %) and 0.607 vs 0.650
     (−6.6 %); a specular (s = 0) run gives EDT 0.619 s, as the image sources of the same walls
-    (0.63, docs/waves.md). Not asserted: T30, 0.650 vs 0.848 at 500 Hz and 0.645 vs 0.923 at
+    (0.63, docs/waves-hybrid.md). Not asserted: T30, 0.650 vs 0.848 at 500 Hz and 0.645 vs 0.923 at
     1 kHz (−23 %, −30 %): the room's late decay is sound grazing its absorbing floor, which the
     rays' scattering (0.1) removes and the modes keep (test_waves_paper_room.py
     ``test_the_rays_t30_in_this_room_is_their_scattering``); this is why the waves, not the

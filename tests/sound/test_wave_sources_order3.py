@@ -270,7 +270,7 @@ def test_the_orders_radiated_leave_a_float32_floor_below_60_db(f_max):
     below 10⁻⁶; order 4 in the lowest band too, fed down to 19 Hz by the fade, leaves 2.1·10⁻⁵
     and 1.5·10⁻⁵, and the rule withholds it there. Tolerance: 10⁻⁶ (60 dB) is the standard
     (:data:`NOISE_FLOOR`); the measured margins are ≥ 9× below it and ≥ 15× above. (The 34 mm
-    grid, not run here for its cost, sits at the line: docs/waves.md.)"""
+    grid, not run here for its cost, sits at the line: docs/waves-sources.md.)"""
     spacing = engine.WaveSettings(max_frequency_hz=f_max, duration_s=0.1).spacing_m
     session9 = wave_sources.resolved_orders(BANDS, spacing, C, max_order=3)
     rule = wave_sources.resolved_orders(BANDS, spacing, C)

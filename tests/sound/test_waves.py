@@ -97,7 +97,7 @@ def test_decay_is_continuous_across_the_crossover(both):
     Three of those: 9% for T30 and 14% for EDT. Measured: T30 +7.1% against the rays' 250 Hz
     and +7.6% against their 500 Hz, EDT +7.8% and +8.4%: the waves decay slightly slower (at
     125 Hz, below f_S, where modes rule, +27%): the locally reacting walls' modes, of which those
-    with no node along an axis feel that axis's walls at half the rate (docs/waves.md, "Why")."""
+    with no node along an axis feel that axis's walls at half the rate (docs/waves-hybrid.md, "Why")."""
     hybrid, rays = both
 
     def mean_times(field):

@@ -268,9 +268,9 @@ def test_paper_room_decay_continuous_across_the_crossover():
                    "walls keep: the room's exact modes step +9 % from 500 Hz to 1 kHz, the hybrid "
                    "−22 % (3σ 10 %); rays give the flat room's 1 kHz T30 at no scattering "
                    "coefficient but a fitted one (test_the_rays_t30_in_this_room_is_their_"
-                   "scattering; issue 18, docs/waves.md). A coefficient alone keeps the waves' "
+                   "scattering; issue 18, docs/waves-walls.md). A coefficient alone keeps the waves' "
                    "walls flat by decision (session 10: its angle dependence is not in the data); "
-                   "described surfaces on both sides did not close it either (docs/waves.md); "
+                   "described surfaces on both sides did not close it either (docs/waves-walls.md); "
                    "nor do the rays' grazing modes (wall_model 'locally-reacting-modes', session "
                    "11: −32 % with the scene's scattering, −6.8 % with flat walls on both sides)")
 def test_paper_room_t30_step_across_the_crossover_is_the_rooms():
@@ -331,7 +331,7 @@ def test_the_waves_follow_the_modes_of_the_locally_reacting_room():
     without a node) is not valid here for the floor's grazing modes (k(β₀ + β_L)L = 1.0 at
     500 Hz): it put the room's 500 Hz T30 at 0.769 s, the waves +8.3 % above it; the exact
     modes give 0.853. At twice the grid's resolution (crossover 1414 Hz) the waves' 500 Hz T30
-    moves by 0.1 %: the grid has converged (docs/waves.md, "Continuity")."""
+    moves by 0.1 %: the grid has converged (docs/waves-hybrid.md, "Continuity")."""
     scene = sonolux.load_scene("paper-small")
     hybrid = bake(scene, rays=2_000, waves=True, crossover_hz=707)
     far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
@@ -454,7 +454,7 @@ def test_coherent_modes_are_incoherent_over_the_volume_but_not_at_one_height():
     −0.2 % and 0.0 %). At receivers that share the source's height (paper-large, 125 Hz, 1.5 m
     as the scene's, every 2 m) the modes differing only along the vertical stay coherent early:
     EDT 17 % longer coherent (asserted > 10 %), while T30 agrees within 1 % (measured −0.6 %).
-    That was paper-large's "+14.6 %" of the waves' EDT (docs/waves.md, "Continuity")."""
+    That was paper-large's "+14.6 %" of the waves' EDT (docs/waves-hybrid.md, "Continuity")."""
     walls, floor = (admittance_from_random(a) for a in (WALLS, FLOOR))
     admittance = {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}
 

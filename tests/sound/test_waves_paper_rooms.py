@@ -3,7 +3,7 @@
 (tests/sound/test_waves_paper_room.py, whose reference and tolerances these tests reuse). Is the
 hybrid's EDT and T30 continuous across the crossover, measured as the room's own step between the
 last wave band and the first ray band (the room's exact modes, Morse and Bolt 1944) within three
-σ of ISO 3382-2 annex A? EDT is; T30 is not, for paper-small's reason (docs/waves.md,
+σ of ISO 3382-2 annex A? EDT is; T30 is not, for paper-small's reason (docs/waves-hybrid.md,
 "Continuity of T30 across the crossover").
 
 The rooms are paper-small scaled by 2 and 4 with the same materials and scattering, and their
@@ -133,7 +133,7 @@ def test_paper_rooms_waves_follow_the_exact_modes(name):
 @pytest.mark.xfail(strict=True, reason="as in paper-small: the rays' scattering (0.1) removes the "
                    "floor-grazing late decay that the waves' flat walls and the room's exact modes "
                    "keep; paper-medium steps −20 % against the room's, paper-large −12.5 % (3σ "
-                   "9.4 % and 9.6 %; issue 18, docs/waves.md: a coefficient alone keeps the "
+                   "9.4 % and 9.6 %; issue 18, docs/waves-hybrid.md: a coefficient alone keeps the "
                    "waves' walls flat by decision, session 10). The rays' grazing modes "
                    "(wall_model 'locally-reacting-modes', session 11) do not change that: "
                    "−24 % / −17 % with them; with flat walls on both sides +2.1 % / +11.9 %")

@@ -25,7 +25,7 @@ const C: f64 = 343.0;
 ///   φ = k_nΔx/2 from sin²(ωΔt/2) = λ²(sin²φ + s_t),   σ = sin(ωΔt/2)/(λ sin φ),
 ///
 /// from the boundary node's update with u_j = A e^{−2jφj} + B e^{2jφj} (the tangential terms
-/// cancel against the interior's, as at normal incidence where s_t = 0 and σ = 1; docs/waves.md).
+/// cancel against the interior's, as at normal incidence where s_t = 0 and σ = 1; docs/waves-walls.md).
 /// As Δx → 0, σ → 1/cos θ and R → (cos θ − Y)/(cos θ + Y): the wall reacts locally. `None` below
 /// the cut-off (no propagating wave).
 fn grid_reflection(y: &Admittance, f: f64, s_t: f64, dt: f64, lambda: f64) -> Option<C64> {

@@ -171,7 +171,7 @@ fn dvec3s(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
 /// A directional source: `term_positions_m` float64[term, 3] and `term_signals_m3_s2`
 /// float64[term, step], a cluster of monopoles each fed its own volume acceleration (sample n
 /// at n·Δt), with the pulse that normalises the responses centred at `pulse_delay_s`; then
-/// `sources_m` is not emitted (docs/waves.md).
+/// `sources_m` is not emitted (docs/waves-sources.md).
 ///
 /// `wells`: {material: (depths m, patch m)}, the materials whose surface is a profile of wells
 /// (a well of one of the depths behind every patch of their walls; sonolux_core::wave::wells).

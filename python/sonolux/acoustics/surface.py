@@ -29,7 +29,7 @@ Vorländer; ISO 17497-1), the total reflected energy the mean of |R_n|², so
 
 With g = 0 the wells are lossless and s = 1 − |⟨R⟩|². A well in front of the material changes
 what it absorbs (a reactive part lowers α, most at grazing incidence); the waves' walls have the
-same admittances (docs/waves.md), so both halves absorb alike. The random-incidence values are
+same admittances (docs/waves-walls.md), so both halves absorb alike. The random-incidence values are
 energy means over a diffuse field's incidences (Paris' weights sin 2θ dθ; ISO 17497-1 measures
 exactly the specular and total energies in a reverberation room):
 

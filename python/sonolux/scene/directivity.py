@@ -156,7 +156,7 @@ def talker_phase(cos_to_mouth_axis: np.ndarray, frequencies_hz: np.ndarray,
     an FFT of a response (e^{−iωt} in the transform: a delay τ is e^{−iωτ}, the conjugate of
     Morse & Ingard's). At low frequency it is e^{ik(a/2)(cos θ − 1)}: the series' first two
     terms are 1 − (3/2)·i·ka·cos θ, the field of a point 1.5a in front of the head's centre,
-    a/2 in front of the mouth (docs/waves.md)."""
+    a/2 in front of the mouth (docs/waves-sources.md)."""
     c = np.clip(np.asarray(cos_to_mouth_axis, float), -1.0, 1.0)
     f_top = float(np.max(frequencies_hz))
     n_max = int(2.0 * np.pi * f_top / SPEED_OF_SOUND_M_S * radius_m) + 25

@@ -145,7 +145,7 @@ class SoundRanges:
             if field.counts is None:
                 field = add_waves(self.loaded_scene(), options, field,
                                   progress=self._log is not None, log=self._log)
-            else:  # a part of a hybrid: the waves go with the part from ray 0 (docs/waves.md)
+            else:  # a part of a hybrid: the waves go with the part from ray 0 (docs/waves-hybrid.md)
                 field = with_wave_range(self.loaded_scene(), options, field, self.target[0],
                                         progress=self._log is not None, log=self._log)
         return field

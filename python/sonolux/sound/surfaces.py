@@ -1,6 +1,6 @@
 """The rays' and image sources' side of described surfaces: each profiled material's α(θ, f)
 and s(θ, f) table for the tracer (sonolux_core::sound::scattering), from the profile's model
-(:mod:`sonolux.acoustics.surface`; docs/scene.md ``surface``, docs/waves.md "Scattering on the
+(:mod:`sonolux.acoustics.surface`; docs/scene.md ``surface``, docs/waves-walls.md "Scattering on the
 waves' side")."""
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def wells_of(scene: Scene) -> dict[int, tuple[tuple[float, ...], float]] | None:
 
 def flat_in_the_waves(scene: Scene) -> str | None:
     """A line for the log naming the materials whose scattering coefficient the rays apply and
-    the waves' flat walls cannot (no ``surface``), or None (docs/waves.md, "Scattering on the
+    the waves' flat walls cannot (no ``surface``), or None (docs/waves-walls.md, "Scattering on the
     waves' side": what a coefficient alone means)."""
     named = [m.name for m in scene.materials
              if m.surface is None and np.any(np.asarray(m.scattering) > 0)]
@@ -67,4 +67,4 @@ def flat_in_the_waves(scene: Scene) -> str | None:
     return (f"waves: the scattering of {', '.join(named)} is a coefficient: the rays apply it at "
             "every angle, the waves' walls stay flat, so T30 may step at the crossover; a "
             "material's surface = {depths_m, patch_m} gives both halves one surface "
-            "(docs/waves.md)")
+            "(docs/waves-walls.md)")

@@ -28,7 +28,7 @@ monopoles at neighbouring nodes). Here:
   of the mouth (within 0.6% of the energy at 500 Hz), so its zero-phase pattern is radiated
   from there (:func:`acoustic_centre_offset_m`); none for the dodecahedron, whose harmonics of
   orders 1-5 vanish by its symmetry, so that a phase could only be common to every direction
-  (docs/waves.md: why neither zero nor minimum phase).
+  (docs/waves-sources.md: why neither zero nor minimum phase).
 - **Cluster.** Every term sits at a whole number of cells from the source, x_s + m·Δx, so that
   each term's trilinear spread over the 8 nodes around it has the same fractional offset: the
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
@@ -236,7 +236,7 @@ def acoustic_centre_offset_m(source: Any) -> np.ndarray:
     series' first terms, 1 − (3/2)·i·ka·cos θ from the head's centre; ``talker_phase``), so
     its zero-phase pattern is radiated from there: exact for that translation at every
     frequency, and the phase left is ≤ 0.06% of the energy up to 354 Hz, 0.57% at 500 Hz
-    (docs/waves.md). Every other source: its position."""
+    (docs/waves-sources.md). Every other source: its position."""
     if source.directivity == "talker":
         return 0.5 * TALKER_HEAD_RADIUS_M * unit(source.forward)
     return np.zeros(3)

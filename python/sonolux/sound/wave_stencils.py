@@ -124,7 +124,7 @@ def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: 
     band. The lowest band's coefficients are fed down through the fade of orders ≥ 2, to half of
     :func:`lowest_filter_hz` (19 Hz for a 63 Hz band, 1.75 octaves below its centre); every other
     band's only a quarter band below its lower edge. Measured by linearity for a 30° cone
-    directional at 63 Hz (tests/sound/test_wave_sources_order3.py and docs/waves.md): orders 0-3
+    directional at 63 Hz (tests/sound/test_wave_sources_order3.py and docs/waves-sources.md): orders 0-3
     as session 9 chose them leave ≤ 6.2·10⁻⁸ of a band on the 137 mm and 69 mm grids; order 4 in
     the lowest band 2.1·10⁻⁵ and 1.5·10⁻⁵, which one rounding does not predict (2.2·10⁻⁶ and
     5.7·10⁻⁴), hence the cap; order 4 above it agrees with one rounding where that is above the

@@ -13,7 +13,7 @@
 //!   so a diffuse room decays as with the default; where the field is not diffuse (hard,
 //!   specular walls over one absorbing floor) sound grazing a surface is absorbed by it, as in
 //!   the waves, instead of not at all. With it, the hybrid of waves below the crossover and rays
-//!   above has one wall model on both sides (docs/waves.md, "Why").
+//!   above has one wall model on both sides (docs/waves-hybrid.md, "Why").
 //!
 //! Absorption is a property of the incident wave: it is applied on incidence, before the
 //! reflected energy is split into its specular (1 − s) and scattered (s) parts, so it acts on the
@@ -25,7 +25,7 @@
 //! at g ≈ 0.64). A band whose coefficient is above that (measured coefficients of porous
 //! absorbers reach 1, which no locally reacting wall does: their reaction is extended) keeps its
 //! coefficient at every angle, and [`Walls::kept_constant`] names it. The waves clamp such a
-//! band to the maximum instead (docs/waves.md); the bake prints both.
+//! band to the maximum instead (docs/waves-hybrid.md); the bake prints both.
 
 use super::Acoustics;
 use crate::wall::{admittance_from_random, locally_reacting_absorption, max_random_absorption};

@@ -230,7 +230,7 @@ pub fn band_edges(centres_hz: &[f64]) -> Vec<(f64, f64)> {
 ///
 /// k from the scheme's dispersion (sin(kΔx/2) = sin(ωΔt/2)/λ) and s̃ = j(2/Δt)·tan(ωΔt/2) (the
 /// branches' time discretisation is a bilinear transform). Derived from the boundary node's
-/// update with a discrete plane wave (docs/waves.md); as Δx → 0 it is (1 − Y)/(1 + Y). The
+/// update with a discrete plane wave (docs/waves-walls.md); as Δx → 0 it is (1 − Y)/(1 + Y). The
 /// e^{∓jkΔx/2} is the half cell of air between the node and the wall: it adds a reactance of
 /// about kΔx/2 to the wall's, which changes |R| in first order wherever Y has a reactance of its
 /// own, by up to 2 dB at the maximum frequency. Fitting to this R instead of the continuous one

@@ -42,7 +42,7 @@
 //! worst band stays within [`RANDOM_TOLERANCE`] (or the full dictionary's fit's α_st error).
 //! The fit is kept if its worst band is no farther than the first fit's. Before session 8 this
 //! was an outer loop that refitted the targets, whose refits changed branches and jumped (the
-//! rising material at 125 Hz stayed at 0.025 for 0.05); now it is 0.0500 (docs/waves.md, "Walls").
+//! rising material at 125 Hz stayed at 0.025 for 0.05); now it is 0.0500 (docs/waves-walls.md, "Walls").
 
 use num_complex::Complex64 as C64;
 
@@ -164,7 +164,7 @@ pub fn fit_material(
 
 /// What the waves deliver at `f` Hz, as a weight in the fit: all of it below the hybrid's
 /// crossover f_max/√2 (the energy of the wave bands; the grid is made for f_max = crossover·√2,
-/// docs/waves.md "The hybrid"), and above it the share of power the join keeps of the waves'
+/// docs/waves-hybrid.md), and above it the share of power the join keeps of the waves'
 /// pressure, G² = H(2 − H), H = cos²(π/2 · lg(f/f_w)/lg(f_r/f_w)) from the last wave band's
 /// centre f_w to the first ray band's f_r (`synthesis.band_split_weights`); nothing above f_r.
 /// With no band on one side of the crossover there is nothing to weigh: 1.

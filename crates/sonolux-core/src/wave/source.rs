@@ -21,7 +21,7 @@
 //! ([`SourceTerm`]): weighted monopoles matched to a directivity's low-order spherical harmonics
 //! (Bilbao and Hamilton, "Directional sources in wave-based acoustic simulation", IEEE/ACM TASLP
 //! 27(2), 2019). The terms and their signals are computed by the caller (the library fits them
-//! to the source's pattern per band, docs/waves.md); the core injects each as the monopole above,
+//! to the source's pattern per band, docs/waves-sources.md); the core injects each as the monopole above,
 //! with the pulse delayed by [`Sources::Terms`]' `pulse_delay_s` so that the signals' filters
 //! have room before it.
 
