@@ -364,7 +364,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
     // Surface: absorb, then reflect from the side the ray came from (`normal` faces it).
     ray.reflections += 1;
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
-    let material = scene.mesh.material[tri] as usize;
+    let material = super::leave::material(scene, tri);
     let m = material * nb;
     absorb_at_surface(scene, m, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], (&mut scratch.absorption[..nb], &mut scratch.kept[..nb]));
     let mut scat = &scene.acoustics.scattering[m..m + nb];
