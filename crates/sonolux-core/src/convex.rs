@@ -371,7 +371,8 @@ impl<'a> Surfaces<'a> {
     /// normal (facing either way; the planes' is precomputed). [`Surfaces::nearest_facing`]
     /// turns the normal towards the ray's side.
     /// The planes' test is inlined into the tracer (a call and its frame cost as much as the
-    /// test); the BVH's query is a call, as it always was.
+    /// test); the BVH's query is a call here ([`Surfaces::nearest_facing_avx2`] inlines it into
+    /// a caller compiled for AVX2).
     #[inline(always)]
     pub fn nearest(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
         match &self.room {
@@ -402,6 +403,17 @@ impl<'a> Surfaces<'a> {
     #[inline(always)]
     pub fn hit_record(&self, tri: usize) -> Option<&HitRecord> {
         self.records.get(tri)
+    }
+
+    /// [`Surfaces::nearest_facing`] on the BVH path with its AVX2 query inlined into the caller,
+    /// which must run under `v3.vectorize` (`v3` the BVH's [`Bvh::avx2`]; the sound kernel on
+    /// a mesh): the same hits, normals and bits.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub fn nearest_facing_avx2(&self, v3: pulp::x86::V3, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+        let hit = self.bvh.closest_hit_avx2(v3, origin.as_vec3(), dir.as_vec3())?;
+        let tri = hit.triangle as usize;
+        Some((hit.t as f64, tri, facing(self.records[tri].normal.as_dvec3(), dir)))
     }
 
     /// Whether the nearest surface comes from the convex room's planes (in f64), not the BVH.
