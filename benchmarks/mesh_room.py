@@ -153,7 +153,8 @@ def dump(rooms: dict, folder: Path) -> None:
     constructors, caught on their way in during a small bake."""
     folder.mkdir(parents=True, exist_ok=True)
     caught: dict[str, tuple] = {}
-    originals = {name: getattr(core, name) for name in ("SoundSettings", "Acoustics", "SoundSource", "Receivers")}
+    originals = {name: getattr(core, name)
+                 for name in ("SoundSettings", "Acoustics", "SoundSource", "Receivers")}
 
     def catcher(name: str):
         def make(*args, **kwargs):
