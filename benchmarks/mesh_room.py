@@ -146,11 +146,63 @@ def bvh_cost(scene, origins: np.ndarray, rng: np.random.Generator) -> dict:
             "build_s": g.build_time_s}
 
 
+def dump(rooms: dict, folder: Path) -> None:
+    """Writes each room as the core sees it in the benchmark's bake (paper estimator, air off)
+    to ``folder/<room>.scene``, whitespace-separated numbers, for the core's profiling example
+    crates/sonolux-core/examples/mesh_kernel.rs: the arguments the library hands the engine's
+    constructors, caught on their way in during a small bake."""
+    folder.mkdir(parents=True, exist_ok=True)
+    caught: dict[str, tuple] = {}
+    originals = {name: getattr(core, name)
+                 for name in ("SoundSettings", "Acoustics", "SoundSource", "Receivers")}
+
+    def catcher(name: str):
+        def make(*args, **kwargs):
+            caught[name] = (args, kwargs)
+            return originals[name](*args, **kwargs)
+        return make
+
+    def number(x) -> str:
+        return str(int(x)) if isinstance(x, (int, np.integer)) else repr(float(x))
+
+    try:
+        for name in originals:
+            setattr(core, name, catcher(name))
+        for room, scene in rooms.items():
+            caught.clear()
+            sonolux.bake(scene, rays=100, estimator="paper", air_absorption=False, progress=False)
+            settings = caught["SoundSettings"][1]
+            absorption, scattering = (np.asarray(a, float) for a in caught["Acoustics"][0][:2])
+            assert caught["Acoustics"][1].get("wall_model") == "random-incidence", room
+            position, power_w = caught["SoundSource"][0][:2]
+            centres, radius_m = np.asarray(caught["Receivers"][0][0], float), caught["Receivers"][0][1]
+            rows = [[len(scene.vertices_m)], *np.asarray(scene.vertices_m, float).tolist(),
+                    [len(scene.triangles)], *np.asarray(scene.triangles).tolist(),
+                    np.asarray(scene.material_index).tolist(), list(absorption.shape),
+                    absorption.ravel().tolist(), scattering.ravel().tolist(), [*position, power_w],
+                    [len(centres)], *centres.tolist(), [radius_m],
+                    [settings[k] for k in ("speed_of_sound_m_s", "energy_drop_db", "max_time_s",
+                                           "sample_rate_hz", "early_s", "late_bin_s")],
+                    [settings["azimuth_bands"], settings["elevation_bands"], settings["seed"]]]
+            (folder / f"{room}.scene").write_text("\n".join(" ".join(map(number, r)) for r in rows) + "\n",
+                                                  encoding="utf-8")
+            log(f"wrote {folder / (room + '.scene')}")
+    finally:
+        for name, original in originals.items():
+            setattr(core, name, original)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=6.0, help="length of the long 2-thread bake (6)")
     ap.add_argument("--out", type=Path, default=HERE / "results" / "mesh_room.json")
+    ap.add_argument("--dump", type=Path, default=None, metavar="DIR",
+                    help="write the rooms for examples/mesh_kernel.rs to DIR and stop")
     args = ap.parse_args(argv)
+    if args.dump is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            dump(scenes(Path(tmp)), args.dump)
+        return 0
     t_start = time.perf_counter()
     busy_start = other_cpu_use()
     rng = np.random.default_rng(20241124)

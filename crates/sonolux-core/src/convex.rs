@@ -15,10 +15,10 @@
 //! without level of detail) skips that search on planes whose triangles share one material.
 //! [`Surfaces`] is what both tracers ask: these planes when they apply, the BVH otherwise.
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 
 use crate::bvh::Bvh;
-use crate::mesh::Mesh;
+use crate::mesh::{HitRecord, Mesh};
 
 /// Rooms with more planes than this are left to the BVH: a linear scan would cost more.
 pub const MAX_FACES: usize = 32;
@@ -342,8 +342,9 @@ pub struct Surfaces<'a> {
     /// says otherwise); when false, a convex room's hit names a triangle of the exit plane with
     /// the hit's material.
     exact: bool,
-    /// Unit normal of each mesh triangle, computed once (the BVH path asks for one a segment).
-    normals: Vec<Vec3>,
+    /// Each mesh triangle's normal, material and corner in one record, made once for the BVH
+    /// path (which asks for one a segment; empty on the planes' path).
+    records: Vec<HitRecord>,
 }
 
 impl<'a> Surfaces<'a> {
@@ -352,8 +353,8 @@ impl<'a> Surfaces<'a> {
     pub fn new(mesh: &'a Mesh, bvh: &'a Bvh, convex: bool, starts_inside: impl Fn(&ConvexRoom) -> bool) -> Surfaces<'a> {
         let room = if convex { ConvexRoom::of_convex(mesh) } else { None };
         let room = room.filter(starts_inside);
-        let normals = if room.is_some() { Vec::new() } else { (0..mesh.triangles.len()).map(|i| mesh.normal(i)).collect() };
-        Surfaces { bvh, room, exact: true, normals }
+        let records = if room.is_some() { Vec::new() } else { mesh.hit_records() };
+        Surfaces { bvh, room, exact: true, records }
     }
 
     /// Whether a hit must name the very triangle it lands on (the light tracer's patches, level
@@ -370,7 +371,8 @@ impl<'a> Surfaces<'a> {
     /// normal (facing either way; the planes' is precomputed). [`Surfaces::nearest_facing`]
     /// turns the normal towards the ray's side.
     /// The planes' test is inlined into the tracer (a call and its frame cost as much as the
-    /// test); the BVH's query is a call, as it always was.
+    /// test); the BVH's query is a call here ([`Surfaces::nearest_facing_avx2`] inlines it into
+    /// a caller compiled for AVX2).
     #[inline(always)]
     pub fn nearest(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
         match &self.room {
@@ -392,8 +394,26 @@ impl<'a> Surfaces<'a> {
                 let exit = room.exit_with(origin, dir, self.exact);
                 Some((exit.t, exit.triangle as usize, exit.facing))
             }
-            None => self.nearest_in_bvh(origin, dir).map(|(t, tri, n)| (t, tri, if n.dot(dir) > 0.0 { -n } else { n })),
+            None => self.nearest_in_bvh(origin, dir).map(|(t, tri, n)| (t, tri, facing(n, dir))),
         }
+    }
+
+    /// The [`HitRecord`] of mesh triangle `tri` on the BVH path, in the cache line its hit's
+    /// normal was read from; None on the planes' path (no records).
+    #[inline(always)]
+    pub fn hit_record(&self, tri: usize) -> Option<&HitRecord> {
+        self.records.get(tri)
+    }
+
+    /// [`Surfaces::nearest_facing`] on the BVH path with its AVX2 query inlined into the caller,
+    /// which must run under `v3.vectorize` (`v3` the BVH's [`Bvh::avx2`]; the sound kernel on
+    /// a mesh): the same hits, normals and bits.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub fn nearest_facing_avx2(&self, v3: pulp::x86::V3, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
+        let hit = self.bvh.closest_hit_avx2(v3, origin.as_vec3(), dir.as_vec3())?;
+        let tri = hit.triangle as usize;
+        Some((hit.t as f64, tri, facing(self.records[tri].normal.as_dvec3(), dir)))
     }
 
     /// Whether the nearest surface comes from the convex room's planes (in f64), not the BVH.
@@ -406,8 +426,17 @@ impl<'a> Surfaces<'a> {
     fn nearest_in_bvh(&self, origin: DVec3, dir: DVec3) -> Option<(f64, usize, DVec3)> {
         let hit = self.bvh.closest_hit_from(origin.as_vec3(), dir.as_vec3())?;
         let tri = hit.triangle as usize;
-        Some((hit.t as f64, tri, self.normals[tri].as_dvec3()))
+        Some((hit.t as f64, tri, self.records[tri].normal.as_dvec3()))
     }
+}
+
+/// `n`, or −n when n · dir > 0: the normal facing the side a ray along `dir` comes from. The
+/// sign bit flipped without a branch (the same bits as −n): which side of a furniture's or a
+/// thin wall's triangle a ray meets is as good as random.
+#[inline(always)]
+fn facing(n: DVec3, dir: DVec3) -> DVec3 {
+    let flip = u64::from(n.dot(dir) > 0.0) << 63;
+    DVec3::new(f64::from_bits(n.x.to_bits() ^ flip), f64::from_bits(n.y.to_bits() ^ flip), f64::from_bits(n.z.to_bits() ^ flip))
 }
 
 #[cfg(test)]

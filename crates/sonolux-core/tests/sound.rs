@@ -274,3 +274,31 @@ fn a_room_far_from_the_origin_does_not_leak() {
         assert!(((lhs - rhs) / get("emitted")[b]).abs() < 1e-9, "band {b}: {lhs} vs {rhs}");
     }
 }
+
+/// On a mesh whose BVH runs on AVX2 the kernel is compiled under that token with the query
+/// inlined (sound/nearest.rs); with the portable BVH it calls the query. Same arithmetic, so
+/// the same bits: field and statistics, with one receiver and with several, in both the plain
+/// kernel (bands alike) and the general one (bands unlike: hero sampling).
+#[test]
+fn the_inlined_avx2_query_gives_the_bits_of_the_portable_one() {
+    let room = shoebox(9.0, 7.0, 3.0);
+    let obstacle = common::cuboid(glam::Vec3::new(4.0, 3.0, 0.0), glam::Vec3::new(5.0, 4.5, 1.0), [2; 6], false);
+    let mesh = common::merge(&[room, obstacle]);
+    assert!(!mesh.is_closed_convex());
+    let bvh = Bvh::build(&mesh).unwrap();
+    let portable = bvh.clone().portable();
+    let mut unlike = acoustics([0.05, 0.3, 0.1], [0.1, 0.1, 0.1], 2);
+    unlike.scattering.iter_mut().enumerate().for_each(|(i, s)| *s = 0.05 + 0.5 * (i % 2) as f64);
+    for ac in [acoustics([0.05, 0.3, 0.1], [0.1, 0.1, 0.1], 2), unlike] {
+        for centres in [vec![DVec3::new(7.0, 5.0, 1.5)], vec![DVec3::new(7.0, 5.0, 1.5), DVec3::new(2.0, 5.5, 1.2), DVec3::new(6.5, 1.5, 2.0)]] {
+            let rc = Receivers::new(centres, 0.4);
+            let set = settings(1_500, Estimator::Paper, 0.5);
+            let src = [omni(DVec3::new(2.0, 2.0, 1.5))];
+            let a = trace_sound(&mesh, &bvh, &ac, &src, &rc, &set, |_| true).unwrap();
+            let b = trace_sound(&mesh, &portable, &ac, &src, &rc, &set, |_| true).unwrap();
+            assert_eq!(a.field.to_vec(), b.field.to_vec());
+            assert_eq!((a.stats.segments, a.stats.deposits, a.stats.free_paths), (b.stats.segments, b.stats.deposits, b.stats.free_paths));
+            assert_eq!(a.stats.energy("absorbed_surfaces"), b.stats.energy("absorbed_surfaces"));
+        }
+    }
+}

@@ -92,6 +92,17 @@ impl Bvh {
         self
     }
 
+    /// The AVX2 token the queries run on, when they do: a caller that runs its own loop under
+    /// it (`V3::vectorize`) gets the queries compiled into that loop, with no call between
+    /// (the sound tracer's kernel on a mesh, `sound/trace.rs`).
+    #[cfg(target_arch = "x86_64")]
+    pub fn avx2(&self) -> Option<pulp::x86::V3> {
+        match self.simd {
+            Simd::Avx2(v3) => Some(v3),
+            Simd::Portable => None,
+        }
+    }
+
     /// "avx2" or "portable": the lanes the queries run on.
     pub fn simd_name(&self) -> &'static str {
         match self.simd {
@@ -164,6 +175,16 @@ impl Bvh {
             Simd::Avx2(v3) => v3.vectorize(|| traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY)),
             Simd::Portable => traverse::closest(lanes::Portable, &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY),
         }
+    }
+
+    /// [`Bvh::closest_hit_from`] on the AVX2 lanes of `v3` (this BVH's [`Bvh::avx2`]), inlined
+    /// into a caller that runs under `v3.vectorize` (the sound kernel on a mesh): the same
+    /// arithmetic, so the same hits. Called elsewhere it is right but slow (each SIMD operation
+    /// a call).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub fn closest_hit_avx2(&self, v3: pulp::x86::V3, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY)
     }
 
     /// Whether any triangle is hit with t in (t_min, t_max): the visibility test.

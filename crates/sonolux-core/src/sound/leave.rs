@@ -11,14 +11,20 @@ use crate::geometry::offset_origin;
 /// triangle `tri` (unit `normal`), in f64: t comes from the BVH's f32 test, whose error grows
 /// with the distance travelled, and [`offset_origin`] needs the point on its surface to within
 /// a few ulps (Wächter and Binder 2019 compute it from barycentrics for the same reason). A
-/// convex room's hits are computed in f64 on its planes already.
+/// convex room's hits are computed in f64 on its planes already. The corner comes from the
+/// triangle's hit record, in the cache line the hit's normal was read from (mesh.rs).
 #[inline(always)]
 pub(super) fn on_surface(scene: &Scene, point: DVec3, normal: DVec3, tri: usize) -> DVec3 {
-    if scene.surfaces.traces_planes() {
-        return point;
+    match scene.surfaces.hit_record(tri) {
+        Some(r) => point - normal * normal.dot(point - r.corner.as_dvec3()),
+        None => point,
     }
-    let corner = scene.mesh.vertices[scene.mesh.triangles[tri][0] as usize].as_dvec3();
-    point - normal * normal.dot(point - corner)
+}
+
+/// The material of the mesh triangle `tri` a ray hit: from its hit record on the BVH path.
+#[inline(always)]
+pub(super) fn material(scene: &Scene, tri: usize) -> usize {
+    scene.surfaces.hit_record(tri).map_or_else(|| scene.mesh.material[tri], |r| r.material) as usize
 }
 
 /// The origin of the ray that leaves the surface at `point` (coming from `from`): the offset

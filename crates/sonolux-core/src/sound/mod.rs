@@ -25,6 +25,7 @@ pub mod reflectance;
 pub mod scattering;
 pub mod stats;
 mod leave;
+mod nearest;
 mod trace;
 
 use std::sync::Arc;

@@ -201,7 +201,7 @@ impl Receivers {
     /// `segment_id` must differ between calls: together they keep a sphere that spans several
     /// cells from being counted twice. Inlined into the tracer: most segments end at the
     /// rejection by their ends or at a sphere test or two; the cell walk is a call.
-    #[inline]
+    #[inline(always)]
     pub fn crossings(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
         if self.centres.is_empty() {
             return;

@@ -8,6 +8,9 @@ use super::field::{Accumulator, Deposits};
 use super::stats::{self, Escape, SoundStats};
 use super::{bounce, Directivity, Estimator, Scene, SoundSource};
 use super::leave::{leave, on_surface};
+#[cfg(target_arch = "x86_64")]
+use super::nearest::Inlined;
+use super::nearest::{Called, Nearest, SurfaceHit};
 use crate::rng::{keyed_uniform_of_ray, ray_key, Stream};
 use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
 
@@ -25,10 +28,6 @@ pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) 
     let largest_weight = 4.0 * 3.0 / (4.0 * PI * radius * radius);
     total * largest_weight * 16.0 / 2f64.powi(63)
 }
-
-/// The nearest surface along a ray: distance, mesh triangle, unit normal facing the side the
-/// ray comes from; None when the ray leaves the scene.
-type SurfaceHit = Option<(f64, usize, DVec3)>;
 
 /// A ray's values per band: an array for the band counts the kernel is compiled for (held in
 /// the ray itself, its length known to the compiler: no pointer to follow, no bounds check),
@@ -222,18 +221,52 @@ fn emit(source: &SoundSource, rays: u64, rng: &mut Stream, weights: &mut [f64]) 
 /// every per-ray sum is summed by the ray alone, and the field and the statistics add integers
 /// (fixed point), whose sums do not depend on order.
 pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+    // On a mesh whose BVH runs on AVX2, the whole kernel is compiled for AVX2 too (the same
+    // IEEE operations, so the same bits), so that the query is inlined into it: no call, and
+    // no spilling of every live value around one, a segment (docs/bvh.md, "Leaving a surface").
+    #[cfg(target_arch = "x86_64")]
+    if let Some(v3) = scene.bvh.avx2().filter(|_| !scene.surfaces.traces_planes()) {
+        return v3.vectorize(Kernel { scene, jobs, acc, w, v3 });
+    }
+    trace_rays_by_bands(scene, jobs, acc, w, Called)
+}
+
+/// [`trace_rays`]' arguments, handed to `V3::vectorize`: a struct whose `call` is always
+/// inlined (not a closure, which the compiler may keep apart and outside the AVX2 features,
+/// leaving every SIMD operation of the inlined query a call).
+#[cfg(target_arch = "x86_64")]
+struct Kernel<'s, 'a, 'w, I> {
+    scene: &'s Scene<'a>,
+    jobs: I,
+    acc: &'s Accumulator,
+    w: &'w mut Worker,
+    v3: pulp::x86::V3,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<I: Iterator<Item = (usize, u64)>> pulp::NullaryFnOnce for Kernel<'_, '_, '_, I> {
+    type Output = ();
+    #[inline(always)]
+    fn call(self) {
+        trace_rays_by_bands(self.scene, self.jobs, self.acc, self.w, Inlined(self.v3));
+    }
+}
+
+/// [`trace_rays`]' kernel for the scene's band count and plainness.
+#[inline(always)]
+fn trace_rays_by_bands<Q: Nearest>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker, q: Q) {
     // The kernel compiled for the usual band counts (octaves 125 Hz–4 kHz or –8 kHz, the
     // default third octaves), any other count read at run time: the same operations in the
     // same order, so the same bits.
     // A plain bake (below) gets a kernel without the branches it would never take.
     match (scene.acoustics.n_bands, plain(scene)) {
-        (6, true) => trace_rays_for::<6, [f64; 6], true>(scene, jobs, acc, w),
-        (6, false) => trace_rays_for::<6, [f64; 6], false>(scene, jobs, acc, w),
-        (7, true) => trace_rays_for::<7, [f64; 7], true>(scene, jobs, acc, w),
-        (7, false) => trace_rays_for::<7, [f64; 7], false>(scene, jobs, acc, w),
-        (18, true) => trace_rays_for::<18, [f64; 18], true>(scene, jobs, acc, w),
-        (18, false) => trace_rays_for::<18, [f64; 18], false>(scene, jobs, acc, w),
-        _ => trace_rays_for::<0, Vec<f64>, false>(scene, jobs, acc, w),
+        (6, true) => trace_rays_for::<6, [f64; 6], true, Q>(scene, jobs, acc, w, q),
+        (6, false) => trace_rays_for::<6, [f64; 6], false, Q>(scene, jobs, acc, w, q),
+        (7, true) => trace_rays_for::<7, [f64; 7], true, Q>(scene, jobs, acc, w, q),
+        (7, false) => trace_rays_for::<7, [f64; 7], false, Q>(scene, jobs, acc, w, q),
+        (18, true) => trace_rays_for::<18, [f64; 18], true, Q>(scene, jobs, acc, w, q),
+        (18, false) => trace_rays_for::<18, [f64; 18], false, Q>(scene, jobs, acc, w, q),
+        _ => trace_rays_for::<0, Vec<f64>, false, Q>(scene, jobs, acc, w, q),
     }
 }
 
@@ -248,7 +281,7 @@ fn plain(scene: &Scene) -> bool {
 /// [`trace_rays`] for `NB` bands (0: any), the ray's band values held in `B` (`[f64; NB]`,
 /// or a `Vec` for any count); `PLAIN` for a [`plain`] bake.
 #[inline(always)]
-fn trace_rays_for<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
+fn trace_rays_for<const NB: usize, B: Bands, const PLAIN: bool, Q: Nearest>(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker, q: Q) {
     debug_assert!(!PLAIN || plain(scene));
     let limits = Limits::<NB>::new(scene);
     let Worker { stats: st, deposits: buf, scratch } = w;
@@ -256,7 +289,7 @@ fn trace_rays_for<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, j
     for (s, index) in jobs {
         start_ray(scene, &limits, s, index, &mut ray, acc, st, buf);
         loop {
-            let hit = find_surface::<B, PLAIN>(scene, &mut ray);
+            let hit = find_surface::<B, PLAIN, Q>(scene, &mut ray, q);
             if !advance::<NB, B, PLAIN>(scene, &limits, &mut ray, hit, acc, scratch, st, buf) {
                 break;
             }
@@ -304,12 +337,12 @@ fn start_ray<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, s: u
 
 /// Find the nearest surface along the ray (or the one level of detail found already).
 #[inline(always)]
-fn find_surface<B: Bands, const PLAIN: bool>(scene: &Scene, ray: &mut RayState<B>) -> SurfaceHit {
+fn find_surface<B: Bands, const PLAIN: bool, Q: Nearest>(scene: &Scene, ray: &mut RayState<B>, q: Q) -> SurfaceHit {
     if !PLAIN && ray.next_known {
         ray.next_known = false;
         return ray.next;
     }
-    scene.surfaces.nearest_facing(ray.pos, ray.dir)
+    q.nearest(scene, ray.pos, ray.dir)
 }
 
 /// One segment of `ray`, up to the nearest surface `hit`: deposit into the receivers it
@@ -367,7 +400,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
     // Surface: absorb, then reflect from the side the ray came from (`normal` faces it).
     ray.reflections += 1;
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
-    let material = scene.mesh.material[tri] as usize;
+    let material = super::leave::material(scene, tri);
     let m = material * nb;
     absorb_at_surface(scene, m, point, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], (&mut scratch.absorption[..nb], &mut scratch.kept[..nb]));
     let mut scat = &scene.acoustics.scattering[m..m + nb];
