@@ -13,6 +13,7 @@
 //!   bounded number of receivers drawn by importance and weighted by 1/(M p) ([`nee`]).
 //!   All three estimate the same mean over each receiver's sphere.
 
+mod air;
 mod bounce;
 mod direct;
 pub mod field;
@@ -351,6 +352,8 @@ pub(crate) struct Scene<'a> {
     pub surfaces: Surfaces<'a>,
     /// Whether the air absorbs at all (its exponentials are skipped when not).
     pub air: bool,
+    /// The air's factors exp(−m_b · d) for all bands at once (sound/air.rs).
+    pub air_lanes: air::Air,
     /// Probability of a diffuse bounce on each material whose bands scatter alike: its
     /// scattering (as the mean over its bands, the expression the bits were made with).
     pub p_diffuse: Vec<f64>,
@@ -540,6 +543,7 @@ pub fn trace_sound_with(
         // The tracer reads a hit's material, not its triangle, unless level of detail asks for the panel.
         surfaces: Surfaces::new(mesh, bvh, convex, |r| sources.iter().all(|s| r.contains(s.position))).exact_triangles(extras.level_of_detail.is_some()),
         air: settings.air_attenuation_per_m.iter().any(|&a| a > 0.0),
+        air_lanes: air::Air::new(&settings.air_attenuation_per_m[..nb]),
         p_diffuse: scattering.iter().map(|s| s.iter().sum::<f64>() / nb as f64).collect(),
         uniform_scattering: scattering.iter().all(|s| s.iter().all(|&x| x == s[0])) && extras.scattering_by_angle.is_none_or(|t| t.uniform()),
         covered,

@@ -380,7 +380,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
 
     // Air absorption over the segment.
     if scene.air {
-        absorb_air(&set.air_attenuation_per_m[..nb], length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
+        scene.air_lanes.absorb(length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
     }
     if let Some(g) = scene.grazing.filter(|_| !PLAIN) {
         g.attenuate(ray.dir, length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb]);
@@ -485,7 +485,6 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
     let set = scene.settings;
     let lay = &scene.layout;
     let nb = limits.nb();
-    let air = &set.air_attenuation_per_m[..nb];
     let (e, dir, share) = (&ray.energy.as_ref()[..nb], ray.dir, ray.share);
     let Scratch { stamp, deposit, gain, .. } = scratch;
     let deposit = &mut deposit[..nb];
@@ -509,8 +508,10 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
         let Some(tb) = lay.time_bin(time_s) else { return };
         let weight = share * c.chord / limits.sphere_volume_m3;
         if scene.air {
+            // The air's factors land in `deposit` first (all bands at once: sound/air.rs).
+            scene.air_lanes.factors(to_centre, deposit);
             for b in 0..nb {
-                deposit[b] = e[b] * weight * (-air[b] * to_centre).exp();
+                deposit[b] *= e[b] * weight;
             }
         } else {
             for b in 0..nb {
@@ -553,17 +554,6 @@ fn crosses_the_one<const NB: usize>(scene: &Scene, limits: &Limits<NB>, centre: 
     let half = (r2 - d2).sqrt();
     let (a, b) = ((tc - half).max(0.0), (tc + half).min(length));
     !beside & !(d2 >= r2) & (b > a)
-}
-
-/// The air's absorption over `length_m`: each band's energy times exp(−m_b · length), what
-/// it loses tallied into `absorbed` (ISO 9613-1's coefficients, handed in per band).
-#[inline(always)]
-fn absorb_air(air_per_m: &[f64], length_m: f64, e: &mut [f64], absorbed: &mut [f64]) {
-    for b in 0..e.len() {
-        let kept = e[b] * (-air_per_m[b] * length_m).exp();
-        absorbed[b] += e[b] - kept;
-        e[b] = kept;
-    }
 }
 
 /// The surface's absorption (material `m`'s first band index) at the angle the ray meets it
