@@ -252,7 +252,7 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &T
     loop {
         if current & LEAF == 0 {
             let node = &nodes[current as usize];
-            let (mut mask, enter) = hit_children(l, r, node, t_best);
+            let (mask, enter) = hit_children(l, r, node, t_best);
             match mask.count_ones() {
                 0 => {}
                 1 => {
@@ -269,22 +269,22 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &T
                     continue;
                 }
                 _ => {
-                    // Sort the hit slots by entry distance (insertion sort, stable), then push
-                    // all but the nearest, farthest first.
-                    let mut order = [(0.0f32, 0u32); 8];
-                    let mut n = 0;
-                    while mask != 0 {
-                        let slot = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        let item = (enter[slot], node.child[slot]);
-                        let mut k = n;
-                        while k > 0 && order[k - 1].0 > item.0 {
-                            order[k] = order[k - 1];
-                            k -= 1;
-                        }
-                        order[k] = item;
-                        n += 1;
+                    // Sort the hit slots by entry distance, the lower slot first on ties (the
+                    // order a stable insertion sort gives), then push all but the nearest,
+                    // farthest first. Each slot's place is counted, not searched for: the
+                    // hit slots entered before it (nearer, or as near and in a lower slot),
+                    // one comparison of all eight lanes a slot, so no branch on the
+                    // distances (an insertion sort's inner loop mispredicts on them). A slot
+                    // not hit is written to the scratch place 8.
+                    let lanes = l.load(&enter);
+                    let mut order = [(0.0f32, 0u32); 9];
+                    for slot in 0..8 {
+                        let t = l.splat(enter[slot]);
+                        let before = l.bits(l.lt(lanes, t)) | (l.bits(l.eq(lanes, t)) & ((1 << slot) - 1));
+                        let place = if mask >> slot & 1 != 0 { (before & mask).count_ones() as usize } else { 8 };
+                        order[place] = (enter[slot], node.child[slot]);
                     }
+                    let n = mask.count_ones() as usize;
                     for &(t, child) in order[1..n].iter().rev() {
                         prefetch(l, nodes, packets, child);
                         stack.push(child, t);
