@@ -19,6 +19,14 @@ Cases (all built here, nothing is downloaded):
                 side by side, as in a real room model. Origins uniform in the room outside
                 the obstacle's bounding sphere.
   shoebox       the paper-large shoebox alone (12 triangles); origins uniform in the room.
+  l-room        examples/l-room (652 triangles: an L-shaped classroom with tables, chairs and a
+                cabinet); origins uniform in the room's air (winding number -1: inside the
+                room, in no piece of furniture). The mesh whose sound segments
+                benchmarks/mesh_room.py compares with its bounding box: Embree's rate here is
+                the bar for the query of that target (issue 15).
+  l-room-100k   the same room with tessellated walls and an 81,920-triangle bumpy sculpture
+                (106,344 triangles, examples/l-room/make_l_room.py), origins as for l-room and
+                off the sculpture's bounding ball.
 Directions are uniform on the sphere. Rays are made in float64, rounded to float32 (Embree's
 precision) and handed to both engines from those same values.
 
@@ -45,6 +53,7 @@ from common import load_peer, other_cpu_use, write_json
 from sonolux import engine as core
 
 HERE = Path(__file__).resolve().parent
+L_ROOM = HERE.parent / "examples" / "l-room"
 ROOM_SIZE_M = np.array([24.0, 10.0, 8.0])  # paper-large
 T_REL_TOL = 1e-4
 TARGET_RATIO = 1.0  # issue 15: closest hit at least Embree's rays/s, 1 and 2 threads, both big meshes
@@ -126,11 +135,44 @@ def make_cases(n_rays: int, seed: int) -> list[dict]:
         "what": "paper-large shoebox 24x10x8 m alone; origins in the room",
         "vertices": rv, "triangles": rt, "origins": o, "directions": unit_vectors(rng, n_rays)})
 
+    cases += l_room_cases(n_rays, rng)
+
     for c in cases:
         c["origins"] = as_f32_exact(c["origins"])
         c["directions"] = as_f32_exact(c["directions"])
         c["vertices"] = as_f32_exact(c["vertices"])  # Embree stores float32 vertices
     return cases
+
+
+def l_room_cases(n_rays: int, rng: np.random.Generator) -> list[dict]:
+    """The L-room and its 100k-triangle variant, written by the example's own generator, with
+    origins uniform in the room's air: inside the room and in no furniture (the generalised
+    winding number of the whole mesh is -1 there: the room faces inwards, the furniture out)."""
+    sys.path.insert(0, str(L_ROOM))
+    import make_l_room  # the example's generator (examples/l-room/make_l_room.py)
+
+    def mesh(dense: bool) -> tuple[np.ndarray, np.ndarray]:
+        w = make_l_room.build(dense)
+        tris = np.concatenate([np.asarray(t, dtype=np.int64) for t in w.groups.values()])
+        return np.array(list(w.vertices), dtype=np.float64), tris
+
+    v, t = mesh(False)
+    geometry = core.Geometry(v, t.astype(np.uint32), np.zeros(len(t), dtype=np.uint32))
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    centre, clear_m = np.array(make_l_room.SCULPTURE_CENTRE_M), 1.15 * make_l_room.SCULPTURE_RADIUS_M
+    o = np.empty((0, 3))
+    while len(o) < n_rays:
+        p = lo + rng.random((n_rays, 3)) * (hi - lo)
+        p = p[np.linalg.norm(p - centre, axis=1) > clear_m]  # off the dense variant's sculpture
+        o = np.concatenate([o, p[np.abs(geometry.winding_numbers(p) + 1.0) < 0.5]])[:n_rays]
+    d = unit_vectors(rng, n_rays)
+    dv, dt = mesh(True)
+    return [
+        {"name": "l-room", "what": "examples/l-room (L-shaped classroom, furniture); origins in its air",
+         "vertices": v, "triangles": t, "origins": o, "directions": d},
+        {"name": "l-room-100k", "what": "its 106k-triangle variant (make_l_room dense); same rays",
+         "vertices": dv, "triangles": dt, "origins": o.copy(), "directions": d.copy()},
+    ]
 
 
 # --------------------------------------------------------------------------- timing helpers

@@ -8,6 +8,7 @@
 //!
 //! e.g. `examples/l-room/l-room.obj 10.8 3 1.6` (the L-room and its talker) or
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
+//! `QUERY_LANES=portable` traverses without SIMD registers.
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -78,6 +79,11 @@ fn main() {
     let n: usize = args.get(4).map_or(1_000_000, |a| a.parse().unwrap());
     let mesh = load(&name);
     let bvh = Bvh::build(&mesh).unwrap();
+    let bvh = match std::env::var("QUERY_LANES").as_deref() {
+        Ok("portable") => bvh.portable(),
+        _ => bvh,
+    };
+    let lanes = bvh.simd_name();
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };
@@ -111,6 +117,6 @@ fn main() {
         for &(p, d) in &rec { acc += surf.nearest(p, d).map_or(0.0, |h| h.0); }
         let indep = (cpu_ns() - t0) as f64 / n as f64;
         std::hint::black_box(acc);
-        println!("{name} round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}");
+        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}");
     }
 }

@@ -32,6 +32,8 @@ pub(crate) trait Lanes: Copy {
     fn select(self, m: Self::M, a: Self::F, b: Self::F) -> Self::F;
     /// The least of the eight values in every lane (by the x86 `min` rule; exact for numbers).
     fn hmin(self, a: Self::F) -> Self::F;
+    /// Lane i of the result is lane `idx[i]` (< 8) of `a`: values moved, never rounded.
+    fn permute(self, a: Self::F, idx: &[u32; 8]) -> Self::F;
     /// Asks the CPU to bring `x` into the cache: a hint, which changes no result.
     fn prefetch<T>(self, x: &T);
 }
@@ -123,6 +125,10 @@ impl Lanes for Portable {
         let m = self.min(a, std::array::from_fn(|i| a[i ^ 4]));
         let m = self.min(m, std::array::from_fn(|i| m[i ^ 2]));
         self.min(m, std::array::from_fn(|i| m[i ^ 1]))
+    }
+    #[inline(always)]
+    fn permute(self, a: [f32; 8], idx: &[u32; 8]) -> [f32; 8] {
+        std::array::from_fn(|i| a[idx[i] as usize & 7])
     }
     #[inline(always)]
     fn prefetch<T>(self, _: &T) {}
@@ -218,11 +224,17 @@ mod avx2 {
             self.min(m, cast(avx._mm256_permute_ps::<0b10_11_00_01>(cast(m))))
         }
         #[inline(always)]
+        fn permute(self, a: f32x8, idx: &[u32; 8]) -> f32x8 {
+            cast(self.0.avx2._mm256_permutevar8x32_ps(cast(a), cast(*idx)))
+        }
+        #[inline(always)]
         fn prefetch<T>(self, x: &T) {
-            // One hint per 64-byte line; a prefetch never faults, whatever the address.
+            // One hint per 64-byte line; a prefetch never faults, whatever the address. (A
+            // counted loop over a constant, which the compiler unrolls: `step_by` kept a
+            // loop and its branch, 4-5 a pushed child.)
             let p = (x as *const T).cast::<i8>();
-            for line in (0..size_of::<T>()).step_by(64) {
-                self.0.sse._mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(line));
+            for line in 0..size_of::<T>().div_ceil(64) {
+                self.0.sse._mm_prefetch::<{ core::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(64 * line));
             }
         }
     }
@@ -274,6 +286,8 @@ mod tests {
                 assert_eq!(a.bits(a.and(m, a.le(ax, ay))), p.lt(px, py) & p.le(px, py));
                 assert!(same(a.store(a.select(m, ax, ay)), p.select(p.lt(px, py), px, py)));
                 assert!(same(a.store(a.hmin(ax)), p.hmin(px)));
+                let idx: [u32; 8] = std::array::from_fn(|i| (x[i].to_bits() ^ y[7 - i].to_bits()) % 8);
+                assert!(same(a.store(a.permute(ax, &idx)), p.permute(px, &idx)));
             }
         }
     }

@@ -31,6 +31,8 @@ pub(crate) mod build;
 pub(crate) mod lanes;
 mod traverse;
 
+use traverse::TravRay;
+
 /// Eight children: their boxes plane by plane and their references.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
@@ -158,22 +160,35 @@ impl Bvh {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx2(v3) => {
-                v3.vectorize(|| traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, ray, t_min, t_max))
+                v3.vectorize(|| {
+                    let l = lanes::Avx2(v3);
+                    traverse::closest(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
+                })
             }
-            Simd::Portable => traverse::closest(lanes::Portable, &self.nodes, &self.packets, ray, t_min, t_max),
+            Simd::Portable => {
+                let l = lanes::Portable;
+                traverse::closest(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
+            }
         }
     }
 
     /// [`Bvh::closest_hit`] of the ray from `origin` along `dir`, t in (0, ∞), with the ray's
     /// set-up ([`Ray::new`]) done inside the kernel: compiled with the kernel's CPU features and
     /// handed to it in registers rather than through memory (the sound tracer's query, on the
-    /// chain of a ray's segments). The same arithmetic, so the same hits.
+    /// chain of a ray's segments), its axis picks done as lane permutes. The same arithmetic,
+    /// so the same hits.
     #[inline]
     pub fn closest_hit_from(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2(v3) => v3.vectorize(|| traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY)),
-            Simd::Portable => traverse::closest(lanes::Portable, &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY),
+            Simd::Avx2(v3) => v3.vectorize(|| {
+                let l = lanes::Avx2(v3);
+                traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, origin, dir, 0.0), f32::INFINITY)
+            }),
+            Simd::Portable => {
+                let l = lanes::Portable;
+                traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, origin, dir, 0.0), f32::INFINITY)
+            }
         }
     }
 

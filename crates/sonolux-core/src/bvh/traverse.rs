@@ -5,15 +5,24 @@
 //! function here is `#[inline(always)]`: under `pulp`'s `vectorize` they are compiled for the
 //! CPU features it enables.
 
+use glam::{Vec3, Vec3A};
+
 use super::lanes::Lanes;
 use super::{Node8, Packet, LEAF, PACKET_INDEX};
 use crate::geometry::{pick, Hit, Ray, BOX_EXIT_WIDEN};
+
+/// Per (kz, sign of dir[kz]): the watertight test's axes (kx, ky, kz) as `Ray::new` picks them:
+/// kx, ky the next two axes after kz, swapped when the ray runs down kz (Woop, Benthin and
+/// Wald 2013, fig. 4). Index 2·kz + (dir[kz] < 0).
+const FRAMES: [[usize; 3]; 6] = [[1, 2, 0], [2, 1, 0], [2, 0, 1], [0, 2, 1], [0, 1, 2], [1, 0, 2]];
+/// Lane indices that broadcast lane `axis` of a vector to all eight ([`Lanes::permute`]).
+const BROADCAST: [[u32; 8]; 3] = [[0; 8], [1; 8], [2; 8]];
 
 /// Stack entries kept in a fixed array; deeper stacks (pathological trees) spill to the heap.
 const STACK: usize = 32;
 
 /// A ray's values as the lanes want them, computed once per query.
-struct TravRay<L: Lanes> {
+pub(super) struct TravRay<L: Lanes> {
     /// Origin and inverse direction per axis, for the box test.
     org: [L::F; 3],
     inv: [L::F; 3],
@@ -28,8 +37,45 @@ struct TravRay<L: Lanes> {
 }
 
 impl<L: Lanes> TravRay<L> {
+    /// [`TravRay::new`] of `Ray::new(origin, dir)`, the same values to the bit, with the axis
+    /// picks done as lane permutes: the frame's three axes from one small table, and each
+    /// value of a picked axis (dir[kx], origin[ky], 1/dir[kz], …) broadcast by one permute,
+    /// where `geometry::pick` took a dozen scalar instructions each (seven picks a query, ~87
+    /// instructions on the path from a segment's direction to its first box test).
     #[inline(always)]
-    fn new(l: L, ray: &Ray, t_min: f32) -> TravRay<L> {
+    pub(super) fn from_origin_dir(l: L, origin: Vec3, dir: Vec3, t_min: f32) -> TravRay<L> {
+        // kz: the axis of the largest |component|, the first one on ties (x, then y).
+        let a = dir.abs().to_array();
+        let x_largest = (a[0] >= a[1]) & (a[0] >= a[2]);
+        let kz = (!x_largest as usize) * (1 + !(a[1] >= a[2]) as usize);
+        let d = l.load(&[dir.x, dir.y, dir.z, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let swap = (l.bits(l.lt(d, l.splat(0.0))) >> kz) as usize & 1;
+        let k = FRAMES[2 * kz + swap];
+        // 1/dir as `Ray::new` takes it: one SIMD division, ±1e-30 in place of a zero component.
+        let safe = Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::splat(1e-30).copysign(dir), dir);
+        let inv = Vec3::from(Vec3A::ONE / Vec3A::from(safe));
+        let inv_l = l.load(&[inv.x, inv.y, inv.z, 1.0, 1.0, 1.0, 1.0, 1.0]);
+        let o = l.load(&[origin.x, origin.y, origin.z, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let sz = l.permute(inv_l, &BROADCAST[k[2]]);
+        let near = [
+            inv.x.is_sign_negative() as usize,
+            2 + inv.y.is_sign_negative() as usize,
+            4 + inv.z.is_sign_negative() as usize,
+        ];
+        TravRay {
+            org: [l.permute(o, &BROADCAST[0]), l.permute(o, &BROADCAST[1]), l.permute(o, &BROADCAST[2])],
+            inv: [l.splat(inv.x), l.splat(inv.y), l.splat(inv.z)],
+            near,
+            far: [near[0] ^ 1, near[1] ^ 1, near[2] ^ 1],
+            k,
+            org_k: [l.permute(o, &BROADCAST[k[0]]), l.permute(o, &BROADCAST[k[1]]), l.permute(o, &BROADCAST[k[2]])],
+            shear: [l.mul(l.permute(d, &BROADCAST[k[0]]), sz), l.mul(l.permute(d, &BROADCAST[k[1]]), sz), sz],
+            t_min: l.splat(t_min),
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn new(l: L, ray: &Ray, t_min: f32) -> TravRay<L> {
         // (Written out, not mapped through closures: a closure would not inherit the CPU
         // features that `vectorize` enables, and its SIMD calls would not be inlined.)
         let (o, inv) = (ray.origin, ray.inv_dir);
@@ -198,8 +244,7 @@ impl Stack {
 /// Closest hit: children visited nearest entry first; stack entries whose entry distance is
 /// beyond the nearest hit found since they were pushed are dropped.
 #[inline(always)]
-pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-    let r = TravRay::new(l, ray, t_min);
+pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> Option<Hit> {
     let mut t_best = t_max;
     let mut triangle = u32::MAX;
     let mut stack = Stack::new();
@@ -207,7 +252,7 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: 
     loop {
         if current & LEAF == 0 {
             let node = &nodes[current as usize];
-            let (mut mask, enter) = hit_children(l, &r, node, t_best);
+            let (mask, enter) = hit_children(l, r, node, t_best);
             match mask.count_ones() {
                 0 => {}
                 1 => {
@@ -224,22 +269,22 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: 
                     continue;
                 }
                 _ => {
-                    // Sort the hit slots by entry distance (insertion sort, stable), then push
-                    // all but the nearest, farthest first.
-                    let mut order = [(0.0f32, 0u32); 8];
-                    let mut n = 0;
-                    while mask != 0 {
-                        let slot = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        let item = (enter[slot], node.child[slot]);
-                        let mut k = n;
-                        while k > 0 && order[k - 1].0 > item.0 {
-                            order[k] = order[k - 1];
-                            k -= 1;
-                        }
-                        order[k] = item;
-                        n += 1;
+                    // Sort the hit slots by entry distance, the lower slot first on ties (the
+                    // order a stable insertion sort gives), then push all but the nearest,
+                    // farthest first. Each slot's place is counted, not searched for: the
+                    // hit slots entered before it (nearer, or as near and in a lower slot),
+                    // one comparison of all eight lanes a slot, so no branch on the
+                    // distances (an insertion sort's inner loop mispredicts on them). A slot
+                    // not hit is written to the scratch place 8.
+                    let lanes = l.load(&enter);
+                    let mut order = [(0.0f32, 0u32); 9];
+                    for slot in 0..8 {
+                        let t = l.splat(enter[slot]);
+                        let before = l.bits(l.lt(lanes, t)) | (l.bits(l.eq(lanes, t)) & ((1 << slot) - 1));
+                        let place = if mask >> slot & 1 != 0 { (before & mask).count_ones() as usize } else { 8 };
+                        order[place] = (enter[slot], node.child[slot]);
                     }
+                    let n = mask.count_ones() as usize;
                     for &(t, child) in order[1..n].iter().rev() {
                         prefetch(l, nodes, packets, child);
                         stack.push(child, t);
@@ -250,7 +295,7 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: 
             }
         } else {
             for p in leaf_packets(current) {
-                let (t, lane) = hit_packet(l, &r, &packets[p], t_best);
+                let (t, lane) = hit_packet(l, r, &packets[p], t_best);
                 // (Selects rather than a branch: whether a packet is hit is unpredictable.)
                 let nearer = t < t_best;
                 triangle = if nearer { packets[p].ids[lane] } else { triangle };
