@@ -199,7 +199,8 @@ impl Bvh {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub fn closest_hit_avx2(&self, v3: pulp::x86::V3, origin: Vec3, dir: Vec3) -> Option<Hit> {
-        traverse::closest(lanes::Avx2(v3), &self.nodes, &self.packets, &Ray::new(origin, dir), 0.0, f32::INFINITY)
+        let l = lanes::Avx2(v3);
+        traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, origin, dir, 0.0), f32::INFINITY)
     }
 
     /// Whether any triangle is hit with t in (t_min, t_max): the visibility test.
