@@ -16,6 +16,7 @@
 mod air;
 mod bounce;
 mod direct;
+mod emit;
 pub mod field;
 pub mod grazing;
 pub mod nee;
@@ -445,7 +446,7 @@ pub struct Extras<'a> {
 /// overflow). A bake of the same sources and receivers restricted to some of their bands has a
 /// quantum no larger (a peak over fewer bands is no larger, and rounding is monotone).
 pub fn sound_quantum(sources: &[SoundSource], receivers: &Receivers) -> f64 {
-    trace::quantum(sources, receivers.radius_m, receivers.peak_gain())
+    emit::quantum(sources, receivers.radius_m, receivers.peak_gain())
 }
 
 /// [`trace_sound`] with [`Extras`].

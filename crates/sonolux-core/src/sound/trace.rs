@@ -6,28 +6,17 @@ use glam::DVec3;
 
 use super::field::{Accumulator, Deposits};
 use super::stats::{self, Escape, SoundStats};
-use super::{bounce, Directivity, Estimator, Scene, SoundSource};
+use super::{bounce, Estimator, Scene};
+use super::emit::emit;
 use super::leave::{leave, on_surface};
 #[cfg(target_arch = "x86_64")]
 use super::nearest::Inlined;
 use super::nearest::{Called, Nearest, SurfaceHit};
 use crate::rng::{keyed_uniform_of_ray, ray_key, Stream};
-use crate::sampling::{cosine_hemisphere, uniform_cone, uniform_sphere, Frame};
+use crate::sampling::{cosine_hemisphere, Frame};
 
 /// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
 const MAX_REFLECTIONS: u64 = 1_000_000;
-
-/// The energy of one count of the field: small enough that a single ray's deposits keep their
-/// precision (stochastic rounding keeps even smaller ones exact in expectation), large enough
-/// that no bin can overflow: a bin's total never exceeds the total emitted energy times 16× the
-/// largest geometric weight of a deposit, 4 · 3 / (4π r²).
-pub(crate) fn quantum(sources: &[SoundSource], radius: f64, receiver_peak: f64) -> f64 {
-    // A ray or a direct deposit carries at most `peak` times its even share (directivity),
-    // and a receiver's pattern multiplies it by at most `receiver_peak` (≥ 1).
-    let total: f64 = sources.iter().map(|s| s.power_w * s.directivity.peak()).sum::<f64>() * receiver_peak;
-    let largest_weight = 4.0 * 3.0 / (4.0 * PI * radius * radius);
-    total * largest_weight * 16.0 / 2f64.powi(63)
-}
 
 /// A ray's values per band: an array for the band counts the kernel is compiled for (held in
 /// the ray itself, its length known to the compiler: no pointer to follow, no bounds check),
@@ -194,24 +183,6 @@ impl<const NB: usize> Limits<NB> {
     fn nb(&self) -> usize {
         if NB > 0 { NB } else { self.n_bands }
     }
-}
-
-/// The first direction of ray `index`, and the ray's share of the source's energy; `weights`
-/// receives the ray's energy per band relative to that share: 1 for the uniform emitters, the
-/// importance weight g_b / (4π p) for a tabulated pattern (mean 1 in every band).
-fn emit(source: &SoundSource, rays: u64, rng: &mut Stream, weights: &mut [f64]) -> (DVec3, f64) {
-    let dir = match &source.directivity {
-        Directivity::Omni => {
-            weights.fill(1.0);
-            uniform_sphere(rng.uniform(), rng.uniform())
-        }
-        Directivity::Cone { axis, cos_half_angle } => {
-            weights.fill(1.0);
-            uniform_cone(&Frame::from_normal(*axis), *cos_half_angle, rng.uniform(), rng.uniform())
-        }
-        Directivity::Pattern(p) => p.sample(rng.uniform(), rng.uniform(), rng.uniform(), weights),
-    };
-    (dir, source.power_w / rays as f64)
 }
 
 /// Traces the rays `jobs` names, (source, ray index) each, to their ends, depositing into
