@@ -8,16 +8,12 @@ Rasmussen, JASA 2004), whose bands' centres are found each where it is and flagg
 
 from __future__ import annotations
 
-import math
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
-from sonolux import engine
 from sonolux.sound import wave_sources
 from sonolux.sound.wave_centre import translation_spill
-from tests.sound.test_wave_sources_centre import FORWARD, OFFSET_M, TO_WORLD, UP, displaced
+from tests.sound.test_wave_sources_centre import OFFSET_M, TO_WORLD, as_read, displaced
 from tests.sound.test_wave_sources_order2 import BANDS, C
 
 pytestmark = pytest.mark.usefixtures("core")
@@ -27,19 +23,12 @@ def moving(n: int = 500):
     """A cardioid (its frame: x forward) whose centre lies at OFFSET_M·f/125 Hz from the array's
     centre at frequency f (half of it at 63 Hz, twice at 250 Hz), far field: H = D(u)·e^{ik
     u·d(f)}; read as a SOFA directivity is (power and relative phase)."""
-    from sonolux.scene.sofa_directivity import SofaDirectivity, sofa_gains
     mics = wave_sources.fibonacci_directions(n)
     freqs = np.linspace(20.0, 2000.0, 100)
     k = 2.0 * np.pi * freqs / C
     along = mics @ OFFSET_M
     h = (0.5 + 0.5 * mics[:, 0])[:, None] * np.exp(1j * along[:, None] * (k * freqs / 125.0)[None])
-    ref = np.conj(h[np.argmax(np.abs(h[:, 0]))])[None]
-    phase = h * ref / np.abs(h * ref)
-    sofa = SofaDirectivity("moving.sofa", mics, freqs, np.abs(h) ** 2, phase)
-    edges = np.column_stack([BANDS / math.sqrt(2), BANDS * math.sqrt(2)])
-    d = engine.Directivity.pattern(np.ascontiguousarray(sofa_gains(sofa, edges), float),
-                                   FORWARD, UP)
-    return SimpleNamespace(directivity="sofa", forward=FORWARD, up=UP, name="m", sofa=sofa), d
+    return as_read("moving.sofa", mics, freqs, h)
 
 
 def test_the_spill_of_a_translation_is_what_a_quadrature_of_the_moved_monopole_gives():

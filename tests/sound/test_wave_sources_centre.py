@@ -35,8 +35,6 @@ def displaced(pattern, radius_m=None, n=500):
     from the centre of an array of ``n`` microphones: in the far field (``radius_m`` None:
     H = D(u)·e^{ik·u·d}) or on a sphere of ``radius_m`` (H = D(v)·e^{−ik(|Ru − d| − R)}/|Ru − d|,
     v the direction from the source). With the engine's directivity from its band energies."""
-    from sonolux.scene.sofa_directivity import SofaDirectivity, sofa_gains
-
     mics = wave_sources.fibonacci_directions(n)
     freqs = np.linspace(20.0, 2000.0, 100)
     k = 2.0 * np.pi * freqs / C
@@ -47,9 +45,18 @@ def displaced(pattern, radius_m=None, n=500):
         r = np.linalg.norm(rel, axis=1)
         h = (PATTERNS[pattern](rel / r[:, None]) / r)[:, None] * np.exp(
             -1j * np.outer(r - radius_m, k))
+    return as_read("displaced.sofa", mics, freqs, h)
+
+
+def as_read(name, mics, freqs, h):
+    """The source of responses ``h`` [microphone, frequency] as a SOFA directivity is read
+    (power, and phase relative to the loudest microphone's), and the engine's directivity from
+    its band energies."""
+    from sonolux.scene.sofa_directivity import SofaDirectivity, sofa_gains
+
     ref = np.conj(h[np.argmax(np.abs(h[:, 0]))])[None]
     phase = h * ref / np.abs(h * ref)
-    sofa = SofaDirectivity("displaced.sofa", mics, freqs, np.abs(h) ** 2, phase)
+    sofa = SofaDirectivity(name, mics, freqs, np.abs(h) ** 2, phase)
     edges = np.column_stack([BANDS / math.sqrt(2), BANDS * math.sqrt(2)])
     d = engine.Directivity.pattern(np.ascontiguousarray(sofa_gains(sofa, edges), float),
                                    FORWARD, UP)

@@ -25,6 +25,16 @@ fn scene() -> (Mesh, Acoustics, Vec<SoundSource>, Receivers) {
     (mesh, ac, vec![SoundSource { position: DVec3::new(2.0, 2.5, 1.5), power_w: 1.0, directivity: Directivity::Omni }], rc)
 }
 
+/// What a specular reflection keeps at cos θ in band `b`, (1 − α)(1 − s), each read from the
+/// table's nodes by linear interpolation in cos θ as the core reads it.
+fn kept_at(cos: f64, alpha: &dyn Fn(f64, usize) -> f64, scat: &dyn Fn(f64, usize) -> f64, b: usize) -> f64 {
+    let x = cos * (N_COS - 1) as f64;
+    let (i, t) = (x.floor(), x - x.floor());
+    let (c0, c1) = (i / (N_COS - 1) as f64, (i + 1.0) / (N_COS - 1) as f64);
+    let lerp = |f: &dyn Fn(f64, usize) -> f64| f(c0, b) + (f(c1, b) - f(c0, b)) * t;
+    (1.0 - lerp(alpha)) * (1.0 - lerp(scat))
+}
+
 /// Material `m`'s rows: α(c) and s(c) per band at N_COS nodes c = i/(N_COS − 1).
 fn rows(alpha: impl Fn(f64, usize) -> f64, scattering: impl Fn(f64, usize) -> f64) -> Vec<f64> {
     let mut out = Vec::new();
@@ -103,14 +113,8 @@ fn an_image_source_keeps_what_the_table_gives_at_its_angle() {
     // The image is at z = −1.5; cos θ is the path's vertical share.
     let d = receivers[0] - DVec3::new(0.0, 0.0, -1.5);
     let cos = d.z.abs() / d.length();
-    let x = cos * (N_COS - 1) as f64;
-    let (i, t) = (x.floor(), x - x.floor());
-    let lerp = |f: &dyn Fn(f64, usize) -> f64, b: usize| {
-        let (c0, c1) = (i / (N_COS - 1) as f64, (i + 1.0) / (N_COS - 1) as f64);
-        f(c0, b) + (f(c1, b) - f(c0, b)) * t
-    };
     for b in 0..2 {
-        let kept = (1.0 - lerp(&alpha, b)) * (1.0 - lerp(&scat, b));
+        let kept = kept_at(cos, &alpha, &scat, b);
         assert!((profiled[b] / flat[b] - kept).abs() < 1e-12, "band {b}: {} vs {kept}", profiled[b] / flat[b]);
     }
 }
@@ -176,14 +180,8 @@ fn a_diffracted_legs_reflection_keeps_what_the_table_gives_at_its_angle() {
         }
         reflected += 1;
         let cos = (f.1 - image).normalize().z.abs();
-        let x = cos * (N_COS - 1) as f64;
-        let (i, t) = (x.floor(), x - x.floor());
-        let lerp = |g: &dyn Fn(f64, usize) -> f64, b: usize| {
-            let (c0, c1) = (i / (N_COS - 1) as f64, (i + 1.0) / (N_COS - 1) as f64);
-            g(c0, b) + (g(c1, b) - g(c0, b)) * t
-        };
         for b in 0..2 {
-            let kept = (1.0 - lerp(&alpha, b)) * (1.0 - lerp(&scat, b));
+            let kept = kept_at(cos, &alpha, &scat, b);
             let ratio = p.2[b] / f.2[b];
             assert!((ratio - kept).abs() < 1e-12, "band {b}, cos θ {cos}: {ratio} vs {kept}");
         }
