@@ -25,6 +25,25 @@ fn scene() -> (Mesh, Acoustics, Vec<SoundSource>, Receivers) {
     (mesh, ac, vec![SoundSource { position: DVec3::new(2.0, 2.5, 1.5), power_w: 1.0, directivity: Directivity::Omni }], rc)
 }
 
+/// The profiled floor of the image-source and diffraction-leg tests: α(cos θ) and s(cos θ) per
+/// band, both varying with the angle.
+fn floor_alpha(c: f64, b: usize) -> f64 {
+    0.2 + 0.3 * c * c + 0.1 * b as f64
+}
+
+fn floor_scattering(c: f64, b: usize) -> f64 {
+    0.4 * (1.0 - c) + 0.05 * b as f64
+}
+
+/// Early settings for first-order paths in two octave bands up to 0.2 s.
+fn first_order_settings() -> EarlySettings {
+    let mut set = EarlySettings::octaves(2);
+    set.max_order = 1;
+    set.max_time_s = 0.2;
+    set.speed_of_sound_m_s = C;
+    set
+}
+
 /// What a specular reflection keeps at cos θ in band `b`, (1 − α)(1 − s), each read from the
 /// table's nodes by linear interpolation in cos θ as the core reads it.
 fn kept_at(cos: f64, alpha: &dyn Fn(f64, usize) -> f64, scat: &dyn Fn(f64, usize) -> f64, b: usize) -> f64 {
@@ -96,12 +115,8 @@ fn an_image_source_keeps_what_the_table_gives_at_its_angle() {
     let rigid = Acoustics { n_bands: 2, absorption: vec![0.0; 2], scattering: vec![0.0; 2] };
     let src = [SoundSource { position: DVec3::new(0.0, 0.0, 1.5), power_w: 1.0, directivity: Directivity::Omni }];
     let receivers = [DVec3::new(6.0, 1.0, 1.2)];
-    let alpha = |c: f64, b: usize| 0.2 + 0.3 * c * c + 0.1 * b as f64;
-    let scat = |c: f64, b: usize| 0.4 * (1.0 - c) + 0.05 * b as f64;
-    let mut set = EarlySettings::octaves(2);
-    set.max_order = 1;
-    set.max_time_s = 0.2;
-    set.speed_of_sound_m_s = C;
+    let (alpha, scat) = (floor_alpha, floor_scattering);
+    let mut set = first_order_settings();
     let first_order = |settings: &EarlySettings| {
         let r = early_arrivals(&mesh, &bvh, &rigid, &src, &receivers, settings, None).unwrap();
         let k = r.arrivals.iter().position(|a| a.kind == ArrivalKind::Specular { order: 1 }).unwrap();
@@ -141,12 +156,8 @@ fn a_diffracted_legs_reflection_keeps_what_the_table_gives_at_its_angle() {
     let src = [SoundSource { position: source, power_w: 1.0, directivity: Directivity::Omni }];
     let receiver = DVec3::new(0.0, 3.0, 1.0);
     let image = DVec3::new(source.x, source.y, -source.z);
-    let alpha = |c: f64, b: usize| 0.2 + 0.3 * c * c + 0.1 * b as f64;
-    let scat = |c: f64, b: usize| 0.4 * (1.0 - c) + 0.05 * b as f64;
-    let mut set = EarlySettings::octaves(2);
-    set.max_order = 1;
-    set.max_time_s = 0.2;
-    set.speed_of_sound_m_s = C;
+    let (alpha, scat) = (floor_alpha, floor_scattering);
+    let mut set = first_order_settings();
     set.diffraction = true;
     // Each diffracted arrival: (image, apex on the screen's plane, band energies), in a fixed order.
     let diffracted = |settings: &EarlySettings| {
