@@ -111,11 +111,10 @@ def test_grazing_modes_keep_the_bits_on_one_and_two_threads():
     assert np.array_equal(np.asarray(fields[0].energy), np.asarray(fields[1].energy))
 
 
-def test_the_wall_model_is_validated_and_refused_with_level_of_detail_groups():
+def test_the_wall_model_is_validated_and_its_table_built():
     """The name is one of the scene's wall models (validated where the others are); the core
-    gets the locally reacting walls plus the table; level-of-detail band groups, which rebuild
-    the materials per group without the table, refuse it by name."""
-    from sonolux.errors import SettingError
+    gets the locally reacting walls plus the table (level-of-detail band groups each take their
+    own: tests/sound/test_grazing_levels.py)."""
     from sonolux.scene.schema import WALL_MODELS
     from sonolux.sound import walls
     from sonolux.sound.options import SoundOptions
@@ -124,9 +123,6 @@ def test_the_wall_model_is_validated_and_refused_with_level_of_detail_groups():
     SoundOptions(wall_model="locally-reacting-modes").validate()
     assert walls.core_model("locally-reacting-modes") == "locally-reacting"
     assert walls.core_model("random-incidence") == "random-incidence"
-    with pytest.raises(SettingError, match="locally-reacting-modes"):
-        walls.refuse_with_levels("locally-reacting-modes")
-    walls.refuse_with_levels("locally-reacting")
     scene = _paper_small_flat(500)
     assert walls.grazing_table(scene, "locally-reacting", np.zeros((2, 1))) is None
     table = walls.grazing_table(scene, "locally-reacting-modes", np.array([[0.05], [0.3]]))

@@ -230,9 +230,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     early, arrivals = None, None
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
-    levels = sound_levels.plan(scene, arrays, log)
-    if levels is not None:
-        sound_walls.refuse_with_levels(wall_model)
+    levels = sound_levels.plan(scene, arrays, log, wall_model)
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
         """A level's bands: its sources' directivities, early settings and air."""

@@ -29,23 +29,29 @@ from sonolux.scene.schema import Scene
 from sonolux.scene.simplify import Level, band_levels
 from sonolux.sound.receiver_patterns import banded_patterns
 from sonolux.sound.surfaces import level_tables, tables_by_angle
+from sonolux.sound.walls import grazing_table
 
 
 @dataclass
 class LevelGeometry:
     """A level and the core's handle of its mesh (its BVH built once), with the α(θ)/s(θ)
     tables of its described surfaces cut to its bands (:func:`sonolux.sound.surfaces.level_tables`;
-    None without)."""
+    None without) and, under wall model "locally-reacting-modes", its rays' grazing-modes table
+    (:func:`sonolux.sound.walls.grazing_table` of the level: its mesh, materials and bands;
+    None otherwise or without a clear pair of parallel planes)."""
 
     level: Level
     geometry: Any
     by_angle: dict[int, np.ndarray] | None = None
+    grazing: Any = None
 
 
 def plan(scene: Scene, arrays: dict[str, np.ndarray],
-         log: Callable[[str], None] | None = None) -> list[LevelGeometry] | None:
+         log: Callable[[str], None] | None = None,
+         wall_model: str | None = None) -> list[LevelGeometry] | None:
     """The bake's levels, or None when it has one geometry (no level of detail, or no band
-    with a small feature): then the bake is the plain one."""
+    with a small feature): then the bake is the plain one. ``wall_model``: the bake's (the
+    Python name, :mod:`sonolux.sound.walls`), for the grazing modes' table of each level."""
     if scene.early is None or not scene.early.level_of_detail:
         return None
     levels = band_levels(scene.vertices_m, scene.triangles, scene.material_index,
@@ -65,7 +71,8 @@ def plan(scene: Scene, arrays: dict[str, np.ndarray],
             geometry = out[-1].geometry
         else:
             geometry = engine.Geometry(scene.vertices_m, lv.triangles, lv.material_index)
-        out.append(LevelGeometry(lv, geometry, level_tables(tables, lv)))
+        out.append(LevelGeometry(lv, geometry, level_tables(tables, lv), grazing_table(
+            scene, wall_model or "", lv.absorption[:, lv.bands], lv)))
         if log:
             b = lv.bands
             span = f"{labels[b.start]}–{labels[b.stop - 1]} Hz"
@@ -167,7 +174,8 @@ def trace(levels: list[LevelGeometry] | None, scene: Scene, acoustics: Any, sour
         src, early_b, air = parts(b)
         acoustics_b = engine.Acoustics(np.ascontiguousarray(lg.level.absorption[:, b]),
                                        np.ascontiguousarray(lg.level.scattering[:, b]),
-                                       wall_model=acoustics.wall_model, by_angle=lg.by_angle)
+                                       wall_model=acoustics.wall_model, by_angle=lg.by_angle,
+                                       grazing=lg.grazing)
         step = None if progress is None else _level_progress(progress, j, len(levels))
         rec, extra = (receivers, whole) if receivers_of is None else receivers_of(b)
         part = engine.trace_sound(lg.geometry, acoustics_b, src, rec,

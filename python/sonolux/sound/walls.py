@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 RANDOM_INCIDENCE = "random-incidence"
 LOCALLY_REACTING = "locally-reacting"
 LOCALLY_REACTING_MODES = "locally-reacting-modes"
@@ -29,14 +31,23 @@ def core_model(name: str) -> str:
     return LOCALLY_REACTING if name == LOCALLY_REACTING_MODES else name
 
 
-def grazing_table(scene: Any, name: str, absorption: Any) -> Any:
+def grazing_table(scene: Any, name: str, absorption: Any, level: Any = None) -> Any:
     """``Acoustics(grazing=...)`` of ``scene`` under wall model ``name``: the grazing modes'
-    table with "locally-reacting-modes", else None."""
+    table with "locally-reacting-modes", else None. With ``level`` (a
+    :class:`sonolux.scene.simplify.Level` of level-of-detail band groups) the table of that
+    group: its own mesh (small features folded into the surfaces they sit on may leave a gap
+    clear that the full mesh blocks), its materials (a seat carries what it took in) and its
+    bands; ``absorption`` is then the level's, cut to its bands. Each band's row depends on
+    that band alone, so one group over every band on the full mesh is the whole bake's table."""
     if name != LOCALLY_REACTING_MODES:
         return None
     from sonolux.sound.grazing import modes_table
-    return modes_table(scene.vertices_m, scene.triangles, scene.material_index, absorption,
-                       scene.settings.band_set.exact_hz, scene.settings.speed_of_sound_m_s)
+    centres_hz = np.asarray(scene.settings.band_set.exact_hz, float)
+    if level is None:
+        return modes_table(scene.vertices_m, scene.triangles, scene.material_index, absorption,
+                           centres_hz, scene.settings.speed_of_sound_m_s)
+    return modes_table(scene.vertices_m, level.triangles, level.material_index, absorption,
+                       centres_hz[level.bands], scene.settings.speed_of_sound_m_s)
 
 
 def resolve(scene: Any, options: Any) -> tuple[str, str]:
@@ -53,14 +64,6 @@ def resolve(scene: Any, options: Any) -> tuple[str, str]:
     return RANDOM_INCIDENCE, f"walls {RANDOM_INCIDENCE} (each band's coefficient at every angle)"
 
 
-def refuse_with_levels(name: str) -> None:
-    """Level-of-detail band groups rebuild the materials per group without the grazing table."""
-    if name == LOCALLY_REACTING_MODES:
-        from sonolux.errors import SettingError
-        raise SettingError(f"wall_model: '{name}' cannot be baked with level-of-detail band "
-                           "groups yet; use 'locally-reacting' or leave level of detail off")
-
-
 def describe_kept(kept: list[tuple[int, int]], material_names: list[str],
                   bands_hz: Any) -> str | None:
     """A note naming the bands that keep their coefficient at every angle under the locally
@@ -74,4 +77,4 @@ def describe_kept(kept: list[tuple[int, int]], material_names: list[str],
 
 
 __all__ = ["LOCALLY_REACTING", "LOCALLY_REACTING_MODES", "RANDOM_INCIDENCE", "core_model",
-           "describe_kept", "grazing_table", "refuse_with_levels", "resolve"]
+           "describe_kept", "grazing_table", "resolve"]
