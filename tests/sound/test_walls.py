@@ -36,7 +36,7 @@ def scene(wall_model=None, *, alpha=(0.1, 0.4), scattering=0.9, waves=None, thre
 
 def test_the_model_is_the_options_then_the_scenes_then_automatic():
     assert walls.resolve(scene(), SoundOptions())[0] == "random-incidence"
-    assert walls.resolve(scene(), SoundOptions(waves=True))[0] == "locally-reacting"
+    assert walls.resolve(scene(), SoundOptions(waves=True))[0] == "locally-reacting-modes"
     assert walls.resolve(scene("random-incidence"), SoundOptions(waves=True))[0] == \
         "random-incidence"
     assert walls.resolve(scene("locally-reacting"), SoundOptions())[0] == "locally-reacting"

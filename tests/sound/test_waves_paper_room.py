@@ -300,7 +300,7 @@ def _paper_room_decays():
         scene = sonolux.load_scene("paper-small")
         hybrid = bake(scene, rays=20_000, waves=True, crossover_hz=707)
         plain = bake(scene, rays=20_000)
-        assert hybrid.settings["wall_model"] == "locally-reacting"
+        assert hybrid.settings["wall_model"] == "locally-reacting-modes"
         assert plain.settings["wall_model"] == "random-incidence"
         assert hybrid.waves["wave_bands"] == 3
         far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5

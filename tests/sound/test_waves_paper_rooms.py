@@ -62,7 +62,7 @@ def room_decays(name):
         scene = sonolux.load_scene(data)
         hybrid = bake(scene, rays=20_000, waves=True,
                       **({"late_bin_s": extra["late_bin_s"]} if "late_bin_s" in extra else {}))
-        assert hybrid.settings["wall_model"] == "locally-reacting"
+        assert hybrid.settings["wall_model"] == "locally-reacting-modes"
         nb = hybrid.waves["wave_bands"]
         far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
         walls, floor = (admittance_from_random(a) for a in (WALLS, FLOOR))

@@ -212,7 +212,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                                  wall_model=sound_walls.core_model(wall_model),
                                  by_angle=sound_surfaces.tables_by_angle(scene),
                                  grazing=sound_walls.grazing_table(scene, wall_model,
-                                                                   arrays["absorption"]))
+                                                                   arrays["absorption"],
+                                                                   log=log))
     wall_kept = [list(k) for k in acoustics.kept_constant()]
     if log:
         log(wall_why)

@@ -13,7 +13,13 @@ Pairs are found from the mesh: along a direction, the two extreme planes form a 
 alone is the whole room seen along that direction (its area is half the room's projected
 surface, Σ|n·nₜ|Aₜ/2): a flat floor under a flat ceiling, or a shoebox's three pairs. A plane's
 admittance is the area-weighted mean of its triangles' (first order in β, the n = 0 mode's
-damping is the plane's integral of β, its |ψ|² being uniform there).
+damping is the plane's integral of β, its |ψ|² being uniform there; Kuttruff §3.5, the damping
+constant of a mode as the surface integral of Re β |ψ|², Morse and Ingard §9.4). That mean is
+the limit of patches small against the wavelength (the mode sees the homogenised admittance);
+patches large against it are the other limit, where the mode is locally that of the patches
+above and below and its loss the area mean of their exact rates. The two differ at second order
+in the spread of β (both are exact for a plane of one material); :func:`mixed_plane_spread`
+gives that difference, the bound the bake states when a plane holds several materials.
 """
 
 from __future__ import annotations
@@ -107,6 +113,70 @@ def grazing_wavenumber_squared(k: float, spacing_m: float, beta_a: float, beta_b
     return complex(q * q)
 
 
+def _areas(vertices_m: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    v, tri = np.asarray(vertices_m, float), np.asarray(triangles)
+    return 0.5 * np.linalg.norm(np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]),
+                                axis=1)
+
+
+def interference_length_m(k: float, spacing_m: float) -> float:
+    """The distance over which the gap's grazing mode and its first other mode (rigid planes,
+    κ₁ = π/D) drift a cycle apart, 2π/(k − √(k² − κ₁²)) (≈ 4kD²/π for kD ≫ π; infinite when
+    mode 1 does not propagate). A change of the planes' admittance over a distance much shorter
+    than this is seen averaged by the mode; over a much longer one the mode follows it
+    adiabatically, locally the mode of the planes there (the adiabatic-mode condition of
+    range-dependent waveguides: Jensen, Kuperman, Porter and Schmidt, *Computational Ocean
+    Acoustics*, 2nd ed., 2011, §5.10; Milder, JASA 46, 1969)."""
+    kappa1 = np.pi / spacing_m
+    if k <= kappa1:
+        return float("inf")
+    return float(2 * np.pi / (k - np.sqrt(k * k - kappa1 * kappa1)))
+
+
+def _rate(k: float, spacing_m: float, beta_a: float, beta_b: float) -> float:
+    """The grazing mode's energy loss per metre, Im κ₀²/k."""
+    return max(grazing_wavenumber_squared(k, spacing_m, beta_a, beta_b).imag, 0.0) / k
+
+
+def mixed_plane_spread(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np.ndarray,
+                       absorption: np.ndarray, centres_hz: np.ndarray, speed_of_sound_m_s: float
+                       ) -> np.ndarray | None:
+    """float64[pair, band]: how far the grazing mode's rate of :func:`modes_table` (the planes'
+    area-weighted admittances, the limit of small patches) lies from the area mean of the exact
+    rates of every floor-patch/ceiling-patch combination (the limit of large patches; the two
+    planes' patches taken as independent, weight A_i·A_j), relative to the former; 0 for
+    planes of one material each. None without pairs; a band above Paris' 0.951 is 0 (the
+    table leaves it out)."""
+    pairs = parallel_pairs(vertices_m, triangles)
+    if not pairs:
+        return None
+    absorption = np.asarray(absorption, float)
+    peak = float(paris_absorption(PARIS_PEAK_G))
+    g = conductance_from_random(np.minimum(absorption, peak))
+    area = _areas(vertices_m, triangles)
+    mat = np.asarray(material_index)
+    k = 2 * np.pi * np.asarray(centres_hz, float) / speed_of_sound_m_s
+    out = np.zeros((len(pairs), k.size))
+    for i, p in enumerate(pairs):
+        sides = []
+        for side in p.triangles:
+            ms = np.unique(mat[side])
+            sides.append((ms, np.array([area[side][mat[side] == m].sum() for m in ms])))
+        (ma, aa), (mb, ab) = sides
+        if ma.size == 1 and mb.size == 1:
+            continue
+        wa, wb = aa / aa.sum(), ab / ab.sum()
+        for b in range(k.size):
+            if (absorption[ma, b] > peak).any() or (absorption[mb, b] > peak).any():
+                continue
+            kb, d = float(k[b]), p.spacing_m
+            mean = _rate(kb, d, float(wa @ g[ma, b]), float(wb @ g[mb, b]))
+            local = sum(wa[x] * wb[y] * _rate(kb, d, float(g[ma[x], b]), float(g[mb[y], b]))
+                        for x in range(ma.size) for y in range(mb.size))
+            out[i, b] = abs(local - mean) / mean if mean > 0 else 0.0
+    return out
+
+
 def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np.ndarray,
                 absorption: np.ndarray, centres_hz: np.ndarray, speed_of_sound_m_s: float
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
@@ -122,9 +192,7 @@ def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: n
     peak = float(paris_absorption(PARIS_PEAK_G))
     g = conductance_from_random(np.minimum(absorption, peak))
     too_high = absorption > peak
-    v, tri = np.asarray(vertices_m, float), np.asarray(triangles)
-    area = 0.5 * np.linalg.norm(np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]]),
-                                axis=1)
+    area = _areas(vertices_m, triangles)
     k = 2 * np.pi * np.asarray(centres_hz, float) / speed_of_sound_m_s
     nb = k.size
     normals = np.array([p.normal for p in pairs])
@@ -147,4 +215,5 @@ def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: n
     return normals, offsets, cos_limit, rate
 
 
-__all__ = ["Pair", "grazing_wavenumber_squared", "modes_table", "parallel_pairs"]
+__all__ = ["Pair", "grazing_wavenumber_squared", "interference_length_m", "mixed_plane_spread",
+           "modes_table", "parallel_pairs"]
