@@ -135,8 +135,8 @@ class Settings:
     air: Air = field(default_factory=Air)
     bands: str = OCTAVE
     #: How a surface's absorption depends on the angle of incidence (:data:`WALL_MODELS`;
-    #: docs/walls.md); None: automatic, "locally-reacting" in a bake with waves (the wave
-    #: solver's wall), else "random-incidence".
+    #: docs/walls.md); None: automatic, "locally-reacting-modes" in a bake with waves (the
+    #: wave solver's wall, the gaps' grazing modes in the rays), else "random-incidence".
     wall_model: str | None = None
 
     @property

@@ -76,9 +76,10 @@ class SoundOptions:
         alone and keeps its own field (docs/fieldfile.md); a bake of some of them gives each
         the bits it has in a bake of all.
     wall_model: how a surface's absorption depends on the angle of incidence,
-        "random-incidence" or "locally-reacting" (docs/walls.md); None = the scene's
-        ``[settings] wall_model``, else "locally-reacting" with waves (the wave solver's
-        wall, so that the hybrid has one wall model) and "random-incidence" without.
+        "random-incidence", "locally-reacting" or "locally-reacting-modes" (docs/walls.md);
+        None = the scene's ``[settings] wall_model``, else "locally-reacting-modes" with
+        waves (the wave solver's wall with the gaps' grazing modes in the rays, so that the
+        hybrid has one wall model) and "random-incidence" without.
     """
 
     rays: int | str = "auto"
