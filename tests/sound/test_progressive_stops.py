@@ -287,3 +287,34 @@ def test_an_entry_at_a_limit_counts_by_its_fitted_values_error():
     e.at_limit_error = None  # the same entry without a fitted SE: undefined by noise
     assert "rays to converge at least" in progressive.outlook(e, progressive.Accuracy(0.25),
                                                               16_384, 1_000_000, 1000.0)
+
+
+def test_an_onset_the_leave_outs_disagree_on_is_waited_for():
+    """A receiver without a direct sound (around a corner) whose earliest arrival within 20 dB of
+    the peak is one rare deposit in one group: leaving that group out moves the onset (ISO 3382-1
+    A.3.4) 10 ms later, and C80, EDT and T30 jump with it. Each leave-out takes its own onset, the
+    receiver's errors are infinite (not converged) and the round's line says why; a receiver
+    with a direct sound in every group keeps finite errors. Once the early arrival is in every
+    group (more rays), the onset is settled and the errors are finite again. (Measured in the
+    L-room at 1,048,576 paper rays: with the whole bake's onset kept for every leave-out, C80 of
+    the receiver around the corner lay 18.6 of its SEs from the 26 M-ray value.)"""
+    rate, start, width = decay(0.5, peak=5000.0)
+    shadowed = rate.copy()
+    shadowed[:25] = 0.0  # no direct sound: the reverberation starts at 25 ms
+    groups = np.stack([synthetic_groups(rate, np.random.default_rng(9))[:, 0],
+                       synthetic_groups(shadowed, np.random.default_rng(10))[:, 0]], axis=1)
+    early = np.uint64(2 * shadowed[25])  # one strong early arrival, 10 ms ahead
+    groups[3, 1, 0, 15] += early
+    e = progressive.jackknife(groups.sum(axis=0, dtype=np.uint64), groups, start, width, None)
+    assert e.onset_unsettled is not None and e.onset_unsettled.tolist() == [False, True]
+    for name in progressive.PARAMETERS:
+        assert np.isinf(e.standard_error[name][1, 0]) and np.isfinite(e.standard_error[name][0, 0])
+    assert e.worst_over_target(10.0) == np.inf
+    assert "onset not settled at receiver #1" in progressive._describe(e, 0.25)
+    onsets = accuracy.leave_out_onsets(groups.sum(axis=0, dtype=np.uint64), groups,
+                                       np.append(start, start[-1] + width[-1]))
+    assert onsets[:, 1].tolist() == pytest.approx([0.015] * 3 + [0.025] + [0.015] * 4)
+    groups[:, 1, 0, 15] = early  # the early arrival seen by every group
+    e = progressive.jackknife(groups.sum(axis=0, dtype=np.uint64), groups, start, width, None)
+    assert not e.onset_unsettled.any()
+    assert all(np.isfinite(e.standard_error[name]).all() for name in progressive.PARAMETERS)

@@ -75,6 +75,9 @@ class Errors:
     #: Receivers no energy reached (:mod:`sonolux.sound.reach`): every parameter of theirs is
     #: left out of the rule, for the reason :data:`UNREACHED`. None: not tested.
     reach: Reach | None = None
+    #: bool[receiver]: the leave-out estimates disagree on the onset (:func:`leave_out_onsets`);
+    #: every parameter of the receiver then has an infinite SE (not converged). None: not known.
+    onset_unsettled: np.ndarray | None = None
 
     def _unreached(self, name: str) -> np.ndarray:
         """bool[receiver, band]: the entries of unreached receivers (undefined: no energy)."""
@@ -206,9 +209,9 @@ def jackknife(total: np.ndarray, groups: np.ndarray, bin_start_s: np.ndarray,
               bin_width_s: np.ndarray, max_decay_s: np.ndarray | None) -> Errors:
     """The delete-a-group jackknife of T30, EDT and C80 from exact counts:
     ``total`` uint64[receiver, band, time] and ``groups`` uint64[group, receiver, band, time]
-    (total = their sum). The onset (direct sound) is taken from the total and kept for every
-    leave-out estimate. Entries the whole bake leaves undefined are sorted by
-    :func:`undefined_for_good`."""
+    (total = their sum). Each leave-out estimate takes its own onset (ISO 3382-1 A.3.4: the
+    first bin within 20 dB of the peak), as the bake does (:func:`leave_out_onsets`). Entries
+    the whole bake leaves undefined are sorted by :func:`undefined_for_good`."""
     edges = np.append(bin_start_s, bin_start_s[-1] + bin_width_s[-1])
     whole = total.astype(np.float64)
     onset = onsets_s(whole.sum(axis=1), edges)
@@ -216,6 +219,7 @@ def jackknife(total: np.ndarray, groups: np.ndarray, bin_start_s: np.ndarray,
     g = groups.shape[0]
     measured = (*PARAMETERS, *(key for _, key in CURVED.values()))
     leave_out = {name: np.empty((g, *total.shape[:2])) for name in measured}
+    onsets = leave_out_onsets(total, groups, edges)
     for k in range(g):
         # The limits on a fit (ξ, curvature, the record's length) are decided on the whole
         # bake: a leave-out gives the fitted time. Near a limit they flip between leave-outs
@@ -223,10 +227,15 @@ def jackknife(total: np.ndarray, groups: np.ndarray, bin_start_s: np.ndarray,
         # 1.63 … 1.75 s; at 4.8 M rays the record-length estimate −55 dB against its −55 dB
         # limit), which made the SE infinite while the value itself is smooth.
         part = parameters((total - groups[k]).astype(np.float64), bin_start_s, bin_width_s,
-                          onset, max_decay_s, fit_limits=False, details=True)
+                          onsets[k], max_decay_s, fit_limits=False, details=True)
         for name in measured:
             leave_out[name][k] = part[name]
     se = {name: _spread(leave_out[name]) for name in measured}
+    # Where the leave-outs disagree on the onset the parameters jump with it: their spread is
+    # the size of a jump, not an error (leave_out_onsets), so the error is not known yet.
+    unsettled = (onsets != onsets[0]).any(axis=0)
+    for name in PARAMETERS:
+        se[name] = np.where(unsettled[:, None], np.inf, se[name])
     errors = {name: np.where(np.isnan(value[name]), np.nan, se[name]) for name in PARAMETERS}
     why = {name: value[f"{name}_reason"] for name in PARAMETERS}
     good = {name: undefined_for_good(why[name], value, se) for name in PARAMETERS}
@@ -239,7 +248,36 @@ def jackknife(total: np.ndarray, groups: np.ndarray, bin_start_s: np.ndarray,
         scale = np.abs(fitted[name]) if JND[name][1] == "relative" else 1.0
         with np.errstate(invalid="ignore", divide="ignore"):
             at_limit[name] = np.where(near, se[name] / scale, np.nan)
-    return Errors({name: value[name] for name in PARAMETERS}, errors, None, why, good, at_limit)
+    return Errors({name: value[name] for name in PARAMETERS}, errors, None, why, good, at_limit,
+                  onset_unsettled=unsettled)
+
+
+def leave_out_onsets(total: np.ndarray, groups: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """float64[group, receiver]: the onset (s) of each leave-out estimate, from its own energies
+    (:func:`sonolux.analysis.params.onsets_s`, summed over bands as the whole bake's).
+
+    Why (session 12, docs/progressive.md "Rare large deposits"): the onset is the first bin
+    within 20 dB of the peak power, an extreme-value statistic of single deposits where no
+    direct sound fixes it. In the L-room at 1,048,576 paper rays, receiver 2 (around the
+    corner) had its onset at 24.8 ms from one rare early arrival; the 26 M-ray bake puts it at
+    33.6 ms. With the whole bake's onset kept for every leave-out, the jackknife never saw
+    this: C80 lay up to 18.6 of its SEs from the 26 M value (its eight leave-outs, with their own
+    onsets: 24.8 ms seven times, 26.75 ms once). The delete-a-group jackknife is a delete-d
+    jackknife with d = n / G rays, and a delete-d jackknife estimates the variance of non-smooth
+    statistics such as sample quantiles consistently once √n / d → 0 and n − d → ∞ (Shao and Wu,
+    Ann. Statist. 17, 1989; Shao and Tu 1995, §2.3), which the delete-one
+    jackknife does not: so the onset is re-estimated in every leave-out. Where a direct sound
+    or many rays fix the onset (line of sight; rain and nee's exact direct sound, shared by the
+    groups) every leave-out finds the same bin and nothing changes.
+
+    Where they disagree, the parameters of that receiver jump with the onset, and their spread
+    is the size of one jump, not an error (Shao and Tu 1995, §2.3: the jackknife fails for
+    statistics with a jump; measured there, with the leave-outs' own onsets C80 still lay 3.8
+    SEs off, since the next rare arrival was farther away than the one a leave-out revealed):
+    :func:`jackknife` reports their error as infinite (not converged) until every leave-out
+    finds the same onset bin (the L-room: from 4,194,304 rays on)."""
+    return np.stack([onsets_s((total - part).astype(np.float64).sum(axis=1), edges)
+                     for part in groups])
 
 
 def _spread(theta: np.ndarray) -> np.ndarray:

@@ -405,6 +405,11 @@ def _describe(errors: Errors, fraction: float) -> str:
                      + ", ".join(errors.reach.label(r) for r in rows)
                      + f" (0 hits, ≥ {errors.reach.expected_hits[rows].min():,.0f} expected in "
                      "the diffuse field): not waited for")
+    if errors.onset_unsettled is not None and errors.onset_unsettled.any():
+        rows = np.flatnonzero(errors.onset_unsettled)
+        parts.append(f"onset not settled at receiver{'s' if rows.size > 1 else ''} "
+                     + ", ".join(f"#{r}" for r in rows) + " (the leave-out estimates find "
+                     "different first arrivals: waited for, error infinite)")
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
