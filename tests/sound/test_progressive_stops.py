@@ -311,6 +311,7 @@ def test_an_onset_the_leave_outs_disagree_on_is_waited_for():
         assert np.isinf(e.standard_error[name][1, 0]) and np.isfinite(e.standard_error[name][0, 0])
     assert e.worst_over_target(10.0) == np.inf
     assert "onset not settled at receiver #1" in progressive._describe(e, 0.25)
+    assert e.summary()["c80"]["onset_unsettled"] == [1]
     onsets = accuracy.leave_out_onsets(groups.sum(axis=0, dtype=np.uint64), groups,
                                        np.append(start, start[-1] + width[-1]))
     assert onsets[:, 1].tolist() == pytest.approx([0.015] * 3 + [0.025] + [0.015] * 4)

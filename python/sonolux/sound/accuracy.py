@@ -136,7 +136,9 @@ class Errors:
         """Per parameter: the largest and median standard error (in the JND's unit) of the
         defined entries the rule counts, and where; ``undefined``: entries undefined by noise
         (waited for); ``left_out``: {reason kind: [[receiver, band], ...]} of the entries
-        undefined for good; ``near_source``: decay times left out near a source."""
+        undefined for good; ``near_source``: decay times left out near a source;
+        ``onset_unsettled``: the receivers whose errors are infinite because the leave-outs
+        disagree on the onset (:func:`leave_out_onsets`)."""
         out: dict[str, Any] = {}
         for name in PARAMETERS:
             rel = self.counted(name, waiting=np.nan)
@@ -144,7 +146,10 @@ class Errors:
             near = (0 if self.excluded is None or name not in self.excluded
                     else int((self.excluded[name] & ~np.isnan(self.relative(name))).sum()))
             at = self.at_limit(name)
+            unsettled = ([] if self.onset_unsettled is None
+                         else np.flatnonzero(self.onset_unsettled).tolist())
             entry: dict[str, Any] = {"undefined": int((self.waiting(name) & ~at).sum()),
+                                     "onset_unsettled": unsettled,
                                      "near_source": near, "left_out": self.left_out(name),
                                      "at_limit": self._where(name, at),
                                      "unit": "relative" if JND[name][1] == "relative" else "dB"}
