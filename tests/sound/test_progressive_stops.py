@@ -312,6 +312,10 @@ def test_an_onset_the_leave_outs_disagree_on_is_waited_for():
     assert e.worst_over_target(10.0) == np.inf
     assert "onset not settled at receiver #1" in progressive._describe(e, 0.25)
     assert e.summary()["c80"]["onset_unsettled"] == [1]
+    # The automatic choice's projection and the round's outlook leave that receiver out (no SE
+    # to project from), as entries undefined by noise: finite, and a lower bound.
+    assert np.isfinite(progressive.projection(e, 10.0))
+    assert "at least" in progressive.outlook(e, progressive.Accuracy(0.25), 16_384, 10**6, 1e4)
     onsets = accuracy.leave_out_onsets(groups.sum(axis=0, dtype=np.uint64), groups,
                                        np.append(start, start[-1] + width[-1]))
     assert onsets[:, 1].tolist() == pytest.approx([0.015] * 3 + [0.025] + [0.015] * 4)

@@ -116,6 +116,14 @@ class Errors:
             rel = np.where(at, self.at_limit_error[name], rel)
         return np.where(self.waiting(name) & ~at, waiting, rel)
 
+    def settled(self, name: str) -> np.ndarray:
+        """:meth:`counted` with the receivers whose onset is not settled NaN (no SE to project
+        from there: the rule waits for them, as for entries undefined by noise)."""
+        rel = self.counted(name, waiting=np.nan)
+        if self.onset_unsettled is None:
+            return rel
+        return np.where(self.onset_unsettled[:, None], np.nan, rel)
+
     def relative(self, name: str) -> np.ndarray:
         """The standard error in the unit of the JND (relative or dB)."""
         se = self.standard_error[name]
