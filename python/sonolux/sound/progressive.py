@@ -355,13 +355,11 @@ def outlook(errors: Errors, accuracy: Accuracy, done: int, ceiling: int, rate: f
     comes first."""
     fraction = accuracy.fraction_of_jnd
     worst = max((float(np.nanmax(r)) for r in (
-        errors.settled(p) / (fraction * JND[p][0]) for p in PARAMETERS)
+        errors.counted(p, waiting=np.nan) / (fraction * JND[p][0]) for p in PARAMETERS)
         if np.isfinite(r).any()), default=math.nan)
     # Entries at a limit count their fitted value's SE (projected above); only those undefined
-    # by noise, or of a receiver whose onset is not settled, make the projection a lower bound.
+    # by noise make the projection a lower bound.
     waiting = sum(int((errors.waiting(p) & ~errors.at_limit(p)).sum()) for p in PARAMETERS)
-    if errors.onset_unsettled is not None:
-        waiting += int(errors.onset_unsettled.sum())
     if not math.isfinite(worst):
         return "nothing defined yet to project from"
     needed = done * max(worst, 1.0) ** 2
@@ -407,11 +405,12 @@ def _describe(errors: Errors, fraction: float) -> str:
                      + ", ".join(errors.reach.label(r) for r in rows)
                      + f" (0 hits, ≥ {errors.reach.expected_hits[rows].min():,.0f} expected in "
                      "the diffuse field): not waited for")
-    if errors.onset_unsettled is not None and errors.onset_unsettled.any():
-        rows = np.flatnonzero(errors.onset_unsettled)
-        parts.append(f"onset not settled at receiver{'s' if rows.size > 1 else ''} "
-                     + ", ".join(f"#{r}" for r in rows) + " (the leave-out estimates find "
-                     "different first arrivals: waited for, error infinite)")
+    rows = errors.onset_uncertain()
+    if rows.size:
+        assert errors.onset_s is not None and errors.supported_onset_s is not None
+        parts.append(f"onset uncertain at receiver{'s' if rows.size > 1 else ''} " + ", ".join(
+            f"#{r} ({errors.onset_s[r] * 1e3:.1f} ms; {errors.supported_onset_s[r] * 1e3:.1f} ms "
+            "in every group)" for r in rows) + ": counted in their errors")
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
@@ -439,12 +438,9 @@ def projection(errors: Errors, fraction_of_jnd: float) -> float:
     factor by which the rays (and the work) must grow for that share of entries to reach the
     target (SE falls as 1/√n); an undefined leave-out counts as infinite. An entry the pilot
     leaves undefined has no SE to project from and is left out here (the stopping rule waits
-    for it: at a pilot's few rays many are, e.g. 115 of 385 T30 for rain on paper-medium), and
-    so are the receivers whose onset the pilot's leave-outs disagree on (the L-room's receiver
-    around the corner in the paper pilot: counted as infinite, they made paper's projection
-    infinite and the choice rain's, 100× slower there)."""
+    for it: at a pilot's few rays many are, e.g. 115 of 385 T30 for rain on paper-medium)."""
     squares = np.concatenate([
-        ((errors.settled(p) / (fraction_of_jnd * JND[p][0])) ** 2).ravel()
+        ((errors.counted(p, waiting=np.nan) / (fraction_of_jnd * JND[p][0])) ** 2).ravel()
         for p in PARAMETERS])
     squares = squares[~np.isnan(squares)]
     return float(np.quantile(squares, PILOT_QUANTILE, method="higher")) if squares.size else 0.0
