@@ -13,7 +13,8 @@ the standard error's 1/√n slope (seconds × (worst SE / target)²), marked ``"
 The estimator auto chose also gets its time **measured inside auto's run** (auto's time less
 the losers' pilots: the same rays, the same bits as the pinned bake). ``nee`` with at least as
 many draws as the scene has receivers is the rain estimator bit for bit and is not run twice.
-About 8–11 minutes on an idle machine.
+About 8–11 minutes on an idle machine for seed 1 alone; the further seeds and the
+level-of-detail row (on by default; ``--seeds 1 --no-lod`` for the short run) add about 15.
 
 What it shows, per scene:
 - the time to converge (measured or projected, said in each line and in the table at the end) of
@@ -23,6 +24,15 @@ What it shows, per scene:
   estimators as the measured times do, for the full bakes and for auto's pilots;
 - the measured cost of each kind of work (ns a unit, least squares over the bakes of the scene),
   which says how fair the one-unit-each model is.
+- with ``--seeds 1 2 3``: auto's bake again on each further seed (rays, rounds, CPU time to
+  converge): where a progressive bake stops is a random variable of the seed (each entry's SE
+  estimate has 7 degrees of freedom), so one seed is one draw (docs/progressive.md);
+- with ``--lod``: the level-of-detail row: the furnished room (examples/furniture, hybrid,
+  ``level_of_detail = true``), the paper estimator, ``level_of_detail_rays = "level"`` (the
+  default) against ``"octave"``, CPU time to converge to ``--lod-accuracy`` JND (default 0.5)
+  per seed of ``--lod-seeds``; one that reaches ``--lod-cap-seconds`` reports its CPU time
+  projected from the worst SE's 1/√n slope (CPU × (worst SE / target)²).
+CPU time is the process's (time.process_time: every tracer thread), wall time beside it.
 Results go to benchmarks/results/converge.json.
 """
 
@@ -43,6 +53,7 @@ from sonolux.sound import progressive
 
 HERE = Path(__file__).resolve().parent
 SCENES = {"paper-medium": "paper-medium", "l-room": str(HERE.parent / "examples/l-room/l-room.toml")}
+FURNISHED = HERE.parent / "examples/furniture/furnished_room.toml"
 ESTIMATORS = ("paper", "rain", "nee")
 
 
@@ -52,10 +63,10 @@ def log(msg: str) -> None:
 
 def converge(scene, estimator: str, accuracy: float, cap_s: float) -> dict:
     options = sonolux.SoundOptions(estimator=estimator)
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     field, errors = progressive.bake(scene, options, progressive.Accuracy(accuracy,
                                                                           max_seconds=cap_s))
-    seconds = time.perf_counter() - started
+    seconds, cpu = time.perf_counter() - started, time.process_time() - cpu
     p = field.settings["progressive"]
     worst = errors.worst_over_target(accuracy)
     q90 = progressive.projection(errors, accuracy)
@@ -76,7 +87,8 @@ def converge(scene, estimator: str, accuracy: float, cap_s: float) -> dict:
     worst_defined = max((float(np.nanmax(d)) for d in defined if np.isfinite(d).any()),
                         default=math.inf)
     grow = max(worst_defined, 1.0) ** 2 if math.isfinite(worst_defined) else math.inf
-    return {"seconds": seconds, "rays": field.settings["rays"], "stopped": p["stopped"],
+    return {"seconds": seconds, "cpu_seconds": cpu, "cpu_seconds_to_converge": cpu * grow,
+            "rays": field.settings["rays"], "stopped": p["stopped"],
             "converged": p["stopped"] == "converged", "projected": p["stopped"] != "converged",
             "rounds": len(p["rounds"]), "worst_over_target": worst,
             "worst_defined_over_target": worst_defined, "undefined_by_noise": undefined,
@@ -148,6 +160,13 @@ def main() -> None:
     ap.add_argument("--scenes", nargs="*", default=list(SCENES))
     ap.add_argument("--estimators", nargs="*", default=list(ESTIMATORS),
                     help="the fixed estimators to measure beside auto")
+    ap.add_argument("--seeds", nargs="*", type=int, default=[1, 2, 3],
+                    help="auto's bake again on each seed after the first (rays, CPU to converge)")
+    ap.add_argument("--lod", action=argparse.BooleanOptionalAction, default=True,
+                    help='the level-of-detail row: furnished room, "level" vs "octave"')
+    ap.add_argument("--lod-accuracy", type=float, default=0.5)
+    ap.add_argument("--lod-cap-seconds", type=float, default=200.0)
+    ap.add_argument("--lod-seeds", nargs="*", type=int, default=[1, 2])
     ap.add_argument("--out", type=Path, default=HERE / "results" / "converge.json")
     a = ap.parse_args()
     busy_start = other_cpu_use()
@@ -156,7 +175,7 @@ def main() -> None:
                      "work_units": list(progressive.WORK), "scenes": {}}
     for name in a.scenes:
         scene = sonolux.load_scene(SCENES[name])
-        scene = replace(scene, settings=replace(scene.settings, threads=2))
+        scene = replace(scene, settings=replace(scene.settings, threads=2, seed=a.seeds[0]))
         row: dict = {}
         for est in ("auto", *a.estimators):
             if est == "nee" and scene.receivers.count <= sonolux.SoundOptions().nee_receivers \
@@ -216,11 +235,51 @@ def main() -> None:
             f"by work {s['pilot_ranking_by_work']}, by time {s['pilot_ranking_by_time']}; pilot "
             f"rays {s['pilot_rays']}, overhead {s['pilot_overhead_seconds']:.1f} s; ns a unit "
             + ", ".join(f"{k} {v:.0f}" for k, v in s["ns_per_unit"].items() if v is not None))
+        row["seeds"] = [seed_row(a.seeds[0], row["auto"])] + [
+            seed_row(seed, converge(replace(scene, settings=replace(scene.settings, seed=seed)),
+                                    "auto", a.accuracy, a.auto_cap_seconds))
+            for seed in a.seeds[1:]]
+        for r in row["seeds"]:
+            log(f"{name}: seed {r['seed']}: auto → {r['estimator']}, {r['rays']:,} rays in "
+                f"{r['rounds']} rounds, {r['cpu_seconds']:.1f} s CPU ({r['seconds']:.1f} s wall), "
+                + ("converged" if r["converged"] else "NOT converged"))
         results["scenes"][name] = row
+    if a.lod:
+        results["level_of_detail"] = level_of_detail(a.lod_accuracy, a.lod_cap_seconds,
+                                                     a.lod_seeds)
     results["machine"] = machine_and_load(busy_start, other_cpu_use())
     write_json(a.out, results)
     print_table(results)
     log(f"wrote {a.out}")
+
+
+def seed_row(seed: int, r: dict) -> dict:
+    """What the seeds table keeps of a converge() result."""
+    return {"seed": seed, **{k: r[k] for k in ("estimator", "rays", "rounds", "converged",
+                                              "cpu_seconds", "seconds", "worst_over_target")}}
+
+
+def level_of_detail(accuracy: float, cap_s: float, seeds: list[int]) -> dict:
+    """The furnished room's progressive bake (paper), ``level_of_detail_rays`` "level" against
+    "octave", per seed: rays, CPU time, converged or CPU projected from the worst SE."""
+    base = sonolux.load_scene(str(FURNISHED))
+    rows = []
+    for seed in seeds:
+        for mode in ("level", "octave"):
+            scene = replace(base, early=replace(base.early, level_of_detail_rays=mode),
+                            settings=replace(base.settings, threads=2, seed=seed))
+            log(f"furnished room, level of detail by {mode!r}, seed {seed}: until "
+                f"{accuracy:g} JND or {cap_s:g} s")
+            r = converge(scene, "paper", accuracy, cap_s)
+            rows.append({"seed": seed, "mode": mode, **{k: r[k] for k in (
+                "rays", "rounds", "converged", "cpu_seconds", "cpu_seconds_to_converge",
+                "seconds", "worst_over_target")}})
+            log(f"  {r['rays']:,} rays, {r['cpu_seconds']:.1f} s CPU, worst SE/target "
+                f"{r['worst_over_target']:.2f}: " + (
+                    "converged" if r["converged"] else
+                    f"NOT converged, projected {r['cpu_seconds_to_converge']:.0f} s CPU"))
+    return {"scene": "examples/furniture/furnished_room.toml", "estimator": "paper",
+            "accuracy_jnd": accuracy, "cap_seconds": cap_s, "rows": rows}
 
 
 def print_table(results: dict) -> None:
@@ -243,6 +302,20 @@ def print_table(results: dict) -> None:
         s = row["summary"]
         print(f"  auto chose {s['auto_chose']}; fastest {s['fastest_measured']}; auto faster "
               f"than the others: {s['auto_faster_than_the_others']}")
+        for r in row.get("seeds", []):
+            print(f"  seed {r['seed']:<3d} auto → {r['estimator']:6s} {r['rays']:>12,} rays, "
+                  f"{r['rounds']} rounds, {r['cpu_seconds']:7.1f} s CPU, "
+                  + ("converged" if r["converged"] else "NOT converged"))
+    lod = results.get("level_of_detail")
+    if lod:
+        print(f"furnished room, level of detail, paper to {lod['accuracy_jnd']:g} JND "
+              f"(cap {lod['cap_seconds']:g} s): CPU time to converge")
+        for r in lod["rows"]:
+            print(f"  seed {r['seed']:<3d} {r['mode']:7s} {r['rays']:>10,} rays "
+                  f"{r['cpu_seconds']:7.1f} s CPU  " + (
+                      "converged" if r["converged"] else
+                      f"NOT converged (worst {r['worst_over_target']:.2f}×): projected "
+                      f"{r['cpu_seconds_to_converge']:.0f} s CPU"))
 
 
 if __name__ == "__main__":

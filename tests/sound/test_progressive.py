@@ -318,3 +318,45 @@ def test_the_exact_direct_sound_is_counted_once_and_shared_by_the_groups(estimat
     # The early decay is known to a fraction of a JND after one round (with the direct sound in
     # group 0 alone, a leave-out lost it: EDT and C80 errors of whole dB and seconds).
     assert errors.summary()["c80"]["max"] < 0.5
+
+
+@pytest.mark.slow
+def test_the_reported_error_brackets_the_real_error_where_the_deposits_have_a_tail():
+    """The issue's check where it used to fail: the L-room (examples/l-room: the receiver around
+    the corner has no direct sound, its onset is set by rare early arrivals) at 1,048,576 paper
+    rays, the count at which session 11 measured 15.5 % of the 95 % intervals missing a 29.8 M-ray
+    bake of the same seed (C80 at that receiver up to 18.6 SEs off: every leave-out kept the
+    whole bake's onset). Each leave-out now takes its own onset, and an onset not every group
+    reaches on its own widens the errors (accuracy.supported_onsets). Against an independent bake
+    (another seed) of 10× the rays, the intervals θ ± t(0.975, 7)·SE must hold the reference in
+    at least 90 % of receivers, bands and parameters where both are defined (expected about 94 %,
+    as for the shoebox), at least 40 of the 72 entries. Known to miss (docs/progressive.md,
+    "Rare large deposits"): T30 at 250–500 Hz
+    around the corner, whose late decay is carried by rare long-lived rays."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples/l-room/l-room.toml"
+    scene = sonolux.load_scene(str(path))
+    scene = replace(scene, settings=replace(scene.settings, threads=2))
+    n = 1_048_576
+    field, errors = progressive.bake(scene, sonolux.SoundOptions(estimator="paper"),
+                                     accuracy=progressive.Accuracy(0.25, max_rays=n), first_rays=n)
+    assert field.settings["rays"] == n
+    other = replace(scene, settings=replace(scene.settings, seed=scene.settings.seed + 100))
+    reference = sonolux.bake(other, rays=10 * n, estimator="paper")
+    omni = np.asarray(reference.energy).sum(axis=1, dtype=np.float64)
+    edges = np.append(reference.bin_start_s, reference.bin_start_s[-1]
+                      + reference.bin_width_s[-1])
+    truth = progressive.parameters(omni, reference.bin_start_s, reference.bin_width_s,
+                                   onsets_s(omni.sum(axis=1), edges), None)
+    inside, cases = 0, 0
+    for name in progressive.PARAMETERS:
+        ok = np.isfinite(errors.standard_error[name]) & np.isfinite(truth[name])
+        miss = np.abs(errors.value[name] - truth[name]) > progressive.T_95 * \
+            errors.standard_error[name]
+        inside += int((ok & ~miss).sum())
+        cases += int(ok.sum())
+        print(name, "finite", int(ok.sum()), "outside", int((ok & miss).sum()))
+    print(f"coverage {inside} of {cases}; onset uncertain at {errors.onset_uncertain().tolist()}")
+    assert cases >= 40
+    assert inside / cases >= 0.90, f"{inside} of {cases}"

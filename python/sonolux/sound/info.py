@@ -106,6 +106,9 @@ def progressive_line(p: dict[str, Any]) -> str:
         errors.append(f"{name.upper()} ≤ {e['max'] * scale:.2g}{unit}"
                       + (f" (undefined at {e['undefined']}: more rays needed)"
                          if e.get("undefined") else "")
+                      + (" (onset uncertain at receiver "
+                         + ", ".join(f"#{r}" for r in e["onset_uncertain"])
+                         + ": counted)" if e.get("onset_uncertain") else "")
                       + "".join(f" (left out at {len(at)}: {kind})"
                                 for kind, at in e.get("left_out", {}).items()))
     ended = {"converged": f"converged to {p['accuracy_jnd']:g} JND",

@@ -405,6 +405,13 @@ def _describe(errors: Errors, fraction: float) -> str:
                      + ", ".join(errors.reach.label(r) for r in rows)
                      + f" (0 hits, ≥ {errors.reach.expected_hits[rows].min():,.0f} expected in "
                      "the diffuse field): not waited for")
+    uncertain = errors.onset_uncertain()
+    if uncertain.size:
+        assert errors.onset_s is not None and errors.supported_onset_s is not None
+        parts.append(f"onset uncertain at receiver{'s' if uncertain.size > 1 else ''} "
+                     + ", ".join(f"#{r} ({errors.onset_s[r] * 1e3:.1f} ms; "
+                                 f"{errors.supported_onset_s[r] * 1e3:.1f} ms in every group)"
+                                 for r in uncertain) + ": counted in their errors")
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
