@@ -164,6 +164,17 @@ class SourceFit:
     #: bool[band] of those: whether the band's own centre differs measurably from the shared
     #: one (``wave_centre.centres_differ``).
     centres_differ: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, bool))
+    #: bool[band] (empty: none): whether the band is radiated from its own acoustic centre, by a
+    #: cluster of its own (:func:`terms`), instead of from the shared one: the bands
+    #: :attr:`centres_differ` flags (and, held above the waves, the rows that copy such a band).
+    apart: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, bool))
+    #: float64[band, 35] (complex128 with a measured phase): where :attr:`apart`, the band's
+    #: components with its pattern referred to its own centre (same orders and power
+    #: normalisation as :attr:`components`); zero elsewhere.
+    own_components: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 35)))
+    #: float64[band, 3]: where :attr:`apart`, the centre its own cluster sits at, from the
+    #: source's position; zero elsewhere.
+    own_centres_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -183,9 +194,37 @@ class SourceFit:
         any component it uses (:func:`stencil`): 0 (omni), 2 (orders 1 and 2 along the axes),
         2√2 (order 2's mixed terms, order 3's ∂ᵢ²∂ⱼ, order 4's ∂ᵢ²∂ⱼ²), 3 (orders 3 and 4
         along an axis), 2√3 (order 3's ∂ₓ∂ᵧ∂𝓏, order 4's ∂ᵢ²∂ⱼ∂ₖ) or √13 (order 4's ∂ᵢ³∂ⱼ)."""
-        used = np.flatnonzero(np.any(self.components != 0.0, axis=0))
-        return max((math.sqrt(sum(o * o for o in offset)) for k in used
-                    for offset, _ in stencil(int(k))), default=0.0)
+        return components_reach_cells(self.components)
+
+    def clusters(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The clusters the source is radiated by, each (its centre float64[3] from the source's
+        position, its components [band, 35] with zero rows for the bands it does not carry):
+        the shared centre's for every band not :attr:`apart`, then one for each own centre
+        (bands in order; rows held above the waves go with the band they copy). Without such
+        bands, the one cluster is :attr:`components` itself."""
+        apart = np.asarray(self.apart, bool)
+        if not np.any(apart):
+            return [(self.centre_offset_m, self.components)]
+        zero = np.zeros_like(self.components[:1])
+        out = [(self.centre_offset_m, np.where(apart[:, None], zero, self.components))]
+        seen: list[tuple[float, ...]] = []
+        for b in np.flatnonzero(apart):
+            key = tuple(float(v) for v in self.own_centres_m[b])
+            if key in seen:
+                continue
+            seen.append(key)
+            rows = apart & np.all(self.own_centres_m == self.own_centres_m[b][None], axis=1)
+            out.append((self.own_centres_m[b].copy(),
+                        np.where(rows[:, None], self.own_components, zero)))
+        return out
+
+
+def components_reach_cells(components: np.ndarray) -> float:
+    """How far the terms of ``components`` [band, 35] reach from their cluster's centre, in
+    cells (:meth:`SourceFit.reach_cells`)."""
+    used = np.flatnonzero(np.any(components != 0.0, axis=0))
+    return max((math.sqrt(sum(o * o for o in offset)) for k in used
+                for offset, _ in stencil(int(k))), default=0.0)
 
 
 def fibonacci_directions(n: int = 4096) -> np.ndarray:
@@ -340,6 +379,47 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
     highest = np.max(np.where(carried, np.arange(MAX_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
+    components, power = truncated(c0, c, d, t, q, shares, orders)
+    # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
+    # cardioid on an axis): left out, it would only add terms and reach.
+    components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
+    residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
+    differ = np.zeros(len(own), bool)
+    apart = np.zeros(0, bool)
+    own_components, own_centres = np.zeros((0, components.shape[1])), np.zeros((0, 3))
+    if len(own):
+        # Each centred band referred to its own centre instead, with the same orders: what the
+        # fit would leave out there, against what the shared centre leaves.
+        n_own = len(own)
+        k_own = 2.0 * math.pi * np.asarray(bands_hz, float)[:n_own] / speed_of_sound_m_s
+        at_own = measured[:, :n_own] * np.exp(-1j * (u @ own.T) * k_own[None])
+        c0_o, c_o, _, d_o, t_o, q_o, shares_own, total_own = moments(at_own, u, weight)
+        own_fit, power_own = truncated(c0_o, c_o, d_o, t_o, q_o, shares_own, orders[:n_own])
+        residual_own = np.clip(1.0 - power_own / np.maximum(total_own, 1e-300), 0.0, 1.0)
+        differ = centres_differ(centre, own, k_own, orders[:n_own], residual[:n_own],
+                                residual_own)
+        if np.any(differ):
+            # A flagged band is radiated from its own centre (its own cluster, :func:`terms`),
+            # its pattern referred there; what the fit leaves out is then what it leaves there.
+            apart = np.zeros(n_bands, bool)
+            apart[:n_own] = differ
+            own_fit[np.abs(own_fit) < NEGLIGIBLE] = 0.0
+            own_components = np.zeros_like(components, dtype=own_fit.dtype)
+            own_components[:n_own][differ] = own_fit[differ]
+            own_centres = np.zeros((n_bands, 3))
+            own_centres[:n_own][differ] = own[differ]
+            residual = residual.copy()
+            residual[:n_own][differ] = residual_own[differ]
+    return SourceFit(components, orders, residual, centre_offset_m=centre, band_centres_m=own,
+                     centres_differ=differ, apart=apart, own_components=own_components,
+                     own_centres_m=own_centres)
+
+
+def truncated(c0: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray, q: np.ndarray,
+              shares: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(components [band, 35], power [band]): a pattern's parts (:func:`moments`) up to each
+    band's order, in :attr:`SourceFit.components`' layout, scaled to radiate the pattern's
+    power; the power those orders held before the scaling."""
     c = np.where(orders[None] >= 1, c, 0.0)
     d = np.where((orders >= 2)[:, None, None], d, 0.0)
     t = np.where((orders >= 3)[:, None, None, None], t, 0.0)
@@ -351,26 +431,7 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
                              for i, j, k in TRIPLES])
     fourth = np.column_stack([q[(slice(None), *ix)] * len(set(itertools.permutations(ix)))
                               for ix in QUADS])
-    components = np.column_stack([c0, c.T, second, third, fourth]) / norm[:, None]
-    # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
-    # cardioid on an axis): left out, it would only add terms and reach.
-    components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
-    residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
-    differ = np.zeros(len(own), bool)
-    if len(own):
-        # Each centred band referred to its own centre instead, with the same orders: what the
-        # fit would leave out there, against what the shared centre leaves.
-        n_own = len(own)
-        k_own = 2.0 * math.pi * np.asarray(bands_hz, float)[:n_own] / speed_of_sound_m_s
-        at_own = measured[:, :n_own] * np.exp(-1j * (u @ own.T) * k_own[None])
-        *_, shares_own, total_own = moments(at_own, u, weight)
-        power_own = shares_own[0] + sum(np.where(orders[:n_own] >= L, shares_own[L], 0.0)
-                                        for L in range(1, MAX_ORDER + 1))
-        residual_own = np.clip(1.0 - power_own / np.maximum(total_own, 1e-300), 0.0, 1.0)
-        differ = centres_differ(centre, own, k_own, orders[:n_own], residual[:n_own],
-                                residual_own)
-    return SourceFit(components, orders, residual, centre_offset_m=centre, band_centres_m=own,
-                     centres_differ=differ)
+    return np.column_stack([c0, c.T, second, third, fourth]) / norm[:, None], power
 
 
 def fourth_order(u: np.ndarray, wa: np.ndarray, m: np.ndarray, c0: np.ndarray) -> np.ndarray:
@@ -448,29 +509,40 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     spectra.append(np.where(fade > 0.0, integrated, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral ** 2, 0.0))
-    by_offset: dict[tuple[int, int, int], np.ndarray] = {}
-    for k in range(source_fit.components.shape[1]):
-        coefficient = source_fit.components[:, k]
-        if np.all(coefficient == 0.0):
-            continue
-        order = component_order(k)
-        gain = coefficient[0] + np.diff(coefficient) @ blends
-        signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
-        for offset, w in stencil(k):
-            if offset in by_offset:
-                by_offset[offset] = by_offset[offset] + w * signal
-            else:
-                by_offset[offset] = w * signal
-    centre = np.asarray(position_m, float) + source_fit.centre_offset_m
-    keys = sorted(by_offset)
-    positions = np.array([centre + h * np.asarray(o, float) for o in keys])
-    return positions, np.ascontiguousarray([by_offset[o] for o in keys]), delay
+    positions: list[np.ndarray] = []
+    signals: list[np.ndarray] = []
+    # One cluster per centre (SourceFit.clusters): the shared one, and one for each band
+    # radiated from its own. A cluster's coefficients are zero in the bands it does not carry,
+    # so its gain c₀ + Σ_e (c_{e+1} − c_e)·blend_e = Σ_b c_b·w_b weighs band b by the blends'
+    # partition of unity w_b = blend_{b−1} − blend_b (blend_{−1} = 1, blend_last = 0): the
+    # clusters' weights sum to 1 at every frequency, and a band's cluster fades in and out
+    # across its edges as its coefficients would.
+    for offset_m, components in source_fit.clusters():
+        by_offset: dict[tuple[int, int, int], np.ndarray] = {}
+        for k in range(components.shape[1]):
+            coefficient = components[:, k]
+            if np.all(coefficient == 0.0):
+                continue
+            order = component_order(k)
+            gain = coefficient[0] + np.diff(coefficient) @ blends
+            signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
+            for offset, w in stencil(k):
+                if offset in by_offset:
+                    by_offset[offset] = by_offset[offset] + w * signal
+                else:
+                    by_offset[offset] = w * signal
+        centre = np.asarray(position_m, float) + offset_m
+        keys = sorted(by_offset)
+        positions.extend(centre + h * np.asarray(o, float) for o in keys)
+        signals.extend(by_offset[o] for o in keys)
+    return np.array(positions), np.ascontiguousarray(signals), delay
 
 
 def reach_m(source_fit: SourceFit, spacing_m: float) -> float:
     """How far from the source's position its cluster's terms reach (the cluster's centre may
     be moved from it, :attr:`SourceFit.centre_offset_m`)."""
-    return source_fit.reach_cells() * spacing_m + float(np.linalg.norm(source_fit.centre_offset_m))
+    return max(components_reach_cells(components) * spacing_m + float(np.linalg.norm(offset_m))
+               for offset_m, components in source_fit.clusters())
 
 
 def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any],
@@ -529,8 +601,12 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
         if wave_bands is None or not 0 < wave_bands < b.size:
             return f
         keep = np.minimum(np.arange(b.size), wave_bands - 1)
-        return dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
-                                   residual=f.residual[keep])
+        f = dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
+                                residual=f.residual[keep])
+        if len(f.apart):
+            f = dataclasses.replace(f, apart=f.apart[keep], own_components=f.own_components[keep],
+                                    own_centres_m=f.own_centres_m[keep])
+        return f
 
     fitted = held(fit(source, directivity, b.size, orders, b, centre_bands=wave_bands,
                       speed_of_sound_m_s=speed_of_sound_m_s))
@@ -568,4 +644,10 @@ def centred(source_fit: SourceFit) -> str:
         apart = np.linalg.norm(source_fit.band_centres_m - d[None], axis=1)
         words += (f"; its bands' own centres lie {'/'.join(f'{1e3 * x:.0f}' for x in apart)} mm "
                   "from it (measured phase): one centre costs them more than the fit leaves out")
+        if np.any(source_fit.apart):
+            flagged = np.flatnonzero(source_fit.centres_differ) + 1
+            words += (f", so wave band{'s' if len(flagged) > 1 else ''} "
+                      f"{'/'.join(str(b) for b in flagged)} "
+                      f"{'each radiate' if len(flagged) > 1 else 'radiates'} from its own centre "
+                      "(a cluster of its own)")
     return words
