@@ -187,3 +187,70 @@ def test_an_unflagged_source_s_cluster_is_the_shared_one():
     assert not np.any(fit.apart)
     (offset, components), = fit.clusters()
     assert components is fit.components and offset is fit.centre_offset_m
+
+
+def test_on_the_grid_each_flagged_band_radiates_the_measured_field_from_its_own_centre():
+    """The capped moving cardioid injected on a grid to 250 Hz (12 m box with absorbing walls,
+    18 receivers 2 m around the source, in and ±40° off its horizontal plane), its own-centre
+    clusters and the shared one, against the field the measured source radiates there: a
+    cardioid at the frequency's own centre d(f) (the synthetic source is one exactly),
+    e^{−ikρ}/ρ·(½ + ½·cos θ'·(1 + 1/(ikρ))) over the omni run's e^{−ikr}/r (ρ, θ' from d(f);
+    the dipole's near-field factor: kr = 2.3 at 63 Hz), each run's complex spectrum at the band
+    centre windowed ±22 ms about the direct sound (before the box's first reflection, ≥ 23 ms
+    later), up to one complex scale per band (the fit's power normalisation and the pulse).
+    Largest error over the receivers, of the largest value: measured own 0.41 / 0.94 / 1.97%,
+    shared 5.4 / 5.2 / 3.3% at 63 / 125 / 250 Hz. Asserted: own ≤ 1.5% at 63 and 125 Hz (the
+    centre found within 3%: k·3%·|d_b| ≤ 0.7% at 125 Hz; the window's resolution, ≈ 45 Hz), ≤
+    3% at 250 Hz (the grid's f_max: the stencils lose ≤ 0.5% there and the scheme's
+    direction-dependent dispersion shifts the arrival by ≤ 1.1% of a period at 2 m); shared ≥
+    4% at 63 and 125 Hz (the energy the translation puts above order 1, 1.2 / 1.7·10⁻³, as
+    amplitude). At 250 Hz the band's own centre is 26 mm from the shared one (kδ = 0.12): the
+    grid's own error there is as large as what sharing costs, so only the bound is asserted."""
+    from tests.sound.test_wave_sources import anechoic_box, cluster_runs
+
+    source, d, fit, shared = capped_moving()
+    scene, src = anechoic_box()
+    ring = np.radians(np.arange(0, 360, 30) + 7.0)
+    up = np.radians(np.arange(0, 360, 120) + 20.0)
+    el = np.radians(40.0)
+    u = np.vstack([np.column_stack([np.cos(ring), np.sin(ring), np.zeros_like(ring)])]
+                  + [np.column_stack([np.cos(el) * np.cos(up + s), np.cos(el) * np.sin(up + s),
+                                      np.full_like(up, z * np.sin(el))])
+                     for s, z in ((0.0, 1.0), (1.0, -1.0))])
+    r, f_max = 2.0, 250.0
+    omni, runs = cluster_runs(scene, src, src + r * u, [fit, shared], f_max)
+    delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
+    h_omni, f = windowed_spectrum(omni, r / C)
+    forward = TO_WORLD[:, 0]
+    errors = []
+    for out, _ in runs:
+        h_dir, _ = windowed_spectrum(out, delay + r / C)
+        worst = []
+        for b in range(3):
+            i = int(np.argmin(np.abs(f - BANDS[b])))
+            k = 2.0 * math.pi * f[i] / C
+            ratio = h_dir[:, i] / h_omni[:, i] * np.exp(1j * k * C * delay)
+            rho_v = r * u - TO_WORLD @ OFFSET_M * (f[i] / 125.0)
+            rho = np.linalg.norm(rho_v, axis=1)
+            cos = rho_v @ forward / rho
+            exact = (np.exp(-1j * k * (rho - r)) * r / rho
+                     * (0.5 + 0.5 * cos * (1.0 + 1.0 / (1j * k * rho))))
+            scale = np.vdot(exact, ratio) / np.vdot(exact, exact)
+            worst.append(np.abs(ratio - scale * exact).max() / np.abs(scale * exact).max())
+        errors.append(worst)
+    own, one = errors
+    assert own[0] < 0.015 and own[1] < 0.015 and own[2] < 0.03, errors
+    assert one[0] > 0.04 and one[1] > 0.04, errors
+
+
+def windowed_spectrum(out, arrival_s, half_s=0.022):
+    """(complex spectra [receiver, frequency] of a run's pressure, windowed about the direct
+    sound's ``arrival_s`` by a Tukey window flat over ±half_s/2 and zero beyond ±half_s; the
+    frequencies)."""
+    p = np.asarray(out["pressure_pa"], np.float64)
+    fs = float(out["sample_rate_hz"])
+    x = np.abs(np.arange(p.shape[1]) / fs - arrival_s) / half_s
+    window = np.where(x < 0.5, 1.0, np.where(x < 1.0, 0.5 * (1 + np.cos(2 * np.pi * (x - 0.5))),
+                                             0.0))
+    n_fft = sfft.next_fast_len(4 * p.shape[1], real=True)
+    return sfft.rfft(p * window, n_fft, axis=1), sfft.rfftfreq(n_fft, 1 / fs)
