@@ -254,3 +254,22 @@ def windowed_spectrum(out, arrival_s, half_s=0.022):
                                              0.0))
     n_fft = sfft.next_fast_len(4 * p.shape[1], real=True)
     return sfft.rfft(p * window, n_fft, axis=1), sfft.rfftfreq(n_fft, 1 / fs)
+
+
+def test_own_clusters_that_do_not_fit_fall_back_to_the_shared_centre():
+    """A wall between the shared order-1 cluster's reach (its centre 173 mm out plus 2 cells)
+    and the own clusters' (the 250 Hz band's 197 mm plus 2 cells): the bands are radiated from
+    the shared centre, said in the note, rather than the source refused; with more room they
+    radiate from their own."""
+    source, d = moving()
+    spacing = C / (10 * 354.0)
+    own = wave_sources.fit_on_grid(source, d, BANDS, spacing, C, clearance_m=0.3, wave_bands=3)
+    shared = dataclasses.replace(own, apart=np.zeros(0, bool))
+    between = 0.5 * (wave_sources.reach_m(own, spacing) + wave_sources.reach_m(shared, spacing))
+    fitted = wave_sources.fit_on_grid(source, d, BANDS, spacing, C, clearance_m=between,
+                                      wave_bands=3)
+    assert not np.any(fitted.apart) and np.all(fitted.orders == 1)
+    assert np.all(fitted.centres_differ)
+    assert wave_sources.reach_m(fitted, spacing) < between
+    assert "radiated from the shared centre" in fitted.note, fitted.note
+    assert "orders above 1 left out" in fitted.note, fitted.note

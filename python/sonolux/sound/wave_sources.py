@@ -34,6 +34,9 @@ monopoles at neighbouring nodes). Here:
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
   far field is the stencil's (this is why the terms are not at ±Δx/2: a half-cell term spread
   over two nodes loses cos(kΔx/2) that the centre term does not, and breaks the differences).
+  A SOFA source's band whose own acoustic centre the fit flags (``wave_centre.centres_differ``)
+  gets a cluster of its own there, weighted by the edge blends' partition of unity
+  (:meth:`SourceFit.clusters`, :func:`terms`; docs/waves-sources.md).
   The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
   difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
   8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), ∂³ ≈ (δ₋₃ − 8δ₋₂ +
@@ -90,8 +93,9 @@ from scipy import fft as sfft
 from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
 from sonolux.sound.wave_centre import band_centres_m, centres_differ, refer_to_centre
+from sonolux.sound.wave_moments import FIT_AZIMUTHS, FIT_RINGS, fit_directions, moments, truncated
+from sonolux.sound.wave_moments import fibonacci_directions as fibonacci_directions
 from sonolux.sound.wave_moments import fourth_order as fourth_order
-from sonolux.sound.wave_moments import moments, truncated
 from sonolux.sound.wave_stencils import DIFFERENCES as DIFFERENCES
 from sonolux.sound.wave_stencils import FIRST_DIFFERENCE as FIRST_DIFFERENCE
 from sonolux.sound.wave_stencils import FOURTH_DIFFERENCE as FOURTH_DIFFERENCE
@@ -113,14 +117,6 @@ from sonolux.sound.wave_stencils import band_upper_edges_hz as band_upper_edges_
 from sonolux.sound.wave_stencils import difference_response as difference_response
 from sonolux.sound.wave_stencils import stencil_error as stencil_error
 
-#: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
-#: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
-#: azimuths − 1 in φ (Abramowitz and Stegun 25.4.29 in z, the trapezoid rule in φ), and
-#: antipodally symmetric, so a symmetric pattern's odd moments are exactly 0. (A Fibonacci
-#: lattice of 4,096 points, used before, misses ⟨y·z²⟩ of a constant by 1.4·10⁻⁴, which added
-#: order-3 terms to the dodecahedron and the talker that they do not have.)
-FIT_RINGS = 48
-FIT_AZIMUTHS = 96
 #: The pulse of a directional source is delayed by this many periods of the lowest frequency its
 #: filters pass (the lowest band centre; with orders 2-4, where their fade starts), plus its
 #: own 6σ: room for the non-causal half of the coefficient filters.
@@ -225,27 +221,6 @@ def components_reach_cells(components: np.ndarray) -> float:
                 for offset, _ in stencil(int(k))), default=0.0)
 
 
-def fibonacci_directions(n: int = 4096) -> np.ndarray:
-    """float64[n, 3]: unit vectors of the Fibonacci lattice on the sphere."""
-    k = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * k / n
-    phi = math.pi * (3.0 - math.sqrt(5.0)) * k
-    s = np.sqrt(1.0 - z * z)
-    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
-
-
-def fit_directions() -> tuple[np.ndarray, np.ndarray]:
-    """The fit's quadrature (:data:`FIT_RINGS`, :data:`FIT_AZIMUTHS`): unit directions
-    float64[direction, 3] and weights float64[direction] summing to 1 (a weighted sum is the
-    mean over the sphere)."""
-    z, wz = np.polynomial.legendre.leggauss(FIT_RINGS)
-    phi = 2.0 * math.pi * (np.arange(FIT_AZIMUTHS) + 0.5) / FIT_AZIMUTHS
-    s = np.sqrt(1.0 - z * z)
-    u = np.stack([np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)),
-                  np.repeat(z[:, None], FIT_AZIMUTHS, axis=1)], axis=-1).reshape(-1, 3)
-    return u, np.repeat(wz / (2.0 * FIT_AZIMUTHS), FIT_AZIMUTHS)
-
-
 def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: int,
               bands_hz: np.ndarray | None = None) -> np.ndarray:
     """float64[direction, band] (complex128 with a measured phase): the source's pressure
@@ -314,13 +289,15 @@ def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) ->
 
 def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None,
         bands_hz: np.ndarray | None = None, *, centre_bands: int | None = None,
-        speed_of_sound_m_s: float = 343.0) -> SourceFit:
+        speed_of_sound_m_s: float = 343.0, own_centres: bool = True) -> SourceFit:
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
     :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
     fitted too (complex coefficients), referred to its acoustic centre found from that phase
     in the first ``centre_bands`` bands (all if None; ``wave_centre.refer_to_centre``),
-    where its cluster is then centred. The first-order family is order 1 exactly and is
-    fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
+    where its cluster is then centred; a band whose own centre differs measurably
+    (``wave_centre.centres_differ``) is fitted about its own centre too and radiated from there
+    (:attr:`SourceFit.apart`) unless ``own_centres`` is False. The first-order family is order 1
+    exactly and is fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
     orders above the highest that carries :data:`RESOLVED_AMPLITUDE`² (4·10⁻⁴) of the pattern's
     energy are left out (:attr:`SourceFit.orders` says which are radiated): such an order's
     amplitude is below the error allowed to the stencils of the orders that are radiated, and
@@ -359,7 +336,7 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
     differ = np.zeros(len(own), bool)
     apart = np.zeros(0, bool)
-    own_components, own_centres = np.zeros((0, components.shape[1])), np.zeros((0, 3))
+    own_components, own_at = np.zeros((0, components.shape[1])), np.zeros((0, 3))
     if len(own):
         # Each centred band referred to its own centre instead, with the same orders: what the
         # fit would leave out there, against what the shared centre leaves.
@@ -371,7 +348,7 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         residual_own = np.clip(1.0 - power_own / np.maximum(total_own, 1e-300), 0.0, 1.0)
         differ = centres_differ(centre, own, k_own, orders[:n_own], residual[:n_own],
                                 residual_own)
-        if np.any(differ):
+        if own_centres and np.any(differ):
             # A flagged band is radiated from its own centre (its own cluster, :func:`terms`),
             # its pattern referred there; what the fit leaves out is then what it leaves there.
             apart = np.zeros(n_bands, bool)
@@ -379,13 +356,13 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
             own_fit[np.abs(own_fit) < NEGLIGIBLE] = 0.0
             own_components = np.zeros_like(components, dtype=own_fit.dtype)
             own_components[:n_own][differ] = own_fit[differ]
-            own_centres = np.zeros((n_bands, 3))
-            own_centres[:n_own][differ] = own[differ]
+            own_at = np.zeros((n_bands, 3))
+            own_at[:n_own][differ] = own[differ]
             residual = residual.copy()
             residual[:n_own][differ] = residual_own[differ]
     return SourceFit(components, orders, residual, centre_offset_m=centre, band_centres_m=own,
                      centres_differ=differ, apart=apart, own_components=own_components,
-                     own_centres_m=own_centres)
+                     own_centres_m=own_at)
 
 
 def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
@@ -531,7 +508,10 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
     cluster fits inside that: each order's terms reach farther (2, 2√2, 3
     or 2√3 cells, :meth:`SourceFit.reach_cells`), so near a wall the orders are capped, the
     highest first, down to 1 (a cluster that does not fit even then is the caller's to refuse,
-    :func:`check_clearance`); the fit's :attr:`SourceFit.note` says so, for the log."""
+    :func:`check_clearance`); the fit's :attr:`SourceFit.note` says so, for the log. Bands
+    radiated from their own centres (:attr:`SourceFit.apart`) count every centre's reach
+    (:func:`reach_m`); where those clusters do not fit but the shared one would, the bands are
+    radiated from the shared centre instead (said in the note)."""
     b = np.asarray(bands_hz, float)
     orders = resolved_orders(b, spacing_m, speed_of_sound_m_s)
 
@@ -546,17 +526,31 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
                                     own_centres_m=f.own_centres_m[keep])
         return f
 
-    fitted = held(fit(source, directivity, b.size, orders, b, centre_bands=wave_bands,
-                      speed_of_sound_m_s=speed_of_sound_m_s))
+    def placed(radiated: np.ndarray) -> SourceFit:
+        # Bands radiated from their own centres (wave_centre.centres_differ) whose clusters
+        # would not fit in the air around the source fall back to the shared centre, which
+        # costs them what the log's "own centres" words say, rather than refusing the source.
+        f = held(fit(source, directivity, b.size, radiated, b, centre_bands=wave_bands,
+                     speed_of_sound_m_s=speed_of_sound_m_s))
+        if np.any(f.apart) and reach_m(f, spacing_m) >= clearance_m:
+            shared = held(fit(source, directivity, b.size, radiated, b, centre_bands=wave_bands,
+                              speed_of_sound_m_s=speed_of_sound_m_s, own_centres=False))
+            if reach_m(shared, spacing_m) < clearance_m:
+                return dataclasses.replace(shared, note=(
+                    f"; radiated from the shared centre: the bands' own clusters would reach "
+                    f"{1e3 * reach_m(f, spacing_m):.0f} mm, a wall {1e3 * clearance_m:.0f} mm "
+                    "away"))
+        return f
+
+    fitted = placed(orders)
     cap = int(fitted.orders.max())
     while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
         wanted = reach_m(fitted, spacing_m)
         cap -= 1
-        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b,
-                          centre_bands=wave_bands, speed_of_sound_m_s=speed_of_sound_m_s))
+        fitted = placed(np.minimum(orders, cap))
         fitted = dataclasses.replace(fitted, note=(
             f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
-            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm"))
+            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm" + fitted.note))
     return fitted
 
 
