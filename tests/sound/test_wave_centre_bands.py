@@ -323,6 +323,7 @@ def test_a_sofa_file_with_a_moving_centre_bakes_its_own_clusters_with_the_same_b
     line = next(s for s in lines if "monopoles" in s)
     assert "order 0-1/0-1 per wave band" in line, line
     assert "wave bands 1/2 each radiate from its own centre" in line, line
+    assert "its shared acoustic centre" in line, line  # which radiates none of them
     np.testing.assert_array_equal(out[0].energy, out[1].energy)
     np.testing.assert_array_equal(out[0].waves["pressure"], out[1].waves["pressure"])
     lines.clear()

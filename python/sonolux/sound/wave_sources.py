@@ -570,8 +570,9 @@ def centred(source_fit: SourceFit) -> str:
     d = source_fit.centre_offset_m
     if not np.any(d != 0.0):
         return ""
-    words = (f"; radiated from its acoustic centre, ({', '.join(f'{1e3 * v:+.0f}' for v in d)}) "
-             "mm from its position")
+    every = len(source_fit.apart) > 0 and bool(np.all(source_fit.apart))
+    words = (f"; {'its shared' if every else 'radiated from its'} acoustic centre, "
+             f"({', '.join(f'{1e3 * v:+.0f}' for v in d)}) mm from its position")
     if np.any(source_fit.centres_differ):
         apart = np.linalg.norm(source_fit.band_centres_m - d[None], axis=1)
         words += (f"; its bands' own centres lie {'/'.join(f'{1e3 * x:.0f}' for x in apart)} mm "
