@@ -25,7 +25,7 @@ from tests.sound.test_wave_sources_centre import (
     cluster_error,
     displaced,
 )
-from tests.sound.test_wave_sources_order2 import BANDS, C
+from tests.sound.test_wave_sources_order2 import BANDS, C, ring_and_elevations
 
 pytestmark = pytest.mark.usefixtures("core")
 
@@ -211,13 +211,7 @@ def test_on_the_grid_each_flagged_band_radiates_the_measured_field_from_its_own_
 
     source, d, fit, shared = capped_moving()
     scene, src = anechoic_box()
-    ring = np.radians(np.arange(0, 360, 30) + 7.0)
-    up = np.radians(np.arange(0, 360, 120) + 20.0)
-    el = np.radians(40.0)
-    u = np.vstack([np.column_stack([np.cos(ring), np.sin(ring), np.zeros_like(ring)])]
-                  + [np.column_stack([np.cos(el) * np.cos(up + s), np.cos(el) * np.sin(up + s),
-                                      np.full_like(up, z * np.sin(el))])
-                     for s, z in ((0.0, 1.0), (1.0, -1.0))])
+    u = ring_and_elevations()
     r, f_max = 2.0, 250.0
     omni, runs = cluster_runs(scene, src, src + r * u, [fit, shared], f_max)
     delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)
