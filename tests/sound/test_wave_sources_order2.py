@@ -198,6 +198,19 @@ def test_what_the_filters_of_orders_2_to_4_put_before_the_pulse_is_negligible(po
         assert abs(sum(w for _, w in wave_sources.stencil(k))) < 1e-12
 
 
+def ring_and_elevations():
+    """float64[18, 3]: unit directions, a ring of 12 in the horizontal plane (30° apart, from
+    7°) and 3 at each of ±40° elevation (120° apart, from 20° and from 20° + 1 rad)."""
+    ring = np.radians(np.arange(0, 360, 30) + 7.0)
+    up = np.radians(np.arange(0, 360, 120) + 20.0)
+    el = np.radians(40.0)
+    return np.vstack([np.column_stack([np.cos(ring), np.sin(ring), np.zeros_like(ring)]),
+                      np.column_stack([np.cos(el) * np.cos(up), np.cos(el) * np.sin(up),
+                                       np.full_like(up, np.sin(el))]),
+                      np.column_stack([np.cos(el) * np.cos(up + 1), np.cos(el) * np.sin(up + 1),
+                                       np.full_like(up, -np.sin(el))])])
+
+
 @pytest.fixture(scope="module")
 def far_field():
     """Impulse responses of an omni run and of the beam's cluster (63 Hz omni, 125 and 250 Hz
@@ -206,14 +219,7 @@ def far_field():
     walls (0.9), grid up to 250 Hz. The first reflection comes ≥ 23 ms after the direct sound
     with ≤ 0.5% of its energy (0.1 reflected, 2 m against ≥ 10 m)."""
     scene, src = anechoic_box()
-    ring = np.radians(np.arange(0, 360, 30) + 7.0)
-    up = np.radians(np.arange(0, 360, 120) + 20.0)
-    el = np.radians(40.0)
-    u = np.vstack([np.column_stack([np.cos(ring), np.sin(ring), np.zeros_like(ring)]),
-                   np.column_stack([np.cos(el) * np.cos(up), np.cos(el) * np.sin(up),
-                                    np.full_like(up, np.sin(el))]),
-                   np.column_stack([np.cos(el) * np.cos(up + 1), np.cos(el) * np.sin(up + 1),
-                                    np.full_like(up, -np.sin(el))])])
+    u = ring_and_elevations()
     r = 2.0
     receivers = src + r * u
     d = beam()

@@ -34,6 +34,9 @@ monopoles at neighbouring nodes). Here:
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
   far field is the stencil's (this is why the terms are not at ±Δx/2: a half-cell term spread
   over two nodes loses cos(kΔx/2) that the centre term does not, and breaks the differences).
+  A SOFA source's band whose own acoustic centre the fit flags (``wave_centre.centres_differ``)
+  gets a cluster of its own there, weighted by the edge blends' partition of unity
+  (:meth:`SourceFit.clusters`, :func:`terms`; docs/waves-sources.md).
   The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
   difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
   8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), ∂³ ≈ (δ₋₃ − 8δ₋₂ +
@@ -80,7 +83,6 @@ monopoles at neighbouring nodes). Here:
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -91,15 +93,15 @@ from scipy import fft as sfft
 from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
 from sonolux.sound.wave_centre import band_centres_m, centres_differ, refer_to_centre
+from sonolux.sound.wave_moments import FIT_AZIMUTHS, FIT_RINGS, fit_directions, moments, truncated
+from sonolux.sound.wave_moments import fibonacci_directions as fibonacci_directions
+from sonolux.sound.wave_moments import fourth_order as fourth_order
 from sonolux.sound.wave_stencils import DIFFERENCES as DIFFERENCES
 from sonolux.sound.wave_stencils import FIRST_DIFFERENCE as FIRST_DIFFERENCE
 from sonolux.sound.wave_stencils import FOURTH_DIFFERENCE as FOURTH_DIFFERENCE
 from sonolux.sound.wave_stencils import (
     MAX_ORDER,
-    PAIRS,
-    QUADS,
     RESOLVED_AMPLITUDE,
-    TRIPLES,
     component_order,
     lowest_filter_hz,
     monomials,
@@ -115,14 +117,6 @@ from sonolux.sound.wave_stencils import band_upper_edges_hz as band_upper_edges_
 from sonolux.sound.wave_stencils import difference_response as difference_response
 from sonolux.sound.wave_stencils import stencil_error as stencil_error
 
-#: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
-#: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
-#: azimuths − 1 in φ (Abramowitz and Stegun 25.4.29 in z, the trapezoid rule in φ), and
-#: antipodally symmetric, so a symmetric pattern's odd moments are exactly 0. (A Fibonacci
-#: lattice of 4,096 points, used before, misses ⟨y·z²⟩ of a constant by 1.4·10⁻⁴, which added
-#: order-3 terms to the dodecahedron and the talker that they do not have.)
-FIT_RINGS = 48
-FIT_AZIMUTHS = 96
 #: The pulse of a directional source is delayed by this many periods of the lowest frequency its
 #: filters pass (the lowest band centre; with orders 2-4, where their fade starts), plus its
 #: own 6σ: room for the non-causal half of the coefficient filters.
@@ -164,6 +158,17 @@ class SourceFit:
     #: bool[band] of those: whether the band's own centre differs measurably from the shared
     #: one (``wave_centre.centres_differ``).
     centres_differ: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, bool))
+    #: bool[band] (empty: none): whether the band is radiated from its own acoustic centre, by a
+    #: cluster of its own (:func:`terms`), instead of from the shared one: the bands
+    #: :attr:`centres_differ` flags (and, held above the waves, the rows that copy such a band).
+    apart: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, bool))
+    #: float64[band, 35] (complex128 with a measured phase): where :attr:`apart`, the band's
+    #: components with its pattern referred to its own centre (same orders and power
+    #: normalisation as :attr:`components`); zero elsewhere.
+    own_components: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 35)))
+    #: float64[band, 3]: where :attr:`apart`, the centre its own cluster sits at, from the
+    #: source's position; zero elsewhere.
+    own_centres_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -183,30 +188,37 @@ class SourceFit:
         any component it uses (:func:`stencil`): 0 (omni), 2 (orders 1 and 2 along the axes),
         2√2 (order 2's mixed terms, order 3's ∂ᵢ²∂ⱼ, order 4's ∂ᵢ²∂ⱼ²), 3 (orders 3 and 4
         along an axis), 2√3 (order 3's ∂ₓ∂ᵧ∂𝓏, order 4's ∂ᵢ²∂ⱼ∂ₖ) or √13 (order 4's ∂ᵢ³∂ⱼ)."""
-        used = np.flatnonzero(np.any(self.components != 0.0, axis=0))
-        return max((math.sqrt(sum(o * o for o in offset)) for k in used
-                    for offset, _ in stencil(int(k))), default=0.0)
+        return components_reach_cells(self.components)
+
+    def clusters(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The clusters the source is radiated by, each (its centre float64[3] from the source's
+        position, its components [band, 35] with zero rows for the bands it does not carry):
+        the shared centre's for every band not :attr:`apart`, then one for each own centre
+        (bands in order; rows held above the waves go with the band they copy). Without such
+        bands, the one cluster is :attr:`components` itself."""
+        apart = np.asarray(self.apart, bool)
+        if not np.any(apart):
+            return [(self.centre_offset_m, self.components)]
+        zero = np.zeros_like(self.components[:1])
+        out = [(self.centre_offset_m, np.where(apart[:, None], zero, self.components))]
+        seen: list[tuple[float, ...]] = []
+        for b in np.flatnonzero(apart):
+            key = tuple(float(v) for v in self.own_centres_m[b])
+            if key in seen:
+                continue
+            seen.append(key)
+            rows = apart & np.all(self.own_centres_m == self.own_centres_m[b][None], axis=1)
+            out.append((self.own_centres_m[b].copy(),
+                        np.where(rows[:, None], self.own_components, zero)))
+        return out
 
 
-def fibonacci_directions(n: int = 4096) -> np.ndarray:
-    """float64[n, 3]: unit vectors of the Fibonacci lattice on the sphere."""
-    k = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * k / n
-    phi = math.pi * (3.0 - math.sqrt(5.0)) * k
-    s = np.sqrt(1.0 - z * z)
-    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
-
-
-def fit_directions() -> tuple[np.ndarray, np.ndarray]:
-    """The fit's quadrature (:data:`FIT_RINGS`, :data:`FIT_AZIMUTHS`): unit directions
-    float64[direction, 3] and weights float64[direction] summing to 1 (a weighted sum is the
-    mean over the sphere)."""
-    z, wz = np.polynomial.legendre.leggauss(FIT_RINGS)
-    phi = 2.0 * math.pi * (np.arange(FIT_AZIMUTHS) + 0.5) / FIT_AZIMUTHS
-    s = np.sqrt(1.0 - z * z)
-    u = np.stack([np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)),
-                  np.repeat(z[:, None], FIT_AZIMUTHS, axis=1)], axis=-1).reshape(-1, 3)
-    return u, np.repeat(wz / (2.0 * FIT_AZIMUTHS), FIT_AZIMUTHS)
+def components_reach_cells(components: np.ndarray) -> float:
+    """How far the terms of ``components`` [band, 35] reach from their cluster's centre, in
+    cells (:meth:`SourceFit.reach_cells`)."""
+    used = np.flatnonzero(np.any(components != 0.0, axis=0))
+    return max((math.sqrt(sum(o * o for o in offset)) for k in used
+                for offset, _ in stencil(int(k))), default=0.0)
 
 
 def amplitude(source: Any, directivity: Any, directions: np.ndarray, n_bands: int,
@@ -275,40 +287,17 @@ def measured_phase(source: Any, directions: np.ndarray, bands_hz: np.ndarray) ->
     return np.where(magnitude > 0, z / np.where(magnitude > 0, magnitude, 1.0), 1.0)
 
 
-def moments(a: np.ndarray, u: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The spherical-harmonic parts of ``a`` [direction, band] on the quadrature (``u``,
-    ``weight``): (c₀, c [axis, band], M, D, T, Q, each order's share of the energy [order, band],
-    the energy [band]) as :func:`fit` uses them."""
-    wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
-    c0 = wa.sum(axis=0)
-    c = 3.0 * (u.T @ wa)  # [axis, band]
-    m = np.einsum("di,dj,db->bij", u, u, wa)
-    d = 7.5 * (m - np.einsum("bii->b", m)[:, None, None] * np.eye(3) / 3.0)  # [band, 3, 3]
-    n = np.einsum("di,dj,dk,db->bijk", u, u, u, wa)
-    m1 = (c / 3.0).T  # [band, axis]: ⟨A·v⟩
-    eye = np.eye(3)
-    t = 17.5 * n - 3.5 * (np.einsum("bi,jk->bijk", m1, eye) + np.einsum("bj,ik->bijk", m1, eye)
-                          + np.einsum("bk,ij->bijk", m1, eye))  # [band, 3, 3, 3]
-    q = fourth_order(u, wa, m, c0)  # [band, 3, 3, 3, 3]
-    total = weight @ (np.abs(a) ** 2)
-    # Each order's share of the pattern's energy (the means of its part's square; :func:`fit`
-    # leaves out an order above every one that carries RESOLVED_AMPLITUDE² of it).
-    shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
-                       2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
-                       2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real,
-                       8.0 / 315.0 * np.einsum("bijkl,bijkl->b", q, q.conj()).real])
-    return c0, c, m, d, t, q, shares, total
-
-
 def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None = None,
         bands_hz: np.ndarray | None = None, *, centre_bands: int | None = None,
-        speed_of_sound_m_s: float = 343.0) -> SourceFit:
+        speed_of_sound_m_s: float = 343.0, own_centres: bool = True) -> SourceFit:
     """The source's fit per band (see the module's doc), of orders ``orders`` (int[band]; None:
     :data:`MAX_ORDER` in every band); with ``bands_hz``, a SOFA source's measured phase is
     fitted too (complex coefficients), referred to its acoustic centre found from that phase
     in the first ``centre_bands`` bands (all if None; ``wave_centre.refer_to_centre``),
-    where its cluster is then centred. The first-order family is order 1 exactly and is
-    fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
+    where its cluster is then centred; a band whose own centre differs measurably
+    (``wave_centre.centres_differ``) is fitted about its own centre too and radiated from there
+    (:attr:`SourceFit.apart`) unless ``own_centres`` is False. The first-order family is order 1
+    exactly and is fitted to order 1 only (its higher part is the lattice's quadrature error). In each band,
     orders above the highest that carries :data:`RESOLVED_AMPLITUDE`² (4·10⁻⁴) of the pattern's
     energy are left out (:attr:`SourceFit.orders` says which are radiated): such an order's
     amplitude is below the error allowed to the stencils of the orders that are radiated, and
@@ -340,53 +329,40 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
     highest = np.max(np.where(carried, np.arange(MAX_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
-    c = np.where(orders[None] >= 1, c, 0.0)
-    d = np.where((orders >= 2)[:, None, None], d, 0.0)
-    t = np.where((orders >= 3)[:, None, None, None], t, 0.0)
-    q = np.where((orders >= 4)[:, None, None, None, None], q, 0.0)
-    power = shares[0] + sum(np.where(orders >= L, shares[L], 0.0) for L in range(1, MAX_ORDER + 1))
-    norm = np.sqrt(np.maximum(power, 1e-300))
-    second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
-    third = np.column_stack([t[:, i, j, k] * len(set(itertools.permutations((i, j, k))))
-                             for i, j, k in TRIPLES])
-    fourth = np.column_stack([q[(slice(None), *ix)] * len(set(itertools.permutations(ix)))
-                              for ix in QUADS])
-    components = np.column_stack([c0, c.T, second, third, fourth]) / norm[:, None]
+    components, power = truncated(c0, c, d, t, q, shares, orders)
     # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
     residual = np.clip(1.0 - power / np.maximum(total, 1e-300), 0.0, 1.0)
     differ = np.zeros(len(own), bool)
+    apart = np.zeros(0, bool)
+    own_components, own_at = np.zeros((0, components.shape[1])), np.zeros((0, 3))
     if len(own):
         # Each centred band referred to its own centre instead, with the same orders: what the
         # fit would leave out there, against what the shared centre leaves.
         n_own = len(own)
         k_own = 2.0 * math.pi * np.asarray(bands_hz, float)[:n_own] / speed_of_sound_m_s
         at_own = measured[:, :n_own] * np.exp(-1j * (u @ own.T) * k_own[None])
-        *_, shares_own, total_own = moments(at_own, u, weight)
-        power_own = shares_own[0] + sum(np.where(orders[:n_own] >= L, shares_own[L], 0.0)
-                                        for L in range(1, MAX_ORDER + 1))
+        c0_o, c_o, _, d_o, t_o, q_o, shares_own, total_own = moments(at_own, u, weight)
+        own_fit, power_own = truncated(c0_o, c_o, d_o, t_o, q_o, shares_own, orders[:n_own])
         residual_own = np.clip(1.0 - power_own / np.maximum(total_own, 1e-300), 0.0, 1.0)
         differ = centres_differ(centre, own, k_own, orders[:n_own], residual[:n_own],
                                 residual_own)
+        if own_centres and np.any(differ):
+            # A flagged band is radiated from its own centre (its own cluster, :func:`terms`),
+            # its pattern referred there; what the fit leaves out is then what it leaves there.
+            apart = np.zeros(n_bands, bool)
+            apart[:n_own] = differ
+            own_fit[np.abs(own_fit) < NEGLIGIBLE] = 0.0
+            own_components = np.zeros_like(components, dtype=own_fit.dtype)
+            own_components[:n_own][differ] = own_fit[differ]
+            own_at = np.zeros((n_bands, 3))
+            own_at[:n_own][differ] = own[differ]
+            residual = residual.copy()
+            residual[:n_own][differ] = residual_own[differ]
     return SourceFit(components, orders, residual, centre_offset_m=centre, band_centres_m=own,
-                     centres_differ=differ)
-
-
-def fourth_order(u: np.ndarray, wa: np.ndarray, m: np.ndarray, c0: np.ndarray) -> np.ndarray:
-    """complex or float [band, 3, 3, 3, 3]: order 4 of a pattern as Q_ijkl·u_i u_j u_k u_l, the
-    addition theorem's 9⟨A(v)·P₄(u·v)⟩ with P₄(x) = (35x⁴ − 30x² + 3)/8 in Cartesian form:
-    (9/8)·(35·N₄ − 30·M⊗I + 3·⟨A⟩·I⊗I) symmetrised over its indices, N₄ = ⟨A·v_i v_j v_k v_l⟩,
-    M = ⟨A·v_i v_j⟩ (``m``), ⟨A⟩ = ``c0``; ``wa`` the pattern times the quadrature weights
-    [direction, band]. r⁴P₄(u·v/r) is a solid harmonic, so Q is traceless and order 4 only,
-    and the mean of its square over the sphere is (8/315)·ΣQ² (4!/9!!, as 2/15 and 2/35 are
-    2!/5!! and 3!/7!! for orders 2 and 3)."""
-    eye = np.eye(3)
-    n4 = np.einsum("di,dj,dk,dl,db->bijkl", u, u, u, u, wa)
-    raw = 9.0 / 8.0 * (35.0 * n4 - 30.0 * np.einsum("bij,kl->bijkl", m, eye)
-                       + 3.0 * np.einsum("b,ij,kl->bijkl", c0, eye, eye))
-    return sum(np.transpose(raw, (0, *(1 + np.array(p)))) for p in
-               itertools.permutations(range(4))) / 24.0
+                     centres_differ=differ, apart=apart, own_components=own_components,
+                     own_centres_m=own_at)
 
 
 def pulse_delay_s(bands_hz: np.ndarray, max_frequency_hz: float,
@@ -448,29 +424,40 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     spectra.append(np.where(fade > 0.0, integrated, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral ** 2, 0.0))
-    by_offset: dict[tuple[int, int, int], np.ndarray] = {}
-    for k in range(source_fit.components.shape[1]):
-        coefficient = source_fit.components[:, k]
-        if np.all(coefficient == 0.0):
-            continue
-        order = component_order(k)
-        gain = coefficient[0] + np.diff(coefficient) @ blends
-        signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
-        for offset, w in stencil(k):
-            if offset in by_offset:
-                by_offset[offset] = by_offset[offset] + w * signal
-            else:
-                by_offset[offset] = w * signal
-    centre = np.asarray(position_m, float) + source_fit.centre_offset_m
-    keys = sorted(by_offset)
-    positions = np.array([centre + h * np.asarray(o, float) for o in keys])
-    return positions, np.ascontiguousarray([by_offset[o] for o in keys]), delay
+    positions: list[np.ndarray] = []
+    signals: list[np.ndarray] = []
+    # One cluster per centre (SourceFit.clusters): the shared one, and one for each band
+    # radiated from its own. A cluster's coefficients are zero in the bands it does not carry,
+    # so its gain c₀ + Σ_e (c_{e+1} − c_e)·blend_e = Σ_b c_b·w_b weighs band b by the blends'
+    # partition of unity w_b = blend_{b−1} − blend_b (blend_{−1} = 1, blend_last = 0): the
+    # clusters' weights sum to 1 at every frequency, and a band's cluster fades in and out
+    # across its edges as its coefficients would.
+    for offset_m, components in source_fit.clusters():
+        by_offset: dict[tuple[int, int, int], np.ndarray] = {}
+        for k in range(components.shape[1]):
+            coefficient = components[:, k]
+            if np.all(coefficient == 0.0):
+                continue
+            order = component_order(k)
+            gain = coefficient[0] + np.diff(coefficient) @ blends
+            signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
+            for offset, w in stencil(k):
+                if offset in by_offset:
+                    by_offset[offset] = by_offset[offset] + w * signal
+                else:
+                    by_offset[offset] = w * signal
+        centre = np.asarray(position_m, float) + offset_m
+        keys = sorted(by_offset)
+        positions.extend(centre + h * np.asarray(o, float) for o in keys)
+        signals.extend(by_offset[o] for o in keys)
+    return np.array(positions), np.ascontiguousarray(signals), delay
 
 
 def reach_m(source_fit: SourceFit, spacing_m: float) -> float:
     """How far from the source's position its cluster's terms reach (the cluster's centre may
     be moved from it, :attr:`SourceFit.centre_offset_m`)."""
-    return source_fit.reach_cells() * spacing_m + float(np.linalg.norm(source_fit.centre_offset_m))
+    return max(components_reach_cells(components) * spacing_m + float(np.linalg.norm(offset_m))
+               for offset_m, components in source_fit.clusters())
 
 
 def check_clearance(scene: Any, max_frequency_hz: float, directivities: list[Any],
@@ -521,7 +508,10 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
     cluster fits inside that: each order's terms reach farther (2, 2√2, 3
     or 2√3 cells, :meth:`SourceFit.reach_cells`), so near a wall the orders are capped, the
     highest first, down to 1 (a cluster that does not fit even then is the caller's to refuse,
-    :func:`check_clearance`); the fit's :attr:`SourceFit.note` says so, for the log."""
+    :func:`check_clearance`); the fit's :attr:`SourceFit.note` says so, for the log. Bands
+    radiated from their own centres (:attr:`SourceFit.apart`) count every centre's reach
+    (:func:`reach_m`); where those clusters do not fit but the shared one would, the bands are
+    radiated from the shared centre instead (said in the note)."""
     b = np.asarray(bands_hz, float)
     orders = resolved_orders(b, spacing_m, speed_of_sound_m_s)
 
@@ -529,20 +519,38 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
         if wave_bands is None or not 0 < wave_bands < b.size:
             return f
         keep = np.minimum(np.arange(b.size), wave_bands - 1)
-        return dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
-                                   residual=f.residual[keep])
+        f = dataclasses.replace(f, components=f.components[keep], orders=f.orders[keep],
+                                residual=f.residual[keep])
+        if len(f.apart):
+            f = dataclasses.replace(f, apart=f.apart[keep], own_components=f.own_components[keep],
+                                    own_centres_m=f.own_centres_m[keep])
+        return f
 
-    fitted = held(fit(source, directivity, b.size, orders, b, centre_bands=wave_bands,
-                      speed_of_sound_m_s=speed_of_sound_m_s))
+    def placed(radiated: np.ndarray) -> SourceFit:
+        # Bands radiated from their own centres (wave_centre.centres_differ) whose clusters
+        # would not fit in the air around the source fall back to the shared centre, which
+        # costs them what the log's "own centres" words say, rather than refusing the source.
+        f = held(fit(source, directivity, b.size, radiated, b, centre_bands=wave_bands,
+                     speed_of_sound_m_s=speed_of_sound_m_s))
+        if np.any(f.apart) and reach_m(f, spacing_m) >= clearance_m:
+            shared = held(fit(source, directivity, b.size, radiated, b, centre_bands=wave_bands,
+                              speed_of_sound_m_s=speed_of_sound_m_s, own_centres=False))
+            if reach_m(shared, spacing_m) < clearance_m:
+                return dataclasses.replace(shared, note=(
+                    f"; radiated from the shared centre: the bands' own clusters would reach "
+                    f"{1e3 * reach_m(f, spacing_m):.0f} mm, a wall {1e3 * clearance_m:.0f} mm "
+                    "away"))
+        return f
+
+    fitted = placed(orders)
     cap = int(fitted.orders.max())
     while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
         wanted = reach_m(fitted, spacing_m)
         cap -= 1
-        fitted = held(fit(source, directivity, b.size, np.minimum(orders, cap), b,
-                          centre_bands=wave_bands, speed_of_sound_m_s=speed_of_sound_m_s))
+        fitted = placed(np.minimum(orders, cap))
         fitted = dataclasses.replace(fitted, note=(
             f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
-            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm"))
+            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm" + fitted.note))
     return fitted
 
 
@@ -562,10 +570,17 @@ def centred(source_fit: SourceFit) -> str:
     d = source_fit.centre_offset_m
     if not np.any(d != 0.0):
         return ""
-    words = (f"; radiated from its acoustic centre, ({', '.join(f'{1e3 * v:+.0f}' for v in d)}) "
-             "mm from its position")
+    every = len(source_fit.apart) > 0 and bool(np.all(source_fit.apart))
+    words = (f"; {'its shared' if every else 'radiated from its'} acoustic centre, "
+             f"({', '.join(f'{1e3 * v:+.0f}' for v in d)}) mm from its position")
     if np.any(source_fit.centres_differ):
         apart = np.linalg.norm(source_fit.band_centres_m - d[None], axis=1)
         words += (f"; its bands' own centres lie {'/'.join(f'{1e3 * x:.0f}' for x in apart)} mm "
                   "from it (measured phase): one centre costs them more than the fit leaves out")
+        if np.any(source_fit.apart):
+            flagged = np.flatnonzero(source_fit.centres_differ) + 1
+            words += (f", so wave band{'s' if len(flagged) > 1 else ''} "
+                      f"{'/'.join(str(b) for b in flagged)} "
+                      f"{'each radiate' if len(flagged) > 1 else 'radiates'} from its own centre "
+                      "(a cluster of its own)")
     return words
