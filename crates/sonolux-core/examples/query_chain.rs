@@ -117,6 +117,12 @@ fn main() {
         for &(p, d) in &rec { acc += surf.nearest(p, d).map_or(0.0, |h| h.0); }
         let indep = (cpu_ns() - t0) as f64 / n as f64;
         std::hint::black_box(acc);
-        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}");
+        // FNV-1a of every answer (distance bits, triangle): equal between builds = same hits.
+        let mut hash = 0xcbf2_9ce4_8422_2325u64;
+        for &(p, d) in &rec {
+            let (t, tri) = surf.nearest(p, d).map_or((u64::MAX, usize::MAX), |h| (h.0.to_bits(), h.1));
+            for w in [t, tri as u64] { hash = (hash ^ w).wrapping_mul(0x0000_0100_0000_01b3); }
+        }
+        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}");
     }
 }
