@@ -63,8 +63,12 @@ pub struct Accumulator {
     saturated: AtomicBool,
 }
 
-/// Deposits a flush takes at once: enough for the misses to overlap, small enough for L1/L2.
-const BATCH: usize = 4096;
+/// Pending adds (of up to [`CHUNK`] bands each) a flush takes at once: enough for the misses to
+/// overlap, small enough for L1/L2 (about 4096 counts, as the flush of single counts took).
+const BATCH: usize = 512;
+/// Counts one pending add holds: a whole cell of up to 8 bands (padded to [`band_stride`], so
+/// one aligned cache line at 5–8 bands), or 8 bands of a wider cell.
+const CHUNK: usize = 8;
 /// The field is cut into about this many shards.
 const SHARDS: usize = 256;
 /// Fields above this many counts (8 MiB) get shards of at least 2 MiB (2¹⁸ counts), the size
@@ -146,12 +150,22 @@ impl Counts<'_> {
     }
 }
 
-/// A worker's deposits not yet added to the field: (index, counts) pairs.
+/// A pending add: `n` counts (a cell's bands, or [`CHUNK`] of them) starting at count `index`
+/// of the shards, all in one shard.
+#[derive(Clone, Copy, Debug, Default)]
+struct Add {
+    index: usize,
+    n: usize,
+    counts: [u64; CHUNK],
+}
+
+/// A worker's deposits not yet added to the field: one [`Add`] a cell deposited into (two or
+/// more for cells of over 8 bands).
 #[derive(Debug, Default)]
 pub struct Deposits {
-    pending: Vec<(usize, u64)>,
+    pending: Vec<Add>,
     /// Scratch of a flush: the pending adds grouped by shard, and where each group starts.
-    grouped: Vec<(usize, u64)>,
+    grouped: Vec<Add>,
     starts: Vec<usize>,
     fill: Vec<usize>,
 }
@@ -216,19 +230,40 @@ impl Accumulator {
         debug_assert!(energy.len() <= self.n_bands);
         let base = cell * self.stride;
         let inv = 1.0 / self.quantum;
-        for (b, &e) in energy.iter().enumerate() {
-            if e <= 0.0 {
+        // A cell of up to 8 bands is one add of its whole stride (the padding's adds are 0:
+        // the flush then adds whole aligned lines); a wider one, chunks of 8 bands.
+        let cell_counts = if self.stride <= CHUNK { self.stride } else { energy.len() };
+        for (k, chunk) in energy.chunks(CHUNK).enumerate() {
+            let mut add = Add { index: base + k * CHUNK, n: (cell_counts - k * CHUNK).min(CHUNK), counts: [0; CHUNK] };
+            let mut any = 0;
+            for (b, &e) in chunk.iter().enumerate() {
+                if e <= 0.0 {
+                    continue;
+                }
+                let x = e * inv;
+                // x > 0: truncation is the floor. Below 2⁶³ (always: the quantum leaves 16×
+                // headroom under 2⁶³ for a whole bin) through i64, one instruction each way on
+                // x86-64 without AVX-512 (u64's conversions are a branch and several): the
+                // same integers.
+                let whole = if x < 9.2e18 { x as i64 as u64 } else { x as u64 };
+                let a = whole + u64::from(u < x - if x < 9.2e18 { whole as i64 as f64 } else { whole as f64 });
+                add.counts[b] = a;
+                any |= a;
+            }
+            if any == 0 {
                 continue;
             }
-            let x = e * inv;
-            // x > 0: truncation is the floor. Below 2⁶³ (always: the quantum leaves 16× headroom
-            // under 2⁶³ for a whole bin) through i64, one instruction each way on x86-64 without
-            // AVX-512 (u64's conversions are a branch and several): the same integers.
-            let whole = if x < 9.2e18 { x as i64 as u64 } else { x as u64 };
-            let add = whole + u64::from(u < x - if x < 9.2e18 { whole as i64 as f64 } else { whole as f64 });
-            if add > 0 {
-                buf.pending.push((base + b, add));
+            // A chunk of packed bands (over 8 a cell) may cross a shard's end: split it there,
+            // each part added under its own shard's lock. (A padded cell never does: shards
+            // hold a power of two of at least 1024 counts, a whole number of cells.)
+            let room = (1usize << self.shard_bits) - (add.index & ((1 << self.shard_bits) - 1));
+            if add.n > room {
+                let mut rest = Add { index: add.index + room, n: add.n - room, counts: [0; CHUNK] };
+                rest.counts[..add.n - room].copy_from_slice(&add.counts[room..add.n]);
+                add.n = room;
+                buf.pending.push(rest);
             }
+            buf.pending.push(add);
         }
         if buf.pending.len() >= BATCH {
             self.flush(buf);
@@ -261,24 +296,27 @@ impl Accumulator {
         let n = self.shards.len();
         buf.starts.clear();
         buf.starts.resize(n + 1, 0);
-        for &(i, _) in &buf.pending {
-            self.prefetch(i);
-            buf.starts[(i >> self.shard_bits) + 1] += 1;
+        for add in &buf.pending {
+            self.prefetch(add.index);
+            if add.index % CHUNK + add.n > CHUNK {
+                self.prefetch(add.index + add.n - 1);
+            }
+            buf.starts[(add.index >> self.shard_bits) + 1] += 1;
         }
         for k in 0..n {
             buf.starts[k + 1] += buf.starts[k];
         }
         buf.grouped.clear();
-        buf.grouped.resize(buf.pending.len(), (0, 0));
+        buf.grouped.resize(buf.pending.len(), Add::default());
         buf.fill.clear();
         buf.fill.extend_from_slice(&buf.starts);
-        for &(i, a) in &buf.pending {
-            let k = i >> self.shard_bits;
-            buf.grouped[buf.fill[k]] = (i, a);
+        for add in &buf.pending {
+            let k = add.index >> self.shard_bits;
+            buf.grouped[buf.fill[k]] = *add;
             buf.fill[k] += 1;
         }
         let mask = (1usize << self.shard_bits) - 1;
-        let mut overflow = false;
+        let mut overflow = 0u64;
         for k in 0..n {
             let group = &buf.grouped[buf.starts[k]..buf.starts[k + 1]];
             if group.is_empty() {
@@ -286,12 +324,24 @@ impl Accumulator {
             }
             let mut shard = self.shards[k].lock().unwrap_or_else(|e| e.into_inner());
             let counts = shard.counts_mut();
-            for &(i, a) in group {
-                let (sum, o) = counts[i & mask].overflowing_add(a);
-                counts[i & mask] = sum;
-                overflow |= o;
+            for add in group {
+                let at = &mut counts[add.index & mask..][..add.n];
+                // A whole line of 8 (padded cells of 5–8 bands) as one fixed-length loop, which
+                // the compiler puts in vector lanes; a wrap past 2⁶⁴ shows as sum < add.
+                if let Ok(at) = <&mut [u64; CHUNK]>::try_from(&mut *at) {
+                    let sum: [u64; CHUNK] = std::array::from_fn(|l| at[l].wrapping_add(add.counts[l]));
+                    overflow |= (0..CHUNK).fold(0, |o, l| o | u64::from(sum[l] < add.counts[l]));
+                    *at = sum;
+                    continue;
+                }
+                for (c, &a) in at.iter_mut().zip(&add.counts) {
+                    let (sum, o) = c.overflowing_add(a);
+                    *c = sum;
+                    overflow |= u64::from(o);
+                }
             }
         }
+        let overflow = overflow != 0;
         // A sum that wraps past 2⁶⁴ is flagged (the quantum leaves 16× headroom, so it is a bug).
         if overflow {
             self.saturated.store(true, Ordering::Relaxed);
