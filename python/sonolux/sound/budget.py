@@ -5,12 +5,12 @@ The tracer's accumulator holds every (receiver, time bin, direction, band) cell 
 it traces as a u64, and hands back their float32 energies (and u64 counts): 20 bytes a cell
 (``FIELD_BYTES_PER_CELL`` of the core; a little more with the accumulator's band padding). A
 receiver of paper-large (8 directions, 7 octaves, 3,840 one-sample early bins and 3 s of late
-bins) is tens of thousands of cells, so a floor of receivers would need tens of gigabytes at
-once. So the bake traces its receivers in **tiles**: each tile retraces the same rays (same seed: each ray's path depends on (seed, source, ray) only, and each
-deposit's rounding on (seed, source, ray, receiver, event): ``keyed_uniform`` in the core), keeps
-its tile's field in the compact form (:mod:`sonolux.sound.compact`) and frees the accumulator.
-Every receiver gets the bits it would get in one bake of all receivers; a tile costs one more
-pass over the rays.
+bins) is tens of thousands of cells, so a floor of receivers would need tens of gigabytes at once.
+So the bake traces its receivers in **tiles**: each tile retraces the same rays (same seed: each
+ray's path depends on (seed, source, ray) only, and each deposit's rounding on (seed, source, ray,
+receiver, event): ``keyed_uniform`` in the core), keeps its tile's field in the compact form
+(:mod:`sonolux.sound.compact`) and frees the accumulator. Every receiver gets the bits it would
+get in one bake of all receivers; a tile costs one more pass over the rays.
 
 What the bake keeps is estimated from the settings: the dense late part exactly, the early
 part's non-zero cells from the sphere crossings and rain deposits expected in it (rays fill the
