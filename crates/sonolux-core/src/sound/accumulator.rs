@@ -60,6 +60,8 @@ pub struct Accumulator {
     stride: usize,
     /// Energy of one count, in the field's unit (J/m²).
     pub quantum: f64,
+    /// 1 / quantum, once (a division a deposit less; the same value).
+    inv_quantum: f64,
     saturated: AtomicBool,
 }
 
@@ -216,6 +218,7 @@ impl Accumulator {
             n_bands: 1,
             stride: 1,
             quantum,
+            inv_quantum: 1.0 / quantum,
             saturated: AtomicBool::new(false),
         }
     }
@@ -229,7 +232,7 @@ impl Accumulator {
     pub fn deposit(&self, buf: &mut Deposits, cell: usize, energy: &[f64], u: f64) {
         debug_assert!(energy.len() <= self.n_bands);
         let base = cell * self.stride;
-        let inv = 1.0 / self.quantum;
+        let inv = self.inv_quantum;
         // A cell of up to 8 bands is one add of its whole stride (the padding's adds are 0:
         // the flush then adds whole aligned lines); a wider one, chunks of 8 bands.
         let cell_counts = if self.stride <= CHUNK { self.stride } else { energy.len() };
