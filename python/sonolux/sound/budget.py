@@ -33,15 +33,16 @@ TRACE_BYTES_PER_CELL = 20
 
 def band_stride(bands: int) -> int:
     """Counts the core's accumulator keeps for a (receiver, time, direction) cell of ``bands``
-    bands (its ``band_stride``): up to 8 bands the next power of two, so that a cell fills one
-    aligned cache line or an aligned part of one; above 8 the bands packed."""
-    return 1 << (bands - 1).bit_length() if bands <= 8 else bands
+    bands (its ``band_stride``): the next power of two up to 8 where that adds at most one count
+    in seven (7 bands → 8: one aligned cache line), else the bands packed."""
+    padded = 1 << (bands - 1).bit_length()
+    return padded if bands <= 8 and 7 * (padded - bands) <= bands else bands
 
 
 def trace_bytes_per_cell(bands: int) -> float:
     """Bytes of one cell while tracing a field of ``bands`` bands (the core's
     ``field_bytes_per_cell``): :data:`TRACE_BYTES_PER_CELL` with the accumulator's u64 padded
-    to :func:`band_stride` counts a cell (7 bands: 8 · 8/7 + 12 ≈ 21.1 bytes)."""
+    to :func:`band_stride` counts a cell (7 bands: 8 · 8/7 + 12 ≈ 21.1 bytes; others 20)."""
     return TRACE_BYTES_PER_CELL - 8 + 8 * band_stride(bands) / bands
 #: What the rest of a bake holds besides its field (the scene, the BVH, the interpreter), and
 #: a margin for the estimate of the early cells.

@@ -11,16 +11,16 @@ use memmap2::MmapMut;
 #[cfg(doc)]
 use super::Layout;
 
-/// Counts the accumulator keeps a cell for `n_bands` bands: up to 8 bands, the next power of two
-/// (7 → 8, 5 and 6 → 8, 3 → 4), so that a cell's bands fill one aligned 64-byte cache line (or
-/// an aligned half or quarter of one) instead of straddling two: 7 packed bands of 8 bytes
-/// span 1.75 lines on average (a cell starts at any multiple of 8 bytes), which a deposit's
-/// flush waits for from memory in a field of hundreds of megabytes (docs/convex.md, session 12).
-/// Above 8 bands the bands are packed: padding to whole lines would save less than a line in
-/// three for up to 7/8 more memory. The padding counts are never written.
+/// Counts the accumulator keeps a cell for `n_bands` bands: the next power of two up to 8 where
+/// that adds at most one count in seven (7 bands → 8, the octaves 125 Hz–8 kHz), else the bands
+/// packed. A padded cell of 8 counts fills one aligned 64-byte cache line, where 7 packed bands
+/// of 8 bytes straddle 1.75 lines on average (a cell starts at any multiple of 8 bytes), and the
+/// flush adds it as one line (docs/convex.md, session 12). 5 or 6 bands would take 33–60 % more
+/// memory for it, unmeasured, so they stay packed. The padding counts are never written.
 pub fn band_stride(n_bands: usize) -> usize {
-    if n_bands <= 8 {
-        n_bands.next_power_of_two()
+    let padded = n_bands.next_power_of_two();
+    if n_bands <= 8 && 7 * (padded - n_bands) <= n_bands {
+        padded
     } else {
         n_bands
     }
@@ -69,7 +69,7 @@ pub struct Accumulator {
 /// overlap, small enough for L1/L2 (about 4096 counts, as the flush of single counts took).
 const BATCH: usize = 512;
 /// Counts one pending add holds: a whole cell of up to 8 bands (padded to [`band_stride`], so
-/// one aligned cache line at 5–8 bands), or 8 bands of a wider cell.
+/// one aligned cache line at 7 and 8 bands), or 8 bands of a wider cell.
 const CHUNK: usize = 8;
 /// The field is cut into about this many shards.
 const SHARDS: usize = 256;
@@ -233,8 +233,8 @@ impl Accumulator {
         debug_assert!(energy.len() <= self.n_bands);
         let base = cell * self.stride;
         let inv = self.inv_quantum;
-        // A cell of up to 8 bands is one add of its whole stride (the padding's adds are 0:
-        // the flush then adds whole aligned lines); a wider one, chunks of 8 bands.
+        // A cell of up to 8 counts is one add of its whole stride (the padding's adds are 0: a
+        // padded cell of 8 is one aligned line, added at once); a wider one, chunks of 8 bands.
         let cell_counts = if self.stride <= CHUNK { self.stride } else { energy.len() };
         for (k, chunk) in energy.chunks(CHUNK).enumerate() {
             let mut add = Add { index: base + k * CHUNK, n: (cell_counts - k * CHUNK).min(CHUNK), counts: [0; CHUNK] };
@@ -256,9 +256,9 @@ impl Accumulator {
             if any == 0 {
                 continue;
             }
-            // A chunk of packed bands (over 8 a cell) may cross a shard's end: split it there,
-            // each part added under its own shard's lock. (A padded cell never does: shards
-            // hold a power of two of at least 1024 counts, a whole number of cells.)
+            // A chunk of packed bands (a stride not a power of two) may cross a shard's end:
+            // split it there, each part added under its own shard's lock. (A cell of a power of
+            // two of counts never does: shards hold a power of two of at least 1024 counts.)
             let room = (1usize << self.shard_bits) - (add.index & ((1 << self.shard_bits) - 1));
             if add.n > room {
                 let mut rest = Add { index: add.index + room, n: add.n - room, counts: [0; CHUNK] };
@@ -329,7 +329,7 @@ impl Accumulator {
             let counts = shard.counts_mut();
             for add in group {
                 let at = &mut counts[add.index & mask..][..add.n];
-                // A whole line of 8 (padded cells of 5–8 bands) as one fixed-length loop, which
+                // A whole line of 8 (cells of 7 and 8 bands) as one fixed-length loop, which
                 // the compiler puts in vector lanes; a wrap past 2⁶⁴ shows as sum < add.
                 if let Ok(at) = <&mut [u64; CHUNK]>::try_from(&mut *at) {
                     let sum: [u64; CHUNK] = std::array::from_fn(|l| at[l].wrapping_add(add.counts[l]));
@@ -456,12 +456,12 @@ mod tests {
 
     #[test]
     fn padded_bands_read_back_in_the_packed_order() {
-        // 1 to 9 bands (3 → 4, 5–7 → 8, 9 packed), small and huge-page fields: every reader
-        // (get, read's at/get, to_vec, merge) sees the packed [cell][band] order, and a cell's
-        // padded bands start on a whole multiple of the stride (one line for 5–8 bands).
+        // 1 to 9 bands (7 → 8, the others packed, chunked above 8), small and huge-page fields: every reader
+        // (get, read's at/get, to_vec, merge) sees the packed [cell][band] order, and the
+        // padding is never written.
         for nb in 1..=9 {
             let stride = band_stride(nb);
-            assert!(stride >= nb && (nb > 8 || (stride.is_power_of_two() && stride <= 8)) && (nb <= 8 || stride == nb));
+            assert_eq!(stride, if nb == 7 { 8 } else { nb });
             for cells in [1, 700, HUGE_FIELD / 4 + 3] {
                 let acc = Accumulator::for_bands(cells, nb, 1.0, true);
                 assert_eq!(acc.len(), cells * nb);
