@@ -332,12 +332,12 @@ def test_per_band_geometry_holds_in_a_progressive_bake(tmp_path):
 
 def test_the_memory_plan_counts_the_join_and_one_band_group(tmp_path):
     # With levels a tile holds its field joined over every band (float32, + u64 counts for a
-    # ray range) and the tracer's 20-byte cells of one band group (sonolux.sound.levels.trace),
+    # ray range) and the tracer's ≈ 20-byte cells of one band group (sonolux.sound.levels.trace),
     # not the tracer's cells of every band: the plan's bytes a receiver are exactly that, and
     # the bake plans with its largest group (the octave bake's: one band) and says so.
     from sonolux.sound import levels
     from sonolux.sound.bake import band_arrays, memory_plan
-    from sonolux.sound.budget import TRACE_BYTES_PER_CELL
+    from sonolux.sound.budget import trace_bytes_per_cell
     scene = box_room(tmp_path, True)
     arrays = band_arrays(scene)
     assert levels.largest_group(levels.plan(scene, arrays)) == 1
@@ -345,12 +345,12 @@ def test_the_memory_plan_counts_the_join_and_one_band_group(tmp_path):
     options = sonolux.SoundOptions(rays=3000, storage="full", max_time_s=0.3).validate()
     plain = memory_plan(scene, options, arrays, settings_of=(3000, 0.3))
     cells, bands = plain.shape.cells_per_receiver, plain.shape.bands
-    assert plain.tile_bytes == plain.tile_receivers * cells * TRACE_BYTES_PER_CELL
+    assert plain.tile_bytes == plain.tile_receivers * math.ceil(cells * trace_bytes_per_cell(bands))
     for group, ray_range, value in ((1, None, 4), (bands - 1, (0, 1000), 12)):
         with_levels = memory_plan(scene, sonolux.SoundOptions(
             rays=3000, storage="full", max_time_s=0.3, ray_range=ray_range).validate(), arrays,
             settings_of=(3000, 0.3), group_bands=group)
-        per_receiver = cells * value + cells // bands * group * TRACE_BYTES_PER_CELL
+        per_receiver = cells * value + math.ceil(cells * group // bands * trace_bytes_per_cell(group))
         assert with_levels.tile_bytes == with_levels.tile_receivers * per_receiver
     notes: list[str] = []
     bake(scene, rays=500, storage="full", max_time_s=0.3, log=notes.append)

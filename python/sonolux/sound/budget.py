@@ -3,14 +3,14 @@ what the whole bake will hold, said before it starts.
 
 The tracer's accumulator holds every (receiver, time bin, direction, band) cell of the receivers
 it traces as a u64, and hands back their float32 energies (and u64 counts): 20 bytes a cell
-(``FIELD_BYTES_PER_CELL`` of the core). A receiver of paper-large (8 directions, 7 octaves, 3,840
-one-sample early bins and 3 s of late bins) is tens of thousands of cells, so a floor of receivers
-would need tens of gigabytes at once. So the bake traces its receivers in **tiles**: each tile
-retraces the same rays (same seed: each ray's path depends on (seed, source, ray) only, and each
-deposit's rounding on (seed, source, ray, receiver, event): ``keyed_uniform`` in the core), keeps
-its tile's field in the compact form (:mod:`sonolux.sound.compact`) and frees the accumulator.
-Every receiver gets the bits it would get in one bake of all receivers; a tile costs one more
-pass over the rays.
+(``FIELD_BYTES_PER_CELL`` of the core; a little more with the accumulator's band padding). A
+receiver of paper-large (8 directions, 7 octaves, 3,840 one-sample early bins and 3 s of late
+bins) is tens of thousands of cells, so a floor of receivers would need tens of gigabytes at once.
+So the bake traces its receivers in **tiles**: each tile retraces the same rays (same seed: each
+ray's path depends on (seed, source, ray) only, and each deposit's rounding on (seed, source, ray,
+receiver, event): ``keyed_uniform`` in the core), keeps its tile's field in the compact form
+(:mod:`sonolux.sound.compact`) and frees the accumulator. Every receiver gets the bits it would
+get in one bake of all receivers; a tile costs one more pass over the rays.
 
 What the bake keeps is estimated from the settings: the dense late part exactly, the early
 part's non-zero cells from the sphere crossings and rain deposits expected in it (rays fill the
@@ -26,8 +26,24 @@ from sonolux.errors import MemoryLimitError
 from sonolux.memory import gb
 
 #: Bytes of one cell while tracing (the core's FIELD_BYTES_PER_CELL: the u64 accumulator, the
-#: f32 energy and the u64 counts it hands back).
+#: f32 energy and the u64 counts it hands back), before the accumulator's band padding
+#: (:func:`trace_bytes_per_cell`).
 TRACE_BYTES_PER_CELL = 20
+
+
+def band_stride(bands: int) -> int:
+    """Counts the core's accumulator keeps for a (receiver, time, direction) cell of ``bands``
+    bands (its ``band_stride``): the next power of two up to 8 where that adds at most one count
+    in seven (7 bands → 8: one aligned cache line), else the bands packed."""
+    padded = 1 << (bands - 1).bit_length()
+    return padded if bands <= 8 and 7 * (padded - bands) <= bands else bands
+
+
+def trace_bytes_per_cell(bands: int) -> float:
+    """Bytes of one cell while tracing a field of ``bands`` bands (the core's
+    ``field_bytes_per_cell``): :data:`TRACE_BYTES_PER_CELL` with the accumulator's u64 padded
+    to :func:`band_stride` counts a cell (7 bands: 8 · 8/7 + 12 ≈ 21.1 bytes; others 20)."""
+    return TRACE_BYTES_PER_CELL - 8 + 8 * band_stride(bands) / bands
 #: What the rest of a bake holds besides its field (the scene, the BVH, the interpreter), and
 #: a margin for the estimate of the early cells.
 BASE_BYTES = 300_000_000
@@ -126,10 +142,10 @@ def plan(shape: FieldShape, budget_bytes: int, *, compact: bool, keep_counts: bo
         envelope = shape.directions * shape.bands * -(-shape.early_bins // split) * 4
         early = min(early, envelope + 2 * arrivals * shape.bands * (value + 4) + 16)
     kept = fields * shape.receivers * (late * value + early)
-    per_receiver = shape.cells_per_receiver * TRACE_BYTES_PER_CELL
+    per_receiver = math.ceil(shape.cells_per_receiver * trace_bytes_per_cell(shape.bands))
     if group_bands is not None:  # the join over every band + one group's tracer cells
-        per_receiver = shape.cells_per_receiver * value + \
-            shape.cells_per_receiver * group_bands // shape.bands * TRACE_BYTES_PER_CELL
+        per_receiver = shape.cells_per_receiver * value + math.ceil(
+            shape.cells_per_receiver * group_bands // shape.bands * trace_bytes_per_cell(group_bands))
     room = budget_bytes - BASE_BYTES - kept
     tile = min(shape.receivers, room // per_receiver) if room > 0 else 0
     if tile < 1:

@@ -181,9 +181,7 @@ pub(crate) fn add_arrivals(ctx: &Context, tree: &ImageTree, wedges: &[Wedge], s:
                     }
                 }
             }
-            for b in 0..nb {
-                amp2[b] *= (-set.air_attenuation_per_m[b] * apex_path).exp();
-            }
+            crate::sound::air::attenuate(&set.air_attenuation_per_m[..nb], apex_path, &mut amp2[..nb]);
             // Band energies and cross terms with the geometric arrivals this edge bounds.
             let n = FREQUENCIES_PER_BAND;
             let mut energy = vec![0.0; nb];

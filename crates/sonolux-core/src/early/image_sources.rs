@@ -204,9 +204,8 @@ pub(crate) fn path_energy(ctx: &Context, s: usize, path: &SpecularPath, source: 
     let l = path.length_m;
     let spread = if set.receiver_radius_m > 0.0 { ball_mean_inverse_square(l, set.receiver_radius_m) } else { 1.0 / (4.0 * PI * l * l) };
     let g = src.power_w * directivity_gain(&src.directivity, emit) * spread;
-    for b in 0..nb {
-        out[b] = g * (-set.air_attenuation_per_m[b] * l).exp();
-    }
+    out.fill(g);
+    crate::sound::air::attenuate(&set.air_attenuation_per_m[..nb], l, out);
     if let Some(hook) = ctx.gains {
         let mut extra = vec![1.0; nb];
         hook(s, emit, &mut extra);

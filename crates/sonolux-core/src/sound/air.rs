@@ -84,6 +84,20 @@ impl Air {
         absorb_lanes(&self.per_m, length_m, e, absorbed)
     }
 
+    /// Multiplies each `values[b]` by exp(−m_b · distance_m) (a connection's or the direct
+    /// sound's leg: the same bits as the free [`attenuate`]).
+    #[inline]
+    pub(crate) fn attenuate(&self, distance_m: f64, values: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = self.v3 {
+            return v3.vectorize(
+                #[inline(always)]
+                || attenuate_lanes(self.per_m.iter().copied(), distance_m, values),
+            );
+        }
+        attenuate_lanes(self.per_m.iter().copied(), distance_m, values)
+    }
+
     /// Writes exp(−m_b · distance_m) into `out[b]` for every band b of `out`.
     #[inline]
     pub(crate) fn factors(&self, distance_m: f64, out: &mut [f64]) {
@@ -129,6 +143,28 @@ fn factor_lanes(per_m: &[[f64; LANES]], distance_m: f64, out: &mut [f64]) {
         #[allow(clippy::manual_memcpy)]
         for l in 0..out.len() {
             out[l] = f[l];
+        }
+    }
+}
+
+/// Multiplies each `values[b]` by exp(−m_b · distance_m), for the air's m_b per band `per_m`: the
+/// air of the paths found outside the ray kernel (image sources, edge diffraction), with the
+/// same factors, bit for bit, as the kernel's [`Air`] (each lane is computed alone), without
+/// an [`Air`] to build or the AVX2 dispatch (a few calls a path).
+pub(crate) fn attenuate(per_m: &[f64], distance_m: f64, values: &mut [f64]) {
+    attenuate_lanes(per_m.chunks(LANES).map(|m| std::array::from_fn(|l| m.get(l).copied().unwrap_or(0.0))), distance_m, values)
+}
+
+#[inline(always)]
+fn attenuate_lanes(per_m: impl Iterator<Item = [f64; LANES]>, distance_m: f64, values: &mut [f64]) {
+    for (m, v) in per_m.zip(values.chunks_mut(LANES)) {
+        let f = exp_lanes(std::array::from_fn(|l| -m[l] * distance_m));
+        if let Ok(v) = <&mut [f64; LANES]>::try_from(&mut *v) {
+            *v = std::array::from_fn(|l| v[l] * f[l]);
+            continue;
+        }
+        for l in 0..v.len() {
+            v[l] *= f[l];
         }
     }
 }
@@ -247,6 +283,14 @@ mod tests {
                 let lone: Vec<f64> = m.iter().map(|&m| exp_lanes([-m * d; LANES])[0]).collect();
                 assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), lone.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
                 assert_eq!(a, b);
+                // Attenuation of given values (kernel's and free): values × the same factors.
+                let v0: Vec<f64> = (0..nb).map(|_| rng.uniform()).collect();
+                let (mut v, mut w, mut x) = (v0.clone(), v0.clone(), v0.clone());
+                fast.attenuate(d, &mut v);
+                portable.attenuate(d, &mut w);
+                attenuate(&m, d, &mut x);
+                assert_eq!((&v, &v), (&w, &x));
+                assert!(v.iter().zip(&v0).zip(&lone).all(|((v, v0), f)| *v == v0 * f));
                 // Absorption: energy kept times the factor, the loss tallied, the budget exact.
                 let e0: Vec<f64> = (0..nb).map(|_| rng.uniform()).collect();
                 let (mut e, mut absorbed) = (e0.clone(), vec![0.0; nb]);

@@ -77,7 +77,14 @@ fn direct_deposits(scene: &Scene, s: usize, index: u64, share: f64, acc: &Accumu
         let energy = src.power_w * share * ball_mean_inverse_square(d, radius);
         let (first_dir, n_dirs) = if d > radius { (lay.direction_bin(-to / d), 1) } else { (0, lay.n_directions()) };
         for b in 0..nb {
-            deposit[b] = energy * gain[b] * (-set.air_attenuation_per_m[b] * d).exp() / n_dirs as f64;
+            deposit[b] = energy * gain[b];
+        }
+        // The air over the path (sound/air.rs: the kernel's factors; × 1 exactly without air).
+        if scene.air {
+            scene.air_lanes.attenuate(d, &mut deposit[..nb]);
+        }
+        for b in 0..nb {
+            deposit[b] /= n_dirs as f64;
         }
         // The receiver's pattern towards the source (or its mean, for a source inside).
         if d > radius {
@@ -88,7 +95,7 @@ fn direct_deposits(scene: &Scene, s: usize, index: u64, share: f64, acc: &Accumu
         for dir in first_dir..first_dir + n_dirs {
             // Apart from the ray's own events (2 × segment, 2 × reflection + 1).
             let u = keyed_uniform(set.seed, s as u64, index, receiver_key, u64::MAX - dir as u64);
-            acc.deposit(buf, lay.index(r, tb, dir), deposit, u);
+            acc.deposit(buf, lay.cell(r, tb, dir), deposit, u);
         }
     }
 }

@@ -13,7 +13,8 @@
 //!   bounded number of receivers drawn by importance and weighted by 1/(M p) ([`nee`]).
 //!   All three estimate the same mean over each receiver's sphere.
 
-mod air;
+pub(crate) mod air;
+mod accumulator;
 mod bounce;
 mod direct;
 mod emit;
@@ -152,8 +153,16 @@ pub const MAX_THREADS: usize = 1024;
 
 /// Bytes a bake holds per cell of its field (one receiver, time bin, direction and band) at its
 /// peak: the u64 accumulator, plus the f32 energy and the u64 counts a caller may copy out in the
-/// public order ([`SoundResult::write_public`]).
+/// public order ([`SoundResult::write_public`]); the accumulator's padding to
+/// [`field::band_stride`] counts a (receiver, time, direction) adds [`field_bytes_per_cell`]'s rest.
 pub const FIELD_BYTES_PER_CELL: u64 = 8 + 4 + 8;
+
+/// Bytes a bake of `n_bands` bands holds per cell of its field at its peak: [`FIELD_BYTES_PER_CELL`]
+/// with the accumulator's 8 bytes a count scaled by its padding (7 bands: 8 · 8/7 + 12 ≈ 21.1).
+pub fn field_bytes_per_cell(n_bands: usize) -> f64 {
+    let nb = n_bands.max(1);
+    (FIELD_BYTES_PER_CELL - 8) as f64 + 8.0 * field::band_stride(nb) as f64 / nb as f64
+}
 
 /// Everything a sound bake needs besides the scene.
 #[derive(Clone, Debug)]
@@ -187,7 +196,7 @@ pub struct SoundSettings {
     pub late_bin_s: f64,
     pub n_azimuth: usize,
     pub n_elevation: usize,
-    /// The largest field, in bytes ([`FIELD_BYTES_PER_CELL`] a cell), the caller accepts: a bake
+    /// The largest field, in bytes ([`field_bytes_per_cell`] a cell), the caller accepts: a bake
     /// that would need more is refused before anything is allocated.
     pub max_field_bytes: u64,
 }
@@ -240,12 +249,13 @@ impl SoundSettings {
         let early_bins = (self.early_s * self.sample_rate_hz).round();
         let late_bins = ((self.max_time_s - early_bins / self.sample_rate_hz).max(0.0) / self.late_bin_s).ceil();
         let cells = n_receivers as f64 * self.n_azimuth as f64 * self.n_elevation as f64 * nb as f64 * (early_bins + late_bins);
-        let bytes = cells * FIELD_BYTES_PER_CELL as f64;
+        let per_cell = field_bytes_per_cell(nb);
+        let bytes = cells * per_cell;
         if !(bytes <= self.max_field_bytes as f64) {
             return bad(
                 "max_time_s",
                 format!(
-                    "the field would take {bytes:.3e} bytes ({n_receivers} receivers × {} directions × {nb} bands × {} time bins × {FIELD_BYTES_PER_CELL} bytes), more than the limit of {:.3e}: shorten max_time_s or early_s, widen late_bin_s, or use fewer receivers or directions",
+                    "the field would take {bytes:.3e} bytes ({n_receivers} receivers × {} directions × {nb} bands × {} time bins × {per_cell:.2} bytes), more than the limit of {:.3e}: shorten max_time_s or early_s, widen late_bin_s, or use fewer receivers or directions",
                     self.n_azimuth * self.n_elevation,
                     early_bins + late_bins,
                     self.max_field_bytes as f64
@@ -310,9 +320,9 @@ impl SoundResult {
             fill_blocks(out, nd * nb * nt, threads, |r, block| {
                 for t in 0..nt {
                     for d in 0..nd {
-                        let base = l.index(r, t, d);
+                        let cell = l.cell(r, t, d);
                         for b in 0..nb {
-                            block[(d * nb + b) * nt + t] = convert(counts.get(base + b));
+                            block[(d * nb + b) * nt + t] = convert(counts.at(cell, b));
                         }
                     }
                 }
@@ -567,8 +577,8 @@ pub fn trace_sound_with(
     };
     let n = settings.end_ray - settings.first_ray;
     let traced_sources = if settings.only_source.is_some() { 1 } else { sources.len() };
-    let huge = field::huge_pages_pay(n * traced_sources as u64, receivers.len(), layout.len());
-    let field = Accumulator::with_pages(layout.len(), quantum, huge);
+    let huge = field::huge_pages_pay(n * traced_sources as u64, receivers.len(), layout.cells() * field::band_stride(nb));
+    let field = Accumulator::for_bands(layout.cells(), nb, quantum, huge);
     let (workers, cancelled) = run_chunks(
         n,
         chunk_size(settings.estimator, receivers.len()),

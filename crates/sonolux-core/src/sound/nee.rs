@@ -345,11 +345,15 @@ fn connect_one(scene: &Scene, r: usize, weight: f64, point: DVec3, normal: DVec3
     // weight × share: the same bits as share alone for rain's weight 1.
     let g = weight * share * 4.0 * cos * ball_mean_inverse_square(d, scene.receivers.radius_m);
     for b in 0..nb {
-        deposit[b] = e[b] * scat[b] * g * (-set.air_attenuation_per_m[b] * d).exp();
+        deposit[b] = e[b] * scat[b] * g;
+    }
+    // The air over the leg (sound/air.rs: the kernel's factors; × 1 exactly without air).
+    if scene.air {
+        scene.air_lanes.attenuate(d, &mut deposit[..nb]);
     }
     scene.receivers.weigh(r, -to / d, &mut deposit[..nb], gain);
     let u = keyed_uniform(set.seed, key[0], key[1], set.first_receiver + r as u64, key[2]);
-    acc.deposit(buf, lay.index(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
+    acc.deposit(buf, lay.cell(r, tb, lay.direction_bin(-to / d)), &deposit[..nb], u);
     st.deposits += 1;
 }
 

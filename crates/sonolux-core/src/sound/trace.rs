@@ -490,9 +490,9 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
             }
         }
         scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
-        let base = lay.index(c.receiver as usize, tb, *direction.get_or_insert_with(|| lay.direction_bin(-dir)));
+        let cell = lay.cell(c.receiver as usize, tb, *direction.get_or_insert_with(|| lay.direction_bin(-dir)));
         let u = keyed_uniform_of_ray(ray.key, set.first_receiver + c.receiver as u64, 2 * ray.segments);
-        acc.deposit(buf, base, &deposit[..nb], u);
+        acc.deposit(buf, cell, &deposit[..nb], u);
         deposits += 1;
     });
     st.deposits += deposits;
