@@ -78,8 +78,8 @@ pub struct MaterialFit {
 /// The fit's acceptance, a tolerance on **absorption** (session 12; before, 0.15 dB per band and
 /// 0.3 dB RMS of reflected level, which a wall of α 0.02–0.05 met with no absorption at all:
 /// −10·lg(0.98) = 0.09 dB). What a wall's error does to a room is what T30 shows. By Eyring's
-/// formula (C. F. Eyring, "Reverberation time in 'dead' rooms", JASA 1, 1930), T = 0.161·V / (Σ Sᵢ·aᵢ
-/// + 4mV) with each surface's absorption exponent a = −ln(1 − α) (= α, Sabine's, for small α);
+/// formula (C. F. Eyring, "Reverberation time in 'dead' rooms", JASA 1, 1930),
+/// T = 0.161·V / (Σ Sᵢ·aᵢ + 4mV) with each surface's absorption exponent a = −ln(1 − α) (= α, Sabine's, for small α);
 /// so a relative error ε in every aᵢ moves T by at most ε, whatever the room. The just noticeable
 /// difference of a reverberation time is 5 % (ISO 3382-1:2009, table A.1); the fit keeps every
 /// band's exponent within half of it, [`HALF_JND`] × a. In decibels of reflected energy
