@@ -129,13 +129,24 @@ fn oblique_plane_waves_reflect_as_off_a_locally_reacting_wall() {
                 if f > 0.9 * f_max || cos_theta2 < 0.6 * 0.6 {
                     continue;
                 }
-                // Energies summed over a twelfth of an octave about f (R is smooth there).
+                // Energies summed over a twelfth of an octave about f, and each theory's |R|²
+                // over the same bins weighed as the incident energy (session 12: a fit need not
+                // be smooth above the crossover, where the hybrid keeps none of the waves, and
+                // the theory at f alone then differs from the band's mean by up to 0.16 dB).
                 let bins = (f * 2f64.powf(-1.0 / 24.0) / fs * len as f64).ceil() as usize..=(f * 2f64.powf(1.0 / 24.0) / fs * len as f64) as usize;
-                let (er, ei): (f64, f64) = bins.map(|k| (xr[k].norm_sqr(), xi[k].norm_sqr())).fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+                let (mut er, mut ei, mut eg, mut ec) = (0.0, 0.0, 0.0, 0.0);
+                for k in bins {
+                    let (fk, wi) = (k as f64 * fs / len as f64, xi[k].norm_sqr());
+                    let cos_k = (1.0 - (m as f64 * C / (2.0 * width * fk)).powi(2)).max(0.0).sqrt();
+                    er += xr[k].norm_sqr();
+                    ei += wi;
+                    eg += wi * grid_reflection(&y, fk, s_t, dt, lambda).unwrap().norm_sqr();
+                    ec += wi * continuous_reflection(&y, fk, cos_k).norm_sqr();
+                }
                 let measured = 10.0 * (er / ei).log10();
                 let fk = f;
-                let grid = 10.0 * grid_reflection(&y, fk, s_t, dt, lambda).unwrap().norm_sqr().log10();
-                let cont = 10.0 * continuous_reflection(&y, fk, cos_theta2.sqrt()).norm_sqr().log10();
+                let grid = 10.0 * (eg / ei).log10();
+                let cont = 10.0 * (ec / ei).log10();
                 println!(
                     "{name:>9} mode {m} {fk:5.0} Hz, cos θ {:.2}: |R|² {measured:6.2} dB, grid's locally reacting {grid:6.2} dB, continuous {cont:6.2} dB",
                     cos_theta2.sqrt()
@@ -158,8 +169,9 @@ fn oblique_plane_waves_reflect_as_off_a_locally_reacting_wall() {
 /// (`grid_reflection`, measured in the duct within 0.1 dB) with k from the scheme's dispersion
 /// (`fit::grid_random_absorption_in_band`), in the bands below the crossover f_max/√2, and in the
 /// band above it as far as the hybrid keeps the waves' pressure there. So:
-/// - in the wave bands the grid's α_st is asserted within `fit::RANDOM_TOLERANCE` (0.003) of the
-///   coefficient for every fit (reactive ones carry it as a residual; a conductance is chosen for
+/// - in the wave bands the grid's α_st is asserted within the fit's tolerance of the coefficient
+///   (`fit::HALF_JND` of the absorption exponent −ln(1 − α), floor `fit::ABSORPTION_FLOOR`;
+///   before session 12 an absolute 0.003) for every fit (reactive ones carry it as a residual; a conductance is chosen for
 ///   it and errs only by the wave bands' slightly different needs);
 /// - the continuous wall's α_st (London 1950; Kuttruff eq. 2.42, 400 angles × 32 frequencies) is
 ///   above it by what the grid's wall takes away (the half cell of air and cos(ωΔt/2), growing
@@ -213,13 +225,13 @@ fn fitted_walls_absorb_the_materials_coefficient_at_random_incidence() {
                 mean - alpha[b]
             );
             if wave_band {
-                worst_grid = worst_grid.max((grid - alpha[b]).abs());
+                worst_grid = worst_grid.max(sonolux_core::wave::fit::relative_error(grid, alpha[b]));
                 worst_cont = worst_cont.max((mean - alpha[b]).abs() / alpha[b]);
             }
         }
     }
-    println!("worst wave band: the grid's α_st {worst_grid:.4} off, the continuous wall's {:.2} %", 100.0 * worst_cont);
+    println!("worst wave band: the grid's α_st's exponent {:.2} % off (of its scale), the continuous wall's {:.2} %", 100.0 * worst_grid, 100.0 * worst_cont);
     assert!(reactive, "no reactive fit was checked");
-    assert!(worst_grid <= sonolux_core::wave::fit::RANDOM_TOLERANCE, "{worst_grid}");
+    assert!(worst_grid <= sonolux_core::wave::fit::HALF_JND, "{worst_grid}");
     assert!(worst_cont <= 0.02, "{worst_cont}");
 }

@@ -101,7 +101,7 @@ impl WaveSettings {
             if a.ncols() != band_centres_hz.len() || a.nrows() < n_mat {
                 return Err(invalid(format!("absorption: shape {:?}, expected (at least {n_mat} materials, {} bands)", a.shape(), band_centres_hz.len())));
             }
-            scene = scene.with_fitted_branches(py.detach(|| core::wall_branches(&materials, &self.inner)).map_err(to_py)?);
+            scene = scene.with_fits(&py.detach(|| core::wall_fits(&materials, &self.inner)).map_err(to_py)?);
         }
         let fitted = core::settings::bands_fitted(&band_centres_hz, self.inner.max_frequency_hz);
         let e = self.inner.memory_estimate(&scene, n_receivers, fitted);

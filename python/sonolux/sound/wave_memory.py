@@ -6,8 +6,9 @@ The waves' memory has phases that do not overlap, and one that does (the join):
 
 - **grid**: the wave run itself (cells, boundary, the receiver points' responses), the core's own
   estimate (``WaveSettings.memory_estimate``, ``crates/sonolux-core/src/wave/settings.rs``), with
-  each wall's branches as its fit will have them and a described surface's wells' branches at
-  every face of its material (tests/wave_memory.rs checks it against the solver's allocation);
+  each wall's branches as its fit will have them, the faces of walls fitted rigid at the rigid
+  node's bytes (session 12), and a described surface's wells' branches at every face of its
+  material (tests/wave_memory.rs checks it against the solver's allocation);
 - **binning**: the responses kept, plus the energy per receiver point, direction, *wave* band
   and time bin, 8 bytes while it is summed and 4 for the array handed back
   (``bands::reflected_energies`` bins only the bands below the crossover);

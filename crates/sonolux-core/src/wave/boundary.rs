@@ -108,6 +108,9 @@ pub(crate) struct BoundarySlab {
 /// behind it in the slab's shell. The memory estimate's per-face bytes (settings.rs).
 pub(crate) const BYTES_PER_FACE: u64 =
     (3 * std::mem::size_of::<u32>() + 3 * std::mem::size_of::<f64>() + std::mem::size_of::<f32>() + std::mem::size_of::<Entry>()) as u64;
+/// The most a face of a rigid wall can hold: a rigid node of its own (index, (6 − K)·λ²) and the
+/// solid node behind it in the slab's shell.
+pub(crate) const BYTES_PER_RIGID_FACE: u64 = (std::mem::size_of::<(u32, f32)>() + std::mem::size_of::<u32>()) as u64;
 /// Per admittance branch of an entry: its two f64 states, w and g.
 pub(crate) const BYTES_PER_BRANCH: u64 = 2 * std::mem::size_of::<f64>() as u64;
 

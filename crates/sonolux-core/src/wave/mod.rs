@@ -23,6 +23,7 @@ pub mod bands;
 pub mod boundary;
 mod direct;
 pub mod fit;
+mod fit_targets;
 pub mod grid;
 mod lsq;
 pub mod receiver;
@@ -160,7 +161,7 @@ pub fn build_solver(
     materials.validate(mesh)?;
     // The walls are fitted first (small and quick): the estimate counts their branches.
     let fits = fit_walls(materials, settings)?;
-    let scene = SceneSize::of(mesh).with_wells(&materials.wells).with_fitted_branches(fits.iter().map(|f| f.admittance.branches.len()).collect());
+    let scene = SceneSize::of(mesh).with_wells(&materials.wells).with_fits(&fits);
     let fitted = settings::bands_fitted(&materials.band_centres_hz, settings.max_frequency_hz);
     let estimate = settings.memory_estimate(&scene, n_receivers, fitted);
     settings.check_memory(&estimate, &scene, n_receivers, &materials.band_centres_hz)?;
@@ -186,11 +187,17 @@ fn fit_walls(materials: &WaveMaterials, settings: &WaveSettings) -> Result<Vec<f
 /// The branches of each material's fitted wall (by material id) as [`build_solver`] will fit
 /// them: for the memory estimate before a run ([`SceneSize::with_fitted_branches`]).
 pub fn wall_branches(materials: &WaveMaterials, settings: &WaveSettings) -> Result<Vec<usize>, CoreError> {
+    Ok(wall_fits(materials, settings)?.iter().map(|f| f.admittance.branches.len()).collect())
+}
+
+/// Each material's fitted wall (by material id) as [`build_solver`] will fit it: for the memory
+/// estimate before a run ([`SceneSize::with_fits`]: branches, and which walls are rigid).
+pub fn wall_fits(materials: &WaveMaterials, settings: &WaveSettings) -> Result<Vec<fit::MaterialFit>, CoreError> {
     settings.validate()?;
     if materials.n_bands() == 0 {
         return Err(CoreError::invalid("band_centres_hz", "at least one band is needed"));
     }
-    Ok(fit_walls(materials, settings)?.iter().map(|f| f.admittance.branches.len()).collect())
+    fit_walls(materials, settings)
 }
 
 /// [`build_solver`] with each material's wall admittance given (one per material id of the
@@ -209,7 +216,7 @@ pub fn build_solver_with_walls(mesh: &Mesh, walls: &[Admittance], settings: &Wav
     if let Some(i) = walls.iter().position(|w| !(w.conductance >= 0.0) || !w.branches.iter().all(passive)) {
         return Err(CoreError::invalid("walls", format!("material {i}'s admittance is not passive (every conductance, mass, resistance and stiffness must be ≥ 0, and each branch needs a mass or a resistance)")));
     }
-    let scene = SceneSize::of(mesh).with_fitted_branches(walls.iter().map(|w| w.branches.len()).collect());
+    let scene = SceneSize { rigid: walls.iter().map(|w| w.is_rigid()).collect(), ..SceneSize::of(mesh).with_fitted_branches(walls.iter().map(|w| w.branches.len()).collect()) };
     let estimate = settings.memory_estimate(&scene, n_receivers, 0);
     if estimate.total_bytes > settings.memory_limit_bytes {
         return Err(CoreError::invalid("max_frequency_hz", format!("the run needs {} bytes, more than the limit of {}", estimate.total_bytes, settings.memory_limit_bytes)));

@@ -134,11 +134,13 @@ impl WaveSettings {
     /// `max_frequency_hz` ([`SceneSize::with_wells`]).
     pub fn memory_estimate(&self, scene: &SceneSize, n_receivers: usize, n_bands_fitted: usize) -> MemoryEstimate {
         let h = self.spacing_m();
-        let branches: Vec<u64> = (0..scene.staircase_by_material_m2.len())
+        // Per material, the branches of each face, or None for a rigid wall without wells.
+        let branches: Vec<Option<u64>> = (0..scene.staircase_by_material_m2.len())
             .map(|m| {
                 let fit = scene.fitted_branches.get(m).copied().unwrap_or(n_bands_fitted);
                 let well = scene.deepest_well_m.get(m).map_or(0, |&d| super::wells::well_branch_count(d, self.speed_of_sound_m_s, self.max_frequency_hz));
-                (fit + well) as u64
+                let rigid = scene.rigid.get(m).copied().unwrap_or(false) && scene.deepest_well_m.get(m).is_none_or(|&d| d == 0.0);
+                (!rigid).then_some((fit + well) as u64)
             })
             .collect();
         estimate(h, self.n_steps(), scene, n_receivers, &branches)
@@ -155,7 +157,7 @@ impl WaveSettings {
     ) -> Option<f64> {
         // The fits' own counts hold at this frequency only: the bisection counts a branch per
         // fitted band (the largest frequency named is a suggestion, checked when it is run).
-        let scene = &SceneSize { fitted_branches: Vec::new(), ..scene.clone() };
+        let scene = &SceneSize { fitted_branches: Vec::new(), rigid: Vec::new(), ..scene.clone() };
         let bytes = |f: f64| {
             let s = WaveSettings { max_frequency_hz: f, ..self.clone() };
             let fitted = bands_fitted(band_centres_hz, f);
@@ -228,6 +230,10 @@ pub struct SceneSize {
     pub deepest_well_m: Vec<f64>,
     /// Per material id, the branches of its fitted wall; empty: one per fitted band is assumed.
     pub fitted_branches: Vec<usize>,
+    /// Per material id, whether its fitted wall is rigid (no conductance, no branches: its
+    /// faces' nodes hold only the rigid node's 8 bytes and the shell's 4, when it has no wells);
+    /// empty: every material is counted as lossy.
+    pub rigid: Vec<bool>,
 }
 
 impl SceneSize {
@@ -241,7 +247,7 @@ impl SceneSize {
         }
         let staircase_area_m2 = staircase_by_material_m2.iter().sum();
         let extent_m = if b.min.x <= b.max.x { (b.max - b.min).as_dvec3() } else { DVec3::ZERO };
-        SceneSize { extent_m, staircase_area_m2, staircase_by_material_m2, deepest_well_m: Vec::new(), fitted_branches: Vec::new() }
+        SceneSize { extent_m, staircase_area_m2, staircase_by_material_m2, deepest_well_m: Vec::new(), fitted_branches: Vec::new(), rigid: Vec::new() }
     }
 
     /// The same scene whose materials' fitted walls have `counts` branches (per material id, at
@@ -249,6 +255,13 @@ impl SceneSize {
     pub fn with_fitted_branches(mut self, counts: Vec<usize>) -> SceneSize {
         self.fitted_branches = counts;
         self
+    }
+
+    /// The same scene whose materials' walls are `fits` (per material id, at the settings'
+    /// `max_frequency_hz`; [`super::wall_fits`]): their branches, and which are rigid.
+    pub fn with_fits(self, fits: &[super::MaterialFit]) -> SceneSize {
+        let rigid = fits.iter().map(|f| f.admittance.is_rigid()).collect();
+        SceneSize { rigid, ..self.with_fitted_branches(fits.iter().map(|f| f.admittance.branches.len()).collect()) }
     }
 
     /// The same scene whose materials have `wells` (per material id, as
@@ -283,12 +296,12 @@ pub struct MemoryEstimate {
 
 /// Bytes per grid node: two f32 pressure grids and one byte of air mask.
 const BYTES_PER_CELL: u64 = 4 + 4 + 1;
-use super::boundary::{BYTES_PER_BRANCH, BYTES_PER_FACE};
+use super::boundary::{BYTES_PER_BRANCH, BYTES_PER_FACE, BYTES_PER_RIGID_FACE};
 /// A surface crossing of a grid line during voxelisation (position, triangle, line, sign).
 const BYTES_PER_CROSSING: u64 = 24;
 
-/// `branches`: per material id, the branches each of its faces carries.
-fn estimate(h: f64, steps: u64, scene: &SceneSize, n_receivers: usize, branches: &[u64]) -> MemoryEstimate {
+/// `branches`: per material id, the branches each of its faces carries (None: a rigid wall).
+fn estimate(h: f64, steps: u64, scene: &SceneSize, n_receivers: usize, branches: &[Option<u64>]) -> MemoryEstimate {
     let n = |e: f64| (e / h - 1e-6).ceil().max(1.0) as u64 + 2;
     let (nx, ny) = (n(scene.extent_m.x), n(scene.extent_m.y));
     let cells = nx * ny * n(scene.extent_m.z);
@@ -300,7 +313,7 @@ fn estimate(h: f64, steps: u64, scene: &SceneSize, n_receivers: usize, branches:
         .staircase_by_material_m2
         .iter()
         .zip(branches)
-        .map(|(&area, &b)| (area / (h * h)).ceil() as u64 * (BYTES_PER_FACE + b * BYTES_PER_BRANCH))
+        .map(|(&area, &b)| (area / (h * h)).ceil() as u64 * b.map_or(BYTES_PER_RIGID_FACE, |b| BYTES_PER_FACE + b * BYTES_PER_BRANCH))
         .sum();
     // Pressure and three velocity components per receiver and step, in f32, and the source's
     // pulse in f64.
