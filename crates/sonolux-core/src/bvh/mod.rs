@@ -121,10 +121,13 @@ impl Bvh {
             Nodes::Full => false,
             Nodes::Compressed => true,
         };
-        let (nodes, qnodes) = if compress {
-            (Vec::new(), built.nodes.par_iter().with_min_len(1024).map(QNode8::from_node).collect())
-        } else {
-            (built.nodes, Vec::new())
+        // (A tree with a node beyond the compressed grid's range, coordinates near f32's
+        // limit, keeps its full-precision nodes.)
+        let qnodes: Option<Vec<QNode8>> =
+            if compress { built.nodes.par_iter().with_min_len(1024).map(QNode8::from_node).collect() } else { None };
+        let (nodes, qnodes) = match qnodes {
+            Some(q) => (Vec::new(), q),
+            None => (built.nodes, Vec::new()),
         };
         Ok(Bvh { nodes, qnodes, packets: built.packets, bounds: built.bounds, simd })
     }
@@ -195,7 +198,7 @@ impl Bvh {
         }
         for n in &self.qnodes {
             n.planes.iter().flatten().for_each(|&q| eat(q as u32));
-            n.origin.iter().for_each(|x| eat(x.to_bits()));
+            n.base.iter().for_each(|x| eat(x.to_bits()));
             n.exponent.iter().for_each(|&e| eat(e as u32));
             eat(n.valid as u32);
             n.child.iter().for_each(|&c| eat(c));
@@ -214,10 +217,14 @@ impl Bvh {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx2(v3) => {
-                v3.vectorize(|| {
-                    let l = lanes::Avx2(v3);
-                    self.closest_on(l, &TravRay::new(l, ray, t_min), t_max)
-                })
+                let l = lanes::Avx2(v3);
+                // One walk in each closure: a closure holding both grows past what the compiler
+                // inlines into `vectorize`'s AVX2 function, and its SIMD calls stay calls.
+                if self.qnodes.is_empty() {
+                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
+                } else {
+                    v3.vectorize(|| traverse_quantized::closest(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
+                }
             }
             Simd::Portable => {
                 let l = lanes::Portable;
@@ -235,10 +242,15 @@ impl Bvh {
     pub fn closest_hit_from(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2(v3) => v3.vectorize(|| {
+            Simd::Avx2(v3) => {
                 let l = lanes::Avx2(v3);
-                self.closest_on(l, &TravRay::from_origin_dir(l, origin, dir, 0.0), f32::INFINITY)
-            }),
+                let (o, d, inf) = (origin, dir, f32::INFINITY);
+                if self.qnodes.is_empty() {
+                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                } else {
+                    v3.vectorize(|| traverse_quantized::closest(l, &self.qnodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                }
+            }
             Simd::Portable => {
                 let l = lanes::Portable;
                 self.closest_on(l, &TravRay::from_origin_dir(l, origin, dir, 0.0), f32::INFINITY)
@@ -273,7 +285,14 @@ impl Bvh {
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2(v3) => v3.vectorize(|| self.any_on(lanes::Avx2(v3), ray, t_min, t_max)),
+            Simd::Avx2(v3) => {
+                let l = lanes::Avx2(v3);
+                if self.qnodes.is_empty() {
+                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, ray, t_min, t_max))
+                } else {
+                    v3.vectorize(|| traverse_quantized::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
+                }
+            }
             Simd::Portable => self.any_on(lanes::Portable, ray, t_min, t_max),
         }
     }

@@ -3,8 +3,8 @@
 //! the same order of visits (nearest entry first, the lower slot first on ties), so the same
 //! nearest hit (docs/bvh.md, "Compressed nodes").
 //!
-//! Decoding a plane is two roundless operations on eight lanes (bytes to f32, times the step
-//! 2^e, plus the origin: both results are exact f32 values by construction, see
+//! Decoding a plane is two roundless operations on eight lanes (each byte OR-ed into the
+//! mantissa of 2^(e+23), plus the node's base: exact f32 values by construction, see
 //! [`super::quantized`]), then the slab test of `Aabb::hit` as the full-precision walk does it:
 //! the same roundings and the same widened exit, so on a box that encloses the child's, a test
 //! that lets through every ray that meets the child's box (Ize, "Robust BVH ray traversal",
@@ -23,34 +23,35 @@ const STACK: usize = 32;
 
 /// The one lane operation the compressed walk needs beyond [`Lanes`].
 pub(crate) trait ByteLanes: Lanes {
-    /// Eight bytes as eight f32 lanes (exact: every byte is an f32).
-    fn bytes(self, b: &[u8; 8]) -> Self::F;
+    /// Lane i = `f32::from_bits(high | b[i])`: eight bytes set into the low mantissa bits of one
+    /// f32 (bit moves, no rounding).
+    fn bytes(self, b: &[u8; 8], high: u32) -> Self::F;
 }
 
 impl ByteLanes for Portable {
     #[inline(always)]
-    fn bytes(self, b: &[u8; 8]) -> [f32; 8] {
-        b.map(f32::from)
+    fn bytes(self, b: &[u8; 8], high: u32) -> [f32; 8] {
+        b.map(|q| f32::from_bits(high | q as u32))
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl ByteLanes for super::lanes::Avx2 {
     #[inline(always)]
-    fn bytes(self, b: &[u8; 8]) -> pulp::f32x8 {
-        // One 8-byte load, zero-extended to eight 32-bit integers, converted (vpmovzxbd,
-        // vcvtdq2ps).
+    fn bytes(self, b: &[u8; 8], high: u32) -> pulp::f32x8 {
+        // One 8-byte load zero-extended to eight 32-bit lanes (vpmovzxbd), then one OR.
         let v = self.0;
         let wide = v.avx2._mm256_cvtepu8_epi32(v.sse2._mm_set1_epi64x(i64::from_le_bytes(*b)));
-        pulp::bytemuck::cast(v.avx._mm256_cvtepi32_ps(wide))
+        pulp::bytemuck::cast(v.avx2._mm256_or_si256(wide, v.avx._mm256_set1_epi32(high as i32)))
     }
 }
 
-/// Distances along the ray to eight decoded planes normal to `axis`: the plane origin + q·2^e
-/// (exact), then `(plane − origin of the ray) · 1/dir` as in the full-precision walk.
+/// Distances along the ray to eight decoded planes normal to `axis`: the plane, (2^(e+23) +
+/// q·2^e) + base = origin + q·2^e (exact), then `(plane − origin of the ray) · 1/dir` as in the
+/// full-precision walk.
 #[inline(always)]
 fn slab<L: ByteLanes>(l: L, node: &QNode8, plane: usize, axis: usize, org: L::F, inv: L::F) -> L::F {
-    let at = l.add(l.mul(l.bytes(&node.planes[plane]), l.splat(node.step(axis))), l.splat(node.origin[axis]));
+    let at = l.add(l.bytes(&node.planes[plane], node.high_bits(axis)), l.splat(node.base[axis]));
     l.mul(l.sub(at, org), inv)
 }
 
@@ -230,7 +231,8 @@ pub(super) fn any<L: ByteLanes>(l: L, nodes: &[QNode8], packets: &[Packet], r: &
 mod tests {
     use super::*;
 
-    /// The AVX2 byte widening gives the portable lanes' values, for every byte in every lane.
+    /// The AVX2 byte widening gives the portable lanes' values, for every byte in every lane,
+    /// and a byte q under the exponent of 2^23 is 2^23 + q.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx2_and_portable_bytes_agree() {
@@ -238,7 +240,11 @@ mod tests {
         let a = super::super::lanes::Avx2(v3);
         for k in 0..=255u8 {
             let b: [u8; 8] = std::array::from_fn(|i| k.wrapping_mul(7).wrapping_add(31 * i as u8));
-            assert_eq!(a.store(a.bytes(&b)), Portable.bytes(&b));
+            for high in [150u32 << 23, 50 << 23, 254 << 23] {
+                let (x, y) = (a.store(a.bytes(&b, high)), Portable.bytes(&b, high));
+                assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits));
+            }
+            assert_eq!(Portable.bytes(&b, 150 << 23), b.map(|q| 8388608.0 + q as f32));
         }
     }
 }
