@@ -364,7 +364,7 @@ fn compressed_nodes_give_the_full_precision_hits() {
             .count();
         assert_eq!(differ, 0, "{}: compressed and full-precision nodes differ on {differ} rays", b.simd_name());
     }
-    let (small, large) = (random_soup(300, 52), random_soup(200_000, 53));
+    let (small, large) = (random_soup(300, 52), random_soup(400_000, 53));
     for m in [&mesh, &small, &large] {
         let auto = Bvh::build(m).unwrap();
         assert_eq!(auto.is_compressed(), auto.node_count() * 224 > sonolux_core::bvh::COMPRESS_ABOVE_BYTES);

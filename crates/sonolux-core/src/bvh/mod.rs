@@ -75,9 +75,12 @@ enum Simd {
 }
 
 /// Trees whose full-precision nodes take more than this many bytes are traversed on compressed
-/// nodes ([`Nodes::Compressed`]). Measured (docs/bvh.md, "Compressed nodes"): decoding costs a
-/// node test more instructions, which pays once the nodes no longer stay in the L2 cache.
-pub const COMPRESS_ABOVE_BYTES: usize = 512 * 1024;
+/// nodes ([`Nodes::Compressed`]). Set from measurements on the 2-core EPYC development machine
+/// (1 MB L2 a core, 32 MB L3; docs/bvh.md, "Compressed nodes"): at 0.5–1.1 MB of nodes (45k and
+/// 106k triangles) the compressed query was 10–25 % slower (decoding lengthens every node test;
+/// the nodes mostly hit in L3 anyway), at 3.4–3.7 MB (327k and 352k) it was as fast, within the
+/// noise, with 57 % fewer node bytes. So: compressed from 2 MB, between the two.
+pub const COMPRESS_ABOVE_BYTES: usize = 2 * 1024 * 1024;
 
 /// Which nodes a tree is traversed on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
