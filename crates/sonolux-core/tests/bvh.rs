@@ -341,7 +341,7 @@ fn one_triangle() {
 /// (a decoded box only lets more children through; the triangle could differ only where two
 /// are hit at exactly the same t, which a soup of separate triangles does not have), with the
 /// sound tracer's query, on AVX2 and portable lanes, and the same visibility; and
-/// `Nodes::Auto` compresses exactly the trees whose full-precision nodes exceed the threshold.
+/// `Nodes::Auto` keeps these trees, below the threshold, at full precision.
 #[test]
 fn compressed_nodes_give_the_full_precision_hits() {
     let mesh = random_soup(20_000, 51);
@@ -364,11 +364,12 @@ fn compressed_nodes_give_the_full_precision_hits() {
             .count();
         assert_eq!(differ, 0, "{}: compressed and full-precision nodes differ on {differ} rays", b.simd_name());
     }
-    let (small, large) = (random_soup(300, 52), random_soup(400_000, 53));
-    for m in [&mesh, &small, &large] {
+    // (The rule itself, on both sides of the threshold: `bvh::tests`; a mesh above it would take
+    // millions of triangles.)
+    let small = random_soup(300, 52);
+    for m in [&mesh, &small] {
         let auto = Bvh::build(m).unwrap();
         assert_eq!(auto.is_compressed(), auto.node_count() * 224 > sonolux_core::bvh::COMPRESS_ABOVE_BYTES);
     }
     assert!(!Bvh::build(&small).unwrap().is_compressed());
-    assert!(Bvh::build(&large).unwrap().is_compressed());
 }

@@ -76,11 +76,11 @@ enum Simd {
 
 /// Trees whose full-precision nodes take more than this many bytes are traversed on compressed
 /// nodes ([`Nodes::Compressed`]). Set from measurements on the 2-core EPYC development machine
-/// (1 MB L2 a core, 32 MB L3; docs/bvh.md, "Compressed nodes"): at 0.5–1.1 MB of nodes (45k and
-/// 106k triangles) the compressed query was 10–25 % slower (decoding lengthens every node test;
-/// the nodes mostly hit in L3 anyway), at 3.4–3.7 MB (327k and 352k) it was as fast, within the
-/// noise, with 57 % fewer node bytes. So: compressed from 2 MB, between the two.
-pub const COMPRESS_ABOVE_BYTES: usize = 2 * 1024 * 1024;
+/// (1 MB L2 a core, 32 MB L3; docs/bvh.md, "Compressed nodes"): at 0.5–3.7 MB of nodes (45k to
+/// 352k triangles) the compressed query was 10–25 % slower on independent rays (decoding
+/// lengthens every node test), at 14 MB (1.3 M triangles) as fast within the noise, with 57 %
+/// fewer node bytes. So: compressed from 8 MB, between the two.
+pub const COMPRESS_ABOVE_BYTES: usize = 8 * 1024 * 1024;
 
 /// Which nodes a tree is traversed on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,6 +91,15 @@ pub enum Nodes {
     Full,
     /// Byte planes on a per-node grid, 96 bytes a node ([`quantized`]).
     Compressed,
+}
+
+/// Whether a tree whose full-precision nodes take `node_bytes` is traversed on compressed nodes.
+fn compresses(nodes: Nodes, node_bytes: usize) -> bool {
+    match nodes {
+        Nodes::Auto => node_bytes > COMPRESS_ABOVE_BYTES,
+        Nodes::Full => false,
+        Nodes::Compressed => true,
+    }
 }
 
 /// The acceleration structure. Queries take `&self` and are safe to share between threads.
@@ -119,11 +128,7 @@ impl Bvh {
         let simd = pulp::x86::V3::try_new().map_or(Simd::Portable, Simd::Avx2);
         #[cfg(not(target_arch = "x86_64"))]
         let simd = Simd::Portable;
-        let compress = match nodes {
-            Nodes::Auto => built.nodes.len() * size_of::<Node8>() > COMPRESS_ABOVE_BYTES,
-            Nodes::Full => false,
-            Nodes::Compressed => true,
-        };
+        let compress = compresses(nodes, built.nodes.len() * size_of::<Node8>());
         // (A tree with a node beyond the compressed grid's range, coordinates near f32's
         // limit, keeps its full-precision nodes.)
         let qnodes: Option<Vec<QNode8>> =
@@ -312,5 +317,19 @@ impl Bvh {
     /// Closest hits of many rays on the current rayon pool; one result per ray, in order.
     pub fn closest_hits(&self, rays: &[Ray], t_max: f32) -> Vec<Option<Hit>> {
         rays.par_iter().with_min_len(256).map(|r| self.closest_hit(r, 0.0, t_max)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `Nodes::Auto` compresses exactly above the threshold; the explicit choices always hold.
+    #[test]
+    fn auto_compresses_exactly_above_the_threshold() {
+        for bytes in [0, COMPRESS_ABOVE_BYTES - 224, COMPRESS_ABOVE_BYTES, COMPRESS_ABOVE_BYTES + 224, 1 << 40] {
+            assert_eq!(compresses(Nodes::Auto, bytes), bytes > COMPRESS_ABOVE_BYTES);
+            assert!(!compresses(Nodes::Full, bytes) && compresses(Nodes::Compressed, bytes));
+        }
     }
 }
