@@ -30,6 +30,12 @@ Cases (all built here, nothing is downloaded):
 Directions are uniform on the sphere. Rays are made in float64, rounded to float32 (Embree's
 precision) and handed to both engines from those same values.
 
+sonolux is timed on both of its BVH node encodings (docs/bvh.md, "Compressed nodes"): "full"
+(f32 planes, 224 bytes a node) and "compressed" (byte planes, 96 bytes), alternated thread
+count by thread count. The main columns and the target are the encoding `Geometry` chooses by
+itself (marked *); the second table gives both, each against the same peer numbers, and the
+run checks that both trees give the same hits, distance and triangle, to the bit.
+
 Timing: time.perf_counter; one warm-up call per configuration, then the median of --repeats
 (default 3) calls. Builds: median of --repeats builds. Results go to benchmarks/results/bvh.json.
 """
@@ -59,6 +65,7 @@ T_REL_TOL = 1e-4
 TARGET_RATIO = 1.0  # issue 15: closest hit at least Embree's rays/s, 1 and 2 threads, both big meshes
 TARGET_CASES = ("icosphere", "room+bumps")
 THREAD_COUNTS = (1, 2)
+ENCODINGS = ("full", "compressed")  # the BVH's node encodings (engine.BVH_ENCODINGS less "auto")
 TRIMESH_SUBSET = 20_000  # fallback peer: at most this many rays per case,
 TRIMESH_CHUNK = 50  # traced this many at a time (its memory grows fast with the batch),
 TRIMESH_SECONDS = 10.0  # until this much tracing time has been spent
@@ -196,10 +203,10 @@ def median_time(fn, repeats: int, warmup: bool = True) -> tuple[float, object]:
 # --------------------------------------------------------------------------- sonolux
 
 
-def sonolux_geometry(case: dict):
+def sonolux_geometry(case: dict, bvh_encoding: str = "auto"):
     return core.Geometry(np.ascontiguousarray(case["vertices"]),
                          np.ascontiguousarray(case["triangles"], dtype=np.uint32),
-                         np.zeros(len(case["triangles"]), dtype=np.uint32))
+                         np.zeros(len(case["triangles"]), dtype=np.uint32), bvh_encoding)
 
 
 # --------------------------------------------------------------------------- peers
@@ -356,11 +363,23 @@ def run_case(case: dict, peer, repeats: int) -> dict:
         f"{g.bvh_nodes:,} BVH nodes")
 
     o, d = case["origins"], case["directions"]
-    res["sonolux_rays_per_s"] = {}
+    chosen = "compressed" if g.bvh_compressed else "full"
+    res["bvh_encoding"] = chosen
+    trees = {enc: g if enc == chosen else sonolux_geometry(case, enc) for enc in ENCODINGS}
+    rates: dict[str, dict[str, float]] = {enc: {} for enc in ENCODINGS}
+    hits = {}
     for th in THREAD_COUNTS:
-        dt, (t_s, tri_s) = median_time(lambda th=th: g.closest_hit(o, d, threads=th), repeats)
-        res["sonolux_rays_per_s"][str(th)] = n_rays / dt
-        log(f"  sonolux closest_hit, {th} thread(s): {n_rays / dt / 1e6:.3f} Mrays/s")
+        for enc, tree in trees.items():  # the two encodings alternated in the same minutes
+            dt, hits[enc] = median_time(lambda th=th, t=tree: t.closest_hit(o, d, threads=th), repeats)
+            rates[enc][str(th)] = n_rays / dt
+            log(f"  sonolux closest_hit, {enc} nodes{' *' if enc == chosen else ''}, {th} thread(s): "
+                f"{n_rays / dt / 1e6:.3f} Mrays/s")
+    res["sonolux_rays_per_s"] = rates[chosen]
+    res["sonolux_rays_per_s_by_encoding"] = rates
+    (t_f, tri_f), (t_c, tri_c) = hits["full"], hits["compressed"]
+    res["encodings_same_hits"] = bool(np.array_equal(t_f, t_c) and np.array_equal(tri_f, tri_c))
+    log(f"  full and compressed nodes give the same hits: {res['encodings_same_hits']}")
+    t_s, tri_s = hits[chosen]
     res["sonolux_hit_fraction"] = float((tri_s >= 0).mean())
 
     if peer is None:
@@ -443,6 +462,25 @@ def print_table(results: list[dict], peer_name: str | None) -> None:
                 verdict = "met" if min(ratios.values()) >= TARGET_RATIO else "NOT met"
                 print(f"  {r['name']:<11} " + ", ".join(f"{th}T {v:.2f}x" for th, v in ratios.items())
                       + f": {verdict}")
+    print_encodings(results, p)
+
+
+def print_encodings(results: list[dict], p: str) -> None:
+    """Both node encodings' rays/s, each against the same peer numbers (* = the one chosen)."""
+    print()
+    print("BVH node encodings (Mrays/s, ratio to " + p + "; * = chosen by Geometry):")
+    for r in results:
+        cols = []
+        for enc in ENCODINGS:
+            mark = "*" if r["bvh_encoding"] == enc else " "
+            parts = []
+            for th in map(str, THREAD_COUNTS):
+                s = r["sonolux_rays_per_s_by_encoding"][enc][th]
+                pv = r.get("peer_rays_per_s", {}).get(th)
+                parts.append(f"{th}T {s / 1e6:6.3f}" + (f" ({s / pv:.2f}x)" if pv else ""))
+            cols.append(f"{enc}{mark} " + ", ".join(parts))
+        same = "same hits" if r["encodings_same_hits"] else "HITS DIFFER"
+        print(f"  {r['name']:<11} " + " | ".join(cols) + f" | {same}")
 
 
 

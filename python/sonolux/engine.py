@@ -167,6 +167,9 @@ def _points(points_m: Any, name: str = "points_m") -> np.ndarray:
     return np.ascontiguousarray(p)
 
 
+BVH_ENCODINGS = ("auto", "full", "compressed")
+
+
 class Geometry:
     """A triangle mesh held by the core, with its BVH. vertices_m float64[n, 3]; triangles
     int[m, 3]; material_ids int[m] (default 0).
@@ -174,16 +177,23 @@ class Geometry:
     The report: ``degenerate`` int64[d]; ``open_edge_midpoints`` float64[<=20, 3]; ``area_m2``
     float64[max material id + 1]; ``bbox_min`` / ``bbox_max`` float64[3];
     ``signed_volume_m3`` > 0 when the normals face outward, < 0 when they face inward (a room
-    seen from inside)."""
+    seen from inside).
+
+    ``bvh_encoding``: the BVH's nodes, ``"auto"`` (compressed when the tree outgrows the
+    caches), ``"full"`` or ``"compressed"``: the same hits either way (docs/bvh.md, "Compressed
+    nodes"); for benchmarks and tests."""
 
     def __init__(self, vertices_m: np.ndarray, triangles: np.ndarray,
-                 material_ids: np.ndarray | None = None) -> None:
+                 material_ids: np.ndarray | None = None, bvh_encoding: str = "auto") -> None:
+        if bvh_encoding not in BVH_ENCODINGS:
+            raise InvalidInputError(f"bvh_encoding: got {bvh_encoding!r}, expected one of "
+                                    f"{', '.join(map(repr, BVH_ENCODINGS))}")
         v = _points(vertices_m, "vertices_m")
         t = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
         if material_ids is None:
             material_ids = np.zeros(t.shape[0], dtype=np.uint32)
         m = np.ascontiguousarray(material_ids, dtype=np.uint32).reshape(-1)
-        self._native = core().Geometry(v, t, m)
+        self._native = core().Geometry(v, t, m, bvh_encoding)
         self.n_triangles = int(t.shape[0])
 
     @property
@@ -194,6 +204,11 @@ class Geometry:
     @property
     def bvh_nodes(self) -> int:
         return int(self._native.bvh_nodes)
+
+    @property
+    def bvh_compressed(self) -> bool:
+        """Whether the BVH is traversed on compressed nodes."""
+        return bool(self._native.bvh_compressed)
 
     def report(self) -> dict[str, Any]:
         r = dict(self._native.report())

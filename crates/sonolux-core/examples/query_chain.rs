@@ -8,7 +8,8 @@
 //!
 //! e.g. `examples/l-room/l-room.obj 10.8 3 1.6` (the L-room and its talker) or
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
-//! `QUERY_LANES=portable` traverses without SIMD registers.
+//! `QUERY_LANES=portable` traverses without SIMD registers; `QUERY_NODES=full|compressed` picks
+//! the tree's nodes (default: as `Bvh::build` chooses).
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -78,12 +79,18 @@ fn main() {
     let src = DVec3::new(args[1].parse().unwrap(), args[2].parse().unwrap(), args[3].parse().unwrap());
     let n: usize = args.get(4).map_or(1_000_000, |a| a.parse().unwrap());
     let mesh = load(&name);
-    let bvh = Bvh::build(&mesh).unwrap();
+    // QUERY_NODES=full|compressed: the tree's nodes (default: as `Bvh::build` chooses).
+    let nodes = match std::env::var("QUERY_NODES").as_deref() {
+        Ok("full") => sonolux_core::bvh::Nodes::Full,
+        Ok("compressed") => sonolux_core::bvh::Nodes::Compressed,
+        _ => sonolux_core::bvh::Nodes::Auto,
+    };
+    let bvh = Bvh::build_with(&mesh, nodes).unwrap();
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),
         _ => bvh,
     };
-    let lanes = bvh.simd_name();
+    let lanes = format!("{}, {} nodes", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" });
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };

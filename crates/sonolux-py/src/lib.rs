@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyType};
 
+use sonolux_core::bvh::Nodes;
 use sonolux_core::glam_export::{DVec3, Vec3};
 use sonolux_core::light::patches::barycentric;
 use sonolux_core::sound::MAX_THREADS;
@@ -115,7 +116,8 @@ type HitArrays<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
 
 /// A triangle mesh with its acceleration structure (BVH), shared by both tracers.
 ///
-/// Geometry(vertices_m: float64[n, 3], triangles: uint32[m, 3], material_ids: uint32[m])
+/// Geometry(vertices_m: float64[n, 3], triangles: uint32[m, 3], material_ids: uint32[m],
+///          bvh_encoding: "auto" | "full" | "compressed" = "auto")
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Geometry {
     pub(crate) mesh: Mesh,
@@ -126,12 +128,22 @@ pub(crate) struct Geometry {
 #[pymethods]
 impl Geometry {
     #[new]
+    #[pyo3(signature = (vertices_m, triangles, material_ids, bvh_encoding = "auto"))]
     fn new(
         py: Python<'_>,
         vertices_m: PyReadonlyArray2<'_, f64>,
         triangles: PyReadonlyArray2<'_, u32>,
         material_ids: PyReadonlyArray1<'_, u32>,
+        bvh_encoding: &str,
     ) -> PyResult<Geometry> {
+        let nodes = match bvh_encoding {
+            "auto" => Nodes::Auto,
+            "full" => Nodes::Full,
+            "compressed" => Nodes::Compressed,
+            other => {
+                return Err(invalid(format!("bvh_encoding: got {other:?}, expected \"auto\", \"full\" or \"compressed\"")));
+            }
+        };
         let v = points("vertices_m", &vertices_m)?;
         let t = triangles.as_array();
         if t.ncols() != 3 {
@@ -142,7 +154,7 @@ impl Geometry {
         py.detach(|| {
             let mesh = Mesh::new(v, t, m)?;
             let start = std::time::Instant::now();
-            let bvh = Bvh::build(&mesh)?;
+            let bvh = Bvh::build_with(&mesh, nodes)?;
             Ok(Geometry { mesh, bvh, build_time_s: start.elapsed().as_secs_f64() })
         })
         .map_err(to_py)
@@ -162,6 +174,12 @@ impl Geometry {
     #[getter]
     fn bvh_nodes(&self) -> usize {
         self.bvh.node_count()
+    }
+
+    /// Whether the BVH is traversed on compressed nodes (docs/bvh.md, "Compressed nodes").
+    #[getter]
+    fn bvh_compressed(&self) -> bool {
+        self.bvh.is_compressed()
     }
 
     /// Topology and measures: see `sonolux_core::MeshReport`.

@@ -347,6 +347,23 @@ pub(super) fn any<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray
     }
 }
 
+/// What the compressed tree's walk (`traverse_quantized.rs`) shares with this one, so that each
+/// has one definition: the prepared ray's box-test values (origin, 1/dir, near and far planes
+/// per axis, t_min) and the packet test.
+impl<L: Lanes> TravRay<L> {
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    pub(super) fn box_values(&self) -> (&[L::F; 3], &[L::F; 3], [usize; 3], [usize; 3], L::F) {
+        (&self.org, &self.inv, self.near, self.far, self.t_min)
+    }
+}
+
+/// [`hit_packet`], for the compressed tree's walk.
+#[inline(always)]
+pub(super) fn packet_hit<L: Lanes>(l: L, r: &TravRay<L>, p: &Packet, t_max: f32) -> (f32, usize) {
+    hit_packet(l, r, p, t_max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
