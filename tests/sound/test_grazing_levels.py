@@ -20,7 +20,7 @@ import pytest
 
 from sonolux import engine
 from sonolux.sound.bake import bake
-from tests.sound.test_surface_levels import BANDS, KW, room
+from tests.sound.test_surface_levels import BANDS, KW, one_group_and_plain, room
 
 pytestmark = pytest.mark.usefixtures("core")
 
@@ -49,29 +49,12 @@ def test_a_group_over_every_band_is_the_plain_bake(tmp_path):
     one = [levels.LevelGeometry(level, geometry, None, lv_table)]
     acoustics = engine.Acoustics(arrays["absorption"], arrays["scattering"],
                                  wall_model="locally-reacting", grazing=whole)
-    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, engine.Directivity.omni())
-               for s in bare.sources]
-    receivers = engine.Receivers(np.ascontiguousarray(bare.receivers.positions_m, float),
-                                 bare.receivers.radius_m)
-    settings = dict(rays=2000, first_ray=0, end_ray=2000, seed=4, threads=2, estimator="paper",
-                    speed_of_sound_m_s=343.0, air_attenuation_per_m=[0.0] * len(BANDS),
-                    energy_drop_db=60.0, max_time_s=0.3, sample_rate_hz=8000.0, early_s=0.05,
-                    late_bin_s=0.01, azimuth_bands=4, elevation_bands=1, max_field_bytes=1 << 30,
-                    keep_counts=True)
-    settings["quantum"] = engine.sound_quantum(sources, receivers)
-
-    def parts(b: slice):
-        return sources, None, [0.0] * (b.stop - b.start)
-    grouped = levels.trace(one, bare, acoustics, sources, receivers, settings, None, None, parts)
-    plain = engine.trace_sound(geometry, acoustics, sources, receivers,
-                               engine.SoundSettings(**settings), None, None)
+    grouped, plain, flat = one_group_and_plain(
+        one, bare, geometry, acoustics,
+        engine.Acoustics(arrays["absorption"], arrays["scattering"], wall_model="locally-reacting"))
     np.testing.assert_array_equal(grouped["counts"], plain["counts"])
     np.testing.assert_array_equal(grouped["energy"], plain["energy"])
     # The table is in effect: the same walls without it give other bits.
-    flat = engine.trace_sound(geometry, engine.Acoustics(arrays["absorption"],
-                                                         arrays["scattering"],
-                                                         wall_model="locally-reacting"),
-                              sources, receivers, engine.SoundSettings(**settings), None, None)
     assert not np.array_equal(flat["counts"], plain["counts"])
 
 

@@ -79,28 +79,12 @@ def test_a_group_over_every_band_is_the_plain_bake(tmp_path):
     level = Level(slice(0, len(BANDS)), scene.triangles, scene.material_index,
                   arrays["absorption"], arrays["scattering"])
     one = [levels.LevelGeometry(level, scene.geometry, level_tables(tables, level))]
-    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, engine.Directivity.omni())
-               for s in scene.sources]
-    receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
-                                 scene.receivers.radius_m)
-    settings = dict(rays=2000, first_ray=0, end_ray=2000, seed=4, threads=2, estimator="paper",
-                    speed_of_sound_m_s=343.0, air_attenuation_per_m=[0.0] * len(BANDS),
-                    energy_drop_db=60.0, max_time_s=0.3, sample_rate_hz=8000.0, early_s=0.05,
-                    late_bin_s=0.01, azimuth_bands=4, elevation_bands=1, max_field_bytes=1 << 30,
-                    keep_counts=True)
-    settings["quantum"] = engine.sound_quantum(sources, receivers)
-
-    def parts(b: slice):
-        return sources, None, [0.0] * (b.stop - b.start)
-    grouped = levels.trace(one, scene, acoustics, sources, receivers, settings, None, None, parts)
-    plain = engine.trace_sound(scene.geometry, acoustics, sources, receivers,
-                               engine.SoundSettings(**settings), None, None)
+    grouped, plain, flat = one_group_and_plain(
+        one, scene, scene.geometry, acoustics,
+        engine.Acoustics(arrays["absorption"], arrays["scattering"]))
     np.testing.assert_array_equal(grouped["counts"], plain["counts"])
     np.testing.assert_array_equal(grouped["energy"], plain["energy"])
     # And the table is in effect: without it the bits differ.
-    flat = engine.trace_sound(scene.geometry,
-                              engine.Acoustics(arrays["absorption"], arrays["scattering"]),
-                              sources, receivers, engine.SoundSettings(**settings), None, None)
     assert not np.array_equal(flat["counts"], plain["counts"])
 
 
@@ -146,3 +130,30 @@ def test_a_bake_with_groups_has_the_same_bits_on_one_and_two_threads_and_over_ra
     # The surface is in effect in the groups: the same wall given as a coefficient differs.
     flat = bake(room(tmp_path, surface=False), rays=2000, **KW)
     assert not np.array_equal(flat.energy, fields[0].energy)
+
+
+def one_group_and_plain(one, scene, geometry, acoustics, without):
+    """(level-of-detail trace of the band groups ``one``, plain trace of ``geometry``, the plain
+    trace with the acoustics ``without`` the table under test): the same sources, receivers,
+    2,000 rays and seed, so that one group over every band must give the plain bake's bits, and
+    the table must be in effect (``without`` gives other bits)."""
+    from sonolux.sound import levels
+
+    sources = [engine.SoundSource(tuple(s.position_m), s.power_w, engine.Directivity.omni())
+               for s in scene.sources]
+    receivers = engine.Receivers(np.ascontiguousarray(scene.receivers.positions_m, float),
+                                 scene.receivers.radius_m)
+    settings = dict(rays=2000, first_ray=0, end_ray=2000, seed=4, threads=2, estimator="paper",
+                    speed_of_sound_m_s=343.0, air_attenuation_per_m=[0.0] * len(BANDS),
+                    energy_drop_db=60.0, max_time_s=0.3, sample_rate_hz=8000.0, early_s=0.05,
+                    late_bin_s=0.01, azimuth_bands=4, elevation_bands=1, max_field_bytes=1 << 30,
+                    keep_counts=True)
+    settings["quantum"] = engine.sound_quantum(sources, receivers)
+
+    def parts(b: slice):
+        return sources, None, [0.0] * (b.stop - b.start)
+    grouped = levels.trace(one, scene, acoustics, sources, receivers, settings, None, None, parts)
+    plain, flat = (engine.trace_sound(geometry, a, sources, receivers,
+                                      engine.SoundSettings(**settings), None, None)
+                   for a in (acoustics, without))
+    return grouped, plain, flat

@@ -138,6 +138,21 @@ def _rate(k: float, spacing_m: float, beta_a: float, beta_b: float) -> float:
     return max(grazing_wavenumber_squared(k, spacing_m, beta_a, beta_b).imag, 0.0) / k
 
 
+def _prepared(vertices_m: np.ndarray, triangles: np.ndarray, absorption: np.ndarray,
+              centres_hz: np.ndarray, speed_of_sound_m_s: float) -> tuple | None:
+    """(pairs, absorption, Paris' peak absorption, conductance [material, band], triangle
+    areas, wavenumbers k per band) shared by :func:`mixed_plane_spread` and
+    :func:`modes_table`, or None without pairs."""
+    pairs = parallel_pairs(vertices_m, triangles)
+    if not pairs:
+        return None
+    absorption = np.asarray(absorption, float)
+    peak = float(paris_absorption(PARIS_PEAK_G))
+    g = conductance_from_random(np.minimum(absorption, peak))
+    k = 2 * np.pi * np.asarray(centres_hz, float) / speed_of_sound_m_s
+    return pairs, absorption, peak, g, _areas(vertices_m, triangles), k
+
+
 def mixed_plane_spread(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np.ndarray,
                        absorption: np.ndarray, centres_hz: np.ndarray, speed_of_sound_m_s: float
                        ) -> np.ndarray | None:
@@ -147,15 +162,11 @@ def mixed_plane_spread(vertices_m: np.ndarray, triangles: np.ndarray, material_i
     planes' patches taken as independent, weight A_i·A_j), relative to the former; 0 for
     planes of one material each. None without pairs; a band above Paris' 0.951 is 0 (the
     table leaves it out)."""
-    pairs = parallel_pairs(vertices_m, triangles)
-    if not pairs:
+    prepared = _prepared(vertices_m, triangles, absorption, centres_hz, speed_of_sound_m_s)
+    if prepared is None:
         return None
-    absorption = np.asarray(absorption, float)
-    peak = float(paris_absorption(PARIS_PEAK_G))
-    g = conductance_from_random(np.minimum(absorption, peak))
-    area = _areas(vertices_m, triangles)
+    pairs, absorption, peak, g, area, k = prepared
     mat = np.asarray(material_index)
-    k = 2 * np.pi * np.asarray(centres_hz, float) / speed_of_sound_m_s
     out = np.zeros((len(pairs), k.size))
     for i, p in enumerate(pairs):
         sides = []
@@ -185,15 +196,11 @@ def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: n
     ``absorption`` float64[material, band]: random-incidence coefficients, each turned into
     Paris' conductance as the locally reacting walls do; a band of a plane above the 0.951 a
     locally reacting wall absorbs keeps its rays as they are (limit 0)."""
-    pairs = parallel_pairs(vertices_m, triangles)
-    if not pairs:
+    prepared = _prepared(vertices_m, triangles, absorption, centres_hz, speed_of_sound_m_s)
+    if prepared is None:
         return None
-    absorption = np.asarray(absorption, float)
-    peak = float(paris_absorption(PARIS_PEAK_G))
-    g = conductance_from_random(np.minimum(absorption, peak))
+    pairs, absorption, peak, g, area, k = prepared
     too_high = absorption > peak
-    area = _areas(vertices_m, triangles)
-    k = 2 * np.pi * np.asarray(centres_hz, float) / speed_of_sound_m_s
     nb = k.size
     normals = np.array([p.normal for p in pairs])
     offsets = np.array([p.offsets for p in pairs])

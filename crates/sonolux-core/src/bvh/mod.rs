@@ -231,7 +231,7 @@ impl Bvh {
                 if self.qnodes.is_empty() {
                     v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 } else {
-                    v3.vectorize(|| traverse_quantized::closest(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 }
             }
             Simd::Portable => {
@@ -256,7 +256,7 @@ impl Bvh {
                 if self.qnodes.is_empty() {
                     v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
                 } else {
-                    v3.vectorize(|| traverse_quantized::closest(l, &self.qnodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
                 }
             }
             Simd::Portable => {
@@ -284,7 +284,7 @@ impl Bvh {
         if self.qnodes.is_empty() {
             traverse::closest(l, &self.nodes, &self.packets, r, t_max)
         } else {
-            traverse_quantized::closest(l, &self.qnodes, &self.packets, r, t_max)
+            traverse::closest(l, &self.qnodes, &self.packets, r, t_max)
         }
     }
 
@@ -296,9 +296,9 @@ impl Bvh {
             Simd::Avx2(v3) => {
                 let l = lanes::Avx2(v3);
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, ray, t_min, t_max))
+                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 } else {
-                    v3.vectorize(|| traverse_quantized::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 }
             }
             Simd::Portable => self.any_on(lanes::Portable, ray, t_min, t_max),
@@ -308,9 +308,9 @@ impl Bvh {
     #[inline(always)]
     fn any_on<L: traverse_quantized::ByteLanes>(&self, l: L, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         if self.qnodes.is_empty() {
-            traverse::any(l, &self.nodes, &self.packets, ray, t_min, t_max)
+            traverse::any(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
         } else {
-            traverse_quantized::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
+            traverse::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
         }
     }
 

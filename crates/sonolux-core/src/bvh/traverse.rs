@@ -185,9 +185,32 @@ fn edges_in_f64<L: Lanes>(l: L, lanes: u32, xy: [L::F; 6], uvw: [L::F; 3]) -> (L
     (l.load(&u), l.load(&v), l.load(&w))
 }
 
+/// A wide node the walk can descend: its eight child references and which of them a ray meets.
+/// The full-precision [`Node8`] and the compressed [`super::quantized::QNode8`] (whose box test
+/// decodes its planes first, `traverse_quantized.rs`) share one walk, so one order of visits.
+pub(super) trait WideNode<L: Lanes> {
+    /// Slot `slot`'s reference: an interior node's index, or a leaf reference.
+    fn child(&self, slot: usize) -> u32;
+    /// Which children the ray meets within (t_min, t_max) (bit per slot), and the entry
+    /// distances.
+    fn hit_children(&self, l: L, r: &TravRay<L>, t_max: f32) -> (u32, [f32; 8]);
+}
+
+impl<L: Lanes> WideNode<L> for Node8 {
+    #[inline(always)]
+    fn child(&self, slot: usize) -> u32 {
+        self.child[slot]
+    }
+
+    #[inline(always)]
+    fn hit_children(&self, l: L, r: &TravRay<L>, t_max: f32) -> (u32, [f32; 8]) {
+        hit_children(l, r, self, t_max)
+    }
+}
+
 /// Starts loading a child that will be visited later.
 #[inline(always)]
-fn prefetch<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], child: u32) {
+fn prefetch<L: Lanes, N>(l: L, nodes: &[N], packets: &[Packet], child: u32) {
     if child & LEAF == 0 {
         if let Some(n) = nodes.get(child as usize) {
             l.prefetch(n);
@@ -244,7 +267,7 @@ impl Stack {
 /// Closest hit: children visited nearest entry first; stack entries whose entry distance is
 /// beyond the nearest hit found since they were pushed are dropped.
 #[inline(always)]
-pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> Option<Hit> {
+pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> Option<Hit> {
     let mut t_best = t_max;
     let mut triangle = u32::MAX;
     let mut stack = Stack::new();
@@ -252,20 +275,20 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &T
     loop {
         if current & LEAF == 0 {
             let node = &nodes[current as usize];
-            let (mask, enter) = hit_children(l, r, node, t_best);
+            let (mask, enter) = node.hit_children(l, r, t_best);
             match mask.count_ones() {
                 0 => {}
                 1 => {
-                    current = node.child[mask.trailing_zeros() as usize];
+                    current = node.child(mask.trailing_zeros() as usize);
                     continue;
                 }
                 2 => {
                     let a = mask.trailing_zeros() as usize;
                     let b = (mask & (mask - 1)).trailing_zeros() as usize;
                     let (near, far) = if enter[b] < enter[a] { (b, a) } else { (a, b) };
-                    prefetch(l, nodes, packets, node.child[far]);
-                    stack.push(node.child[far], enter[far]);
-                    current = node.child[near];
+                    prefetch(l, nodes, packets, node.child(far));
+                    stack.push(node.child(far), enter[far]);
+                    current = node.child(near);
                     continue;
                 }
                 _ => {
@@ -282,7 +305,7 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &T
                         let t = l.splat(enter[slot]);
                         let before = l.bits(l.lt(lanes, t)) | (l.bits(l.eq(lanes, t)) & ((1 << slot) - 1));
                         let place = if mask >> slot & 1 != 0 { (before & mask).count_ones() as usize } else { 8 };
-                        order[place] = (enter[slot], node.child[slot]);
+                        order[place] = (enter[slot], node.child(slot));
                     }
                     let n = mask.count_ones() as usize;
                     for &(t, child) in order[1..n].iter().rev() {
@@ -318,26 +341,25 @@ pub(super) fn closest<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], r: &T
 
 /// Any hit: children in slot order, done at the first triangle hit.
 #[inline(always)]
-pub(super) fn any<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    let r = TravRay::new(l, ray, t_min);
+pub(super) fn any<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> bool {
     let mut stack = Stack::new();
     let mut current = 0u32;
     loop {
         if current & LEAF == 0 {
             let node = &nodes[current as usize];
-            let (mut mask, _) = hit_children(l, &r, node, t_max);
+            let (mut mask, _) = node.hit_children(l, r, t_max);
             if mask != 0 {
                 let first = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 while mask != 0 {
                     let slot = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
-                    stack.push(node.child[slot], 0.0);
+                    stack.push(node.child(slot), 0.0);
                 }
-                current = node.child[first];
+                current = node.child(first);
                 continue;
             }
-        } else if leaf_packets(current).any(|p| hit_packet(l, &r, &packets[p], t_max).0 < t_max) {
+        } else if leaf_packets(current).any(|p| hit_packet(l, r, &packets[p], t_max).0 < t_max) {
             return true;
         }
         match stack.pop() {
@@ -347,21 +369,14 @@ pub(super) fn any<L: Lanes>(l: L, nodes: &[Node8], packets: &[Packet], ray: &Ray
     }
 }
 
-/// What the compressed tree's walk (`traverse_quantized.rs`) shares with this one, so that each
-/// has one definition: the prepared ray's box-test values (origin, 1/dir, near and far planes
-/// per axis, t_min) and the packet test.
+/// The prepared ray's box-test values (origin, 1/dir, near and far planes per axis, t_min), for
+/// the compressed nodes' box test (`traverse_quantized.rs`).
 impl<L: Lanes> TravRay<L> {
     #[inline(always)]
     #[allow(clippy::type_complexity)]
     pub(super) fn box_values(&self) -> (&[L::F; 3], &[L::F; 3], [usize; 3], [usize; 3], L::F) {
         (&self.org, &self.inv, self.near, self.far, self.t_min)
     }
-}
-
-/// [`hit_packet`], for the compressed tree's walk.
-#[inline(always)]
-pub(super) fn packet_hit<L: Lanes>(l: L, r: &TravRay<L>, p: &Packet, t_max: f32) -> (f32, usize) {
-    hit_packet(l, r, p, t_max)
 }
 
 #[cfg(test)]
