@@ -169,6 +169,14 @@ fn attenuate_lanes(per_m: impl Iterator<Item = [f64; LANES]>, distance_m: f64, v
     }
 }
 
+/// exp(y) of one value with [`exp_lanes`]' arithmetic: the same bits on every machine (glibc's
+/// `exp` may differ between libm versions), for the few scalar losses outside the air (the
+/// grazing modes' damping, `sound/grazing.rs`).
+#[inline]
+pub(crate) fn exp(y: f64) -> f64 {
+    exp_lanes([y; LANES])[0]
+}
+
 /// 1.5 · 2⁵²: adding it rounds a double of magnitude below 2⁵¹ to an integer, held in the low
 /// bits of the sum's representation.
 const SHIFT: f64 = 6_755_399_441_055_744.0;

@@ -85,7 +85,7 @@ impl GrazingModes {
                 }
             }
             if rate > 0.0 {
-                let kept = e[b] * (-rate * length_m).exp();
+                let kept = e[b] * super::air::exp(-rate * length_m); // same bits on every machine
                 absorbed[b] += e[b] - kept;
                 e[b] = kept;
             }
