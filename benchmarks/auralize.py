@@ -58,6 +58,7 @@ from sonolux.auralize.walk import (  # noqa: E402
     cell_schedule,
     sample_path,
 )
+from sonolux.outputs import follow_umask  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 CACHE = HERE / ".cache" / "paper-large.h5"
@@ -239,6 +240,7 @@ def main() -> int:
     fd, tmp = tempfile.mkstemp(dir=out.parent, suffix=".tmp")
     with os.fdopen(fd, "w") as f:
         json.dump(results, f, indent=2, default=float)
+    follow_umask(tmp)  # mkstemp makes it private
     os.replace(tmp, out)
     log(f"results -> {out} (load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs: "
         "other work on the machine slows every number here)")

@@ -38,13 +38,17 @@ def machine_and_load(busy_start: float, busy_end: float) -> dict:
 
 
 def write_json(path: Path, data: dict) -> None:
-    """Writes `data` as JSON to a temporary file beside `path`, then renames it into place."""
+    """Writes `data` as JSON to a temporary file beside `path`, then renames it into place with
+    the umask's permissions (``mkstemp`` makes it private)."""
+    from sonolux.outputs import follow_umask
+
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=".json")
     try:
         with os.fdopen(fd, "w") as f:
             json.dump(data, f, indent=2, default=str)
             f.write("\n")
+        follow_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

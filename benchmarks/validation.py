@@ -334,6 +334,9 @@ def main(argv=None) -> int:
     fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", dir=out.parent)
     with os.fdopen(fd, "w", encoding="utf-8") as f:
         f.write(page(results, seconds))
+    from sonolux.outputs import follow_umask
+
+    follow_umask(tmp)  # mkstemp makes it private
     os.replace(tmp, out)
     failed = [r["name"] for r in results if not r["ok"]]
     print(f"{len(results) - len(failed)}/{len(results)} checks pass in {seconds:.0f} s -> {out}")
