@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from sonolux.errors import SonoluxError
+from sonolux.outputs import follow_umask
 
 MAGIC = b"SONOLUX-CHECKPOINT 1\n"
 SUFFIX = ".checkpoint"
@@ -145,19 +146,13 @@ def write(path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray
             f.write(digest.digest())
             f.flush()
             os.fsync(f.fileno())
-        _follow_umask(Path(tmp))
+        follow_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     _sync_folder(path.parent)
     return path
-
-
-def _follow_umask(path: Path) -> None:
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, 0o666 & ~umask)
 
 
 def _sync_folder(folder: Path) -> None:
