@@ -53,7 +53,7 @@ def test_the_stencils_errors_are_their_closed_forms():
     mixed ∂ᵢ³∂ⱼ and ∂ᵢ⁵∂ⱼ never have, so they are asserted > 0.4 of the bound."""
     u = wave_sources.fibonacci_directions(2000)
     for kh in (0.1, 0.3, 0.628, 1.0):
-        worst = dict.fromkeys(range(1, wave_sources.MAX_ORDER + 1), 0.0)
+        worst = dict.fromkeys(range(1, wave_sources.HIGHEST_ORDER + 1), 0.0)
         for k in range(1, wave_sources.N_COMPONENTS):
             order = wave_sources.component_order(k)
             phase = np.exp(1j * kh * (u @ np.array([o for o, _ in wave_sources.stencil(k)]).T))

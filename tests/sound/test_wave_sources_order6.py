@@ -152,19 +152,21 @@ def cone_gain_error(order, half_angle_deg):
     return float(w @ (series ** 2 - target) ** 2)
 
 
-def test_the_rule_radiates_orders_5_and_6_where_the_grid_and_the_float32_floor_allow():
+def test_the_rule_radiates_order_5_where_the_grid_and_the_float32_floor_allow():
     """The order rule per band (``wave_stencils.resolved_orders``): the stencils' orders at each
     band's upper edge, capped by one float32 rounding of the next order's largest signal below
     the band, (2⁻²⁴·G)² ≤ 10⁻⁶ (G = feed_growth, growing as 1/(kΔx)^L), and at 3 in the lowest
-    band. On the 354 Hz hybrid's 69 mm grid (63-500 Hz): 3/4/6/2 (order 5 at 125 Hz would round
-    at 3.9·10⁻⁶, s12's 3.8·10⁻⁶; order 6 at 250 Hz at 7·10⁻⁸); on 97 mm: 3/5/6/0; on 137 mm
-    3/6/2/0 (250 Hz: the first difference's 2% reached); on 34 mm 3/3/4/6. With
-    ``max_order=4`` the rule is session 10's (3/4/4/2, 3/3/4/4, 3/4/2/0), so a fit made there is
-    what it was. The log's words say both limits and the floor's number."""
+    band; order 6 is never chosen (MAX_ORDER = 5: its floor is not what the bound predicts,
+    test_wave_sources_order6_grid). On the 354 Hz hybrid's 69 mm grid (63-500 Hz): 3/4/5/2
+    (order 5 at 125 Hz would round at 3.9·10⁻⁶, s12's 3.8·10⁻⁶); on the 250 Hz hybrid's 97 mm:
+    3/5/5/0; on the 177 Hz hybrid's 137 mm 3/5/2/0 (250 Hz: the first difference's 2% reached);
+    on 34 mm 3/3/4/5. With ``max_order=4`` the rule is session 10's (3/4/4/2, 3/4/4/0, 3/4/2/0,
+    3/3/4/4), so a fit made there is what it was. The log's words say both limits and the
+    floor's number."""
     hybrid = C / (10 * 354.0 * math.sqrt(2))
-    cases = {hybrid: ([3, 4, 6, 2], [3, 4, 4, 2]), C / 3540: ([3, 5, 6, 0], [3, 4, 4, 0]),
-             C / 2500: ([3, 6, 2, 0], [3, 4, 2, 0]),
-             C / (10 * 707 * math.sqrt(2)): ([3, 3, 4, 6], [3, 3, 4, 4])}
+    cases = {hybrid: ([3, 4, 5, 2], [3, 4, 4, 2]), C / 3540: ([3, 5, 5, 0], [3, 4, 4, 0]),
+             C / 2500: ([3, 5, 2, 0], [3, 4, 2, 0]),
+             C / (10 * 707 * math.sqrt(2)): ([3, 3, 4, 5], [3, 3, 4, 4])}
     for spacing, (orders, session10) in cases.items():
         assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == orders, spacing
         assert list(wave_sources.resolved_orders(BANDS, spacing, C, max_order=4)) == session10
@@ -173,11 +175,12 @@ def test_the_rule_radiates_orders_5_and_6_where_the_grid_and_the_float32_floor_a
          wave_stencils.floor_share(BANDS, 1, hybrid, C, 6),
          wave_stencils.floor_share(BANDS, 2, hybrid, C, 6)], [3.9e-6, 2.8e-4, 7.1e-8], rtol=0.05)
     note = wave_stencils.orders_note(BANDS, hybrid, C, 3)
-    assert "stencils resolve orders up to 6/6/6" in note and "floor allows 3/4/6" in note, note
+    assert "stencils resolve orders up to 5/5/5" in note and "floor allows 3/4/5" in note, note
     assert "order 5 at 125 Hz 3.9e-06 of the band, above 1e-06" in note, note
     fitted = wave_sources.fit_on_grid(*cone(30.0), BANDS, hybrid, C, wave_bands=3)
-    assert list(fitted.orders) == [3, 4, 6, 6] and fitted.grid_note == note
+    assert list(fitted.orders) == [3, 4, 5, 5] and fitted.grid_note == note
     assert note in wave_sources.describe("cone", fitted, 100, 3)
+    assert list(wave_sources.fit(*cone(30.0), len(BANDS)).orders) == [5, 5, 5, 5]
 
 
 def test_a_fit_whose_orders_stay_at_4_keeps_its_terms():
@@ -197,7 +200,7 @@ def test_a_fit_whose_orders_stay_at_4_keeps_its_terms():
     spacing, fs, steps = C / 2500, 2500 * math.sqrt(3.0), 2000
     pos, _, _ = wave_sources.terms(np.zeros(3), fitted, BANDS, 250.0, spacing, fs, steps, C)
     assert len(pos) == 179
-    beam6 = wave_sources.fit(custom(), harmonic(6), len(BANDS))
+    beam6 = wave_sources.fit(custom(), harmonic(6), len(BANDS), np.full(len(BANDS), 6))
     assert np.all(beam6.components[1:, 56:] != 0.0) and np.all(beam6.components[:, 35:56] == 0)
     assert list(beam6.orders) == [0, 6, 6, 6]
     np.testing.assert_allclose(wave_sources.components_reach_cells(beam6.components),
@@ -231,7 +234,7 @@ def test_a_synthetic_order_5_or_6_source_is_fitted_and_its_clusters_far_field_is
     f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 8000
     spacing = C / (f_max * 10)
     pattern = harmonic(order)
-    fit = wave_sources.fit(custom(), pattern, len(BANDS))
+    fit = wave_sources.fit(custom(), pattern, len(BANDS), np.full(len(BANDS), order))
     assert list(fit.orders) == [0, order, order, order]
     assert np.all(fit.residual < 2e-4), fit.residual
     u = wave_sources.fibonacci_directions(2000)
@@ -261,7 +264,7 @@ def test_what_the_filters_of_orders_5_and_6_put_before_the_pulse_is_negligible(o
     10⁻⁶ of the signal's energy, as for orders 2-4 (test_wave_sources_order2), and the signal
     has no DC. Measured on the harmonic's u_x⁵ or u_x⁶ coefficient."""
     f_max, fs, steps = 250.0, 250.0 * 10 * math.sqrt(3.0), 20000
-    fit = wave_sources.fit(custom(), harmonic(order), len(BANDS))
+    fit = wave_sources.fit(custom(), harmonic(order), len(BANDS), np.full(len(BANDS), order))
     component = 35 if order == 5 else 56  # u_x⁵, u_x⁶
     assert wave_sources.component_order(component) == order
     delay = wave_sources.pulse_delay_s(BANDS, f_max, fit)

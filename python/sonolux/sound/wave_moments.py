@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from sonolux.sound.wave_stencils import MAX_ORDER, MONOMIALS, PAIRS, QUADS, TRIPLES
+from sonolux.sound.wave_stencils import HIGHEST_ORDER, MONOMIALS, PAIRS, QUADS, TRIPLES
 
 #: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
 #: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
@@ -69,7 +69,7 @@ def moments(a: np.ndarray, u: np.ndarray, weight: np.ndarray) -> tuple[np.ndarra
     # Each order's share of the pattern's energy (the means of its part's square; :func:`fit`
     # leaves out an order above every one that carries RESOLVED_AMPLITUDE² of it).
     higher, higher_shares = [], []
-    for order in range(5, MAX_ORDER + 1):
+    for order in range(5, HIGHEST_ORDER + 1):
         coefficients = higher_order(u, wa, order)  # [band, monomial]
         part = order_monomials(u, order) @ coefficients.T  # [direction, band]
         higher.append(coefficients)
@@ -130,7 +130,8 @@ def truncated(c0: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray, q: np
     q = np.where((orders >= 4)[:, None, None, None, None], q, 0.0)
     higher_order_of = np.array([len(m) for m in MONOMIALS if len(m) >= 5])
     higher = np.where(orders[:, None] >= higher_order_of[None], higher, 0.0)
-    power = shares[0] + sum(np.where(orders >= L, shares[L], 0.0) for L in range(1, MAX_ORDER + 1))
+    power = shares[0] + sum(np.where(orders >= L, shares[L], 0.0)
+                            for L in range(1, HIGHEST_ORDER + 1))
     norm = np.sqrt(np.maximum(power, 1e-300))
     second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
     third = np.column_stack([t[:, i, j, k] * len(set(itertools.permutations((i, j, k))))

@@ -102,6 +102,7 @@ from sonolux.sound.wave_stencils import DIFFERENCES as DIFFERENCES
 from sonolux.sound.wave_stencils import FIRST_DIFFERENCE as FIRST_DIFFERENCE
 from sonolux.sound.wave_stencils import FOURTH_DIFFERENCE as FOURTH_DIFFERENCE
 from sonolux.sound.wave_stencils import (
+    HIGHEST_ORDER,
     MAX_ORDER,
     RESOLVED_AMPLITUDE,
     component_order,
@@ -337,7 +338,7 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         a, centre = refer_to_centre(a, u, weight, rings, FIT_AZIMUTHS, k, centre_bands)
     c0, c, m, d, t, q, higher, shares, total = moments(a, u, weight)
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
-    highest = np.max(np.where(carried, np.arange(MAX_ORDER + 1)[:, None], 0), axis=0)
+    highest = np.max(np.where(carried, np.arange(HIGHEST_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
     components, power = truncated(c0, c, d, t, q, higher, shares, orders)
     # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
@@ -437,7 +438,7 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     spectra.append(np.where(fade > 0.0, integrated * per_integral ** 2, 0.0))
     # Orders 5 and 6: c⁵·∫⁴q and c⁶·∫⁵q, with the same fade.
     spectra.extend(np.where(fade > 0.0, integrated * per_integral ** (L - 2), 0.0)
-                   for L in range(5, MAX_ORDER + 1))
+                   for L in range(5, HIGHEST_ORDER + 1))
     positions: list[np.ndarray] = []
     signals: list[np.ndarray] = []
     # One cluster per centre (SourceFit.clusters): the shared one, and one for each band

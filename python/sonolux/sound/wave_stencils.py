@@ -1,5 +1,5 @@
 """The cluster's stencils (:mod:`sonolux.sound.wave_sources`): the components of a fit (the
-monomials of orders 0 to :data:`MAX_ORDER`), their node stencils (fourth-order centred
+monomials of orders 0 to :data:`HIGHEST_ORDER`), their node stencils (fourth-order centred
 differences, Fornberg, "Generation of finite difference formulas on arbitrarily spaced grids",
 Math. Comp. 51, 1988, and products of them), the stencils' amplitude errors in closed form, and
 the rule for which orders a band radiates (the stencils' error at the band's upper edge and the
@@ -13,10 +13,16 @@ import math
 
 import numpy as np
 
-#: The highest spherical-harmonic order radiated (orders 5 and 6 since session 13: a 30° cone
-#: keeps 22.2 / 16.8 / 15.8% of its energy above orders 4 / 5 / 6, the Legendre series of a
-#: hard edge converging slowly; beyond 6 the stencils' nine nodes would not do).
-MAX_ORDER = 6
+#: The highest spherical-harmonic order the components, stencils and moments carry (orders 5
+#: and 6 since session 13: a 30° cone keeps 22.2 / 16.8 / 15.8% of its energy above orders
+#: 4 / 5 / 6, the Legendre series of a hard edge converging slowly). Order 6 is radiated only
+#: when a caller asks for it (``wave_sources.fit``'s ``orders``): see :data:`MAX_ORDER`.
+HIGHEST_ORDER = 6
+#: The highest order radiated by default and by the order rule (:func:`resolved_orders`): 5.
+#: Order 6's float32 floor is not what the rule's bound predicts (measured by linearity on the
+#: 137 mm grid, a 177 Hz hybrid's: 3.8·10⁻⁶ of the 125 Hz band where one rounding says 6.7·10⁻⁸;
+#: order 5 there 3.0·10⁻⁷), so the rule cannot say where it is safe (docs/waves-sources.md).
+MAX_ORDER = 5
 #: An order is radiated in a band where its stencils' amplitude error is at most this (0.17 dB)
 #: at the band's upper edge, in every direction.
 RESOLVED_AMPLITUDE = 0.02
@@ -163,7 +169,7 @@ def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: 
                     max_order: int = MAX_ORDER) -> np.ndarray:
     """int[band]: the highest order ≤ ``max_order`` whose stencils are within
     :data:`RESOLVED_AMPLITUDE` in every direction at the band's upper edge (0 where none is)
-    (:func:`stencil_orders`); orders 4 to 6 only above the lowest band
+    (:func:`stencil_orders`); orders 4 and 5 only above the lowest band
     (:data:`LOWEST_BAND_MAX_ORDER`) and where one rounding of their largest signal,
     (2⁻²⁴·G)² with G = :func:`feed_growth`, is at most :data:`NOISE_FLOOR` (:func:`floor_orders`).
 
@@ -178,10 +184,14 @@ def resolved_orders(bands_hz: np.ndarray, spacing_m: float, speed_of_sound_m_s: 
     the lowest band 2.1·10⁻⁵ and 1.5·10⁻⁵, which one rounding does not predict (2.2·10⁻⁶ and
     5.7·10⁻⁴), hence the cap; order 4 above it agrees with one rounding where that is above the
     grid's other floors (69 mm: 3·10⁻⁸ measured, 5.5·10⁻⁸ one rounding; 34 mm: 2.2·10⁻⁵ and
-    1.4·10⁻⁵), hence the bound, applied alike to orders 5 and 6 (session 13, measured in
-    tests/sound/test_wave_sources_order6.py). As G grows with L (kΔx < 1 below the band), the
-    bound passes an order only if it passes every order below it: the rule takes the highest
-    that passes, and for ``max_order`` 4 it is session 10's rule, the same orders."""
+    1.4·10⁻⁵), hence the bound, applied alike to order 5 (session 13): measured on the 137,
+    97 and 69 mm grids (the 177, 250 and 354 Hz hybrids'), the orders it chooses leave
+    ≤ 3.0·10⁻⁷, 8.6·10⁻⁷ and 2.6·10⁻⁷ of a wave band, and order 5 where it withholds it
+    (125 Hz on 69 mm, one rounding 3.9·10⁻⁶) 1.8·10⁻⁶ (tests/sound/test_wave_sources_order6_grid.py).
+    The bound does not predict order 6 (measured/one rounding 3.7-57×, both sides of the line),
+    so :data:`MAX_ORDER` is 5. As G grows with L (kΔx < 1 below the band), the bound passes
+    an order only if it passes every order below it: the rule takes the highest that passes,
+    and for ``max_order`` 4 it is session 10's rule, the same orders."""
     return np.minimum(stencil_orders(bands_hz, spacing_m, speed_of_sound_m_s, max_order),
                       floor_orders(bands_hz, spacing_m, speed_of_sound_m_s, max_order))
 
