@@ -16,11 +16,12 @@ monopoles at neighbouring nodes). Here:
   5·⟨A(v)·P₂(u·v)⟩ written in Cartesian form (D symmetric and traceless); order 3 as
   T_ijk·u_i u_j u_k, the addition theorem's 7·⟨A(v)·P₃(u·v)⟩ in the same form (T symmetric and
   traceless, :func:`fit`); order 4 as Q_ijkl·u_i u_j u_k u_l, the addition theorem's
-  9·⟨A(v)·P₄(u·v)⟩ (:func:`fourth_order`). Each band keeps the orders the grid resolves there
-  (:func:`resolved_orders`); the fit is scaled to radiate the source's power, c₀² + |c|²/3 +
-  (2/15)·tr D² + (2/35)·ΣT² + (8/315)·ΣQ² = 1 (the means of the harmonics' squares; the tracer's
-  convention), and the share of the pattern's energy above the band's order is
-  reported (:attr:`SourceFit.residual`). Orders a band's pattern hardly carries are left out,
+  9·⟨A(v)·P₄(u·v)⟩ (:func:`fourth_order`); orders 5 and 6 as their monomials' coefficients,
+  the same theorem in general form (``wave_moments.higher_order``). Each band keeps the orders
+  the grid resolves there (:func:`resolved_orders`); the fit is scaled to radiate the source's
+  power, c₀² + |c|²/3 + (2/15)·tr D² + (2/35)·ΣT² + (8/315)·ΣQ² + ⟨part₅²⟩ + ⟨part₆²⟩ = 1 (the
+  means of the harmonics' squares; the tracer's convention), and the share of the pattern's
+  energy above the band's order is reported (:attr:`SourceFit.residual`). Orders a band's pattern hardly carries are left out,
   and the bands above the waves' hold the last wave band's fit (:func:`fit`,
   :func:`fit_on_grid`). *Phase*: a SOFA file's measured relative phase at each band centre
   (:func:`measured_phase`); the builtin talker's model phase (a point on a rigid sphere, Morse
@@ -40,13 +41,9 @@ monopoles at neighbouring nodes). Here:
   The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
   difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
   8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), ∂³ ≈ (δ₋₃ − 8δ₋₂ +
-  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), ∂⁴ ≈ (−δ₋₃ + 12δ₋₂ − 39δ₋₁ + 56δ₀ − 39δ₁ + 12δ₂ −
-  δ₃)/(6Δx⁴), and a mixed term as the product of one-axis differences (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏,
-  ∂ᵢ³∂ⱼ, ∂ᵢ²∂ⱼ², ∂ᵢ²∂ⱼ∂ₖ; ``wave_stencils.py``). A term of order L in direction u radiates
-  R(kΔx·u) times the exact u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30), (30
-  − 32 cos θ + 2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90), (26 sin θ − 16 sin 2θ + 2 sin 3θ)/(8θ³)
-  for a third (1 − 7θ⁴/120) and (56 − 78 cos θ + 24 cos 2θ − 2 cos 3θ)/(6θ⁴) for a fourth (1 −
-  7θ⁴/240).
+  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), ∂⁴ on −3..3, ∂⁵ and ∂⁶ on −4..4, and a mixed term as the
+  product of one-axis differences (``wave_stencils.py``, with each difference's response R(θ) in
+  closed form: 1 − θ⁴/30 for a first difference, … 1 − 13θ⁴/144 for a fifth).
 - **Signals.** A monopole fed q̇ radiates ρq̇(τ)/(4πr). A term f(t)·∂^α δ of order L radiates
   (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q, order 2 c²·(its
   coefficient)·∫q, order 3 c³·(its coefficient)·∬q, order 4 c⁴·(its coefficient)·∭q, and
@@ -60,22 +57,19 @@ monopoles at neighbouring nodes). Here:
   width of the energy bands' own crossovers in ``bands.rs``), flat beyond the outer bands,
   applied to the pulse by FFT; the pulse is delayed (:func:`pulse_delay_s`) so that the filters'
   non-causal half fits before it.
-- **Which orders, per band** (:func:`resolved_orders`): order L is radiated in a band when its
-  stencils' worst amplitude error over all directions, at the band's upper edge, is within
-  :data:`RESOLVED_AMPLITUDE` (2%, 0.17 dB); the highest such L ≤ :data:`MAX_ORDER`. With the
-  hybrid's grid (10 points per wavelength at f_max = √2 × the crossover) every wave band
-  resolves order 4 (worst 0.23% at the crossover, the third difference's; order 4's terms use
-  third differences and its own fourth errs by half as much, 7θ⁴/240). Order 4 is withheld in
-  the lowest band and where its float32 floor could reach 10⁻⁶ of a band (measured; see
-  :func:`resolved_orders`). The pattern's energy above the radiated orders is printed.
+- **Which orders, per band** (:func:`resolved_orders`): the highest L ≤ :data:`MAX_ORDER` (5)
+  whose stencils err by at most :data:`RESOLVED_AMPLITUDE` (2%) in every direction at the
+  band's upper edge (every wave band of the hybrid's grid resolves 5: 0.34% at the crossover),
+  and, above order 3, only above the lowest band and where one float32 rounding of its largest
+  signal below the band is at most 10⁻⁶ of it (measured by linearity; order 6, whose floor that
+  bound does not predict, only when asked). The log says both limits and the energy left.
 - **Direct sound.** The terms' direct sound is taken out of the responses in the core (each a
   monopole with its own signal) and the exact pattern's direct sound is added back by the bake
   (the tracer's gain towards each receiver), so the direct sound is the target's exactly and only
   the room's part carries the fit.
-- **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells on an
-  axis, 2√2 on a plane's diagonal for order 2's mixed terms, 3 on an axis and 2√3 on the cube's
-  diagonal for order 3's, √13 for order 4's ∂ᵢ³∂ⱼ, √17 for order 5's ∂ᵢ³∂ⱼ∂ₖ, √20 for order
-  6's ∂ᵢ⁵∂ⱼ). Near a wall the orders are capped to the
+- **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells for
+  order 1 up to √17 for order 5's ∂ᵢ³∂ⱼ∂ₖ and √20 for order 6's ∂ᵢ⁵∂ⱼ,
+  :meth:`SourceFit.reach_cells`). Near a wall the orders are capped to the
   highest whose cluster fits
   in the air around the source (:func:`fit_on_grid`, said in the log); a directional source
   nearer a wall than even order 1 reaches is refused before anything is traced
@@ -113,8 +107,6 @@ from sonolux.sound.wave_stencils import (
     resolved_orders,
     stencil,
 )
-from sonolux.sound.wave_stencils import FIFTH_DIFFERENCE as FIFTH_DIFFERENCE
-from sonolux.sound.wave_stencils import SIXTH_DIFFERENCE as SIXTH_DIFFERENCE
 from sonolux.sound.wave_stencils import N_COMPONENTS as N_COMPONENTS
 from sonolux.sound.wave_stencils import OFFSETS as OFFSETS
 from sonolux.sound.wave_stencils import SECOND_DIFFERENCE as SECOND_DIFFERENCE
