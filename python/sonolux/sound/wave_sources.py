@@ -21,15 +21,15 @@ monopoles at neighbouring nodes). Here:
   the grid resolves there (:func:`resolved_orders`); the fit is scaled to radiate the source's
   power, c₀² + |c|²/3 + (2/15)·tr D² + (2/35)·ΣT² + (8/315)·ΣQ² + ⟨part₅²⟩ + ⟨part₆²⟩ = 1 (the
   means of the harmonics' squares; the tracer's convention), and the share of the pattern's
-  energy above the band's order is reported (:attr:`SourceFit.residual`). Orders a band's pattern hardly carries are left out,
-  and the bands above the waves' hold the last wave band's fit (:func:`fit`,
-  :func:`fit_on_grid`). *Phase*: a SOFA file's measured relative phase at each band centre
-  (:func:`measured_phase`); the builtin talker's model phase (a point on a rigid sphere, Morse
-  & Ingard's series referred to the mouth) is, in the wave bands, that of a point a/2 in front
-  of the mouth (within 0.6% of the energy at 500 Hz), so its zero-phase pattern is radiated
-  from there (:func:`acoustic_centre_offset_m`); none for the dodecahedron, whose harmonics of
-  orders 1-5 vanish by its symmetry, so that a phase could only be common to every direction
-  (docs/waves-sources.md: why neither zero nor minimum phase).
+  energy above the band's order is reported (:attr:`SourceFit.residual`). Orders a band's
+  pattern hardly carries are left out, and the bands above the waves' hold the last wave band's
+  fit (:func:`fit`, :func:`fit_on_grid`). *Phase*: a SOFA file's measured relative phase at each
+  band centre (:func:`measured_phase`); the builtin talker's model phase (a point on a rigid
+  sphere, Morse & Ingard's series referred to the mouth) is, in the wave bands, that of a point
+  a/2 in front of the mouth (within 0.6% of the energy at 500 Hz), so its zero-phase pattern is
+  radiated from there (:func:`acoustic_centre_offset_m`); none for the dodecahedron, whose
+  harmonics of orders 1-5 vanish by its symmetry, so that a phase could only be common to every
+  direction (docs/waves-sources.md: why neither zero nor minimum phase).
 - **Cluster.** Every term sits at a whole number of cells from the source, x_s + m·Δx, so that
   each term's trilinear spread over the 8 nodes around it has the same fractional offset: the
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
