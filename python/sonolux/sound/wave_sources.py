@@ -330,7 +330,10 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         a, centre = refer_to_centre(a, u, weight, rings, FIT_AZIMUTHS, k, centre_bands)
     c0, c, m, d, t, q, higher, shares, total = moments(a, u, weight)
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
-    highest = np.max(np.where(carried, np.arange(HIGHEST_ORDER + 1)[:, None], 0), axis=0)
+    # The highest carried order the band may radiate: among 0-4 as before session 13, and up to
+    # the band's order above that (the dodecahedron's order 6, 0.18%, is not radiated at 5).
+    looked = np.arange(HIGHEST_ORDER + 1)[:, None] <= np.maximum(orders, 4)[None]
+    highest = np.max(np.where(carried & looked, np.arange(HIGHEST_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
     components, power = truncated(c0, c, d, t, q, higher, shares, orders)
     # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
