@@ -203,7 +203,7 @@ def band_gains(omni, directional, fit, directions, radius_m):
     for b, centre in enumerate(BANDS[:3]):
         band = (f > centre / 2 ** 0.25) & (f < centre * 2 ** 0.25)
         measured.append(e_dir[:, band].sum(axis=1) / e_omni[:, band].sum(axis=1))
-        top = wave_sources.MAX_ORDER + 1
+        top = wave_sources.HIGHEST_ORDER + 1
         parts = [mono[:, orders == L] @ fit.components[b, orders == L] for L in range(top)]
         field = [np.abs(sum(near_field(L, 2 * math.pi * fi * radius_m / 343.0) * parts[L]
                             for L in range(top))) ** 2 for fi in f[band]]

@@ -3,8 +3,9 @@
 The quadrature (:func:`fit_directions`), then orders 0 to 4 of a pattern A(u) [direction, band]
 from the addition theorem, each order's part written in Cartesian form as a symmetric traceless
 tensor contracted with u (the forms, their normalisation and their sources are in
-``wave_sources``' module doc and :func:`fourth_order`), and their truncation to each band's
-order, scaled to radiate the pattern's power.
+``wave_sources``' module doc and :func:`fourth_order`), orders 5 and 6 from the same theorem in
+general form, as coefficients of their monomials (:func:`higher_order`), and their truncation to
+each band's order, scaled to radiate the pattern's power.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import math
 
 import numpy as np
 
-from sonolux.sound.wave_stencils import MAX_ORDER, PAIRS, QUADS, TRIPLES
+from sonolux.sound.wave_stencils import HIGHEST_ORDER, MONOMIALS, PAIRS, QUADS, TRIPLES
 
 #: The fit's quadrature (:func:`fit_directions`): Gauss-Legendre rings in cos θ times equally
 #: spaced azimuths, exact for spherical polynomials up to degree 2·rings − 1 in z and
@@ -49,8 +50,10 @@ def fit_directions() -> tuple[np.ndarray, np.ndarray]:
 
 def moments(a: np.ndarray, u: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, ...]:
     """The spherical-harmonic parts of ``a`` [direction, band] on the quadrature (``u``,
-    ``weight``): (c₀, c [axis, band], M, D, T, Q, each order's share of the energy [order, band],
-    the energy [band]) as :func:`fit` uses them."""
+    ``weight``): (c₀, c [axis, band], M, D, T, Q, orders 5 and 6's monomial coefficients
+    [band, 49] (:func:`higher_order`), each order's share of the energy [order, band], the
+    energy [band]) as :func:`fit` uses them. Orders 0-4 are computed as before session 13
+    (same bits)."""
     wa = weight[:, None] * a  # a weighted sum of wa is a mean over the sphere
     c0 = wa.sum(axis=0)
     c = 3.0 * (u.T @ wa)  # [axis, band]
@@ -65,30 +68,77 @@ def moments(a: np.ndarray, u: np.ndarray, weight: np.ndarray) -> tuple[np.ndarra
     total = weight @ (np.abs(a) ** 2)
     # Each order's share of the pattern's energy (the means of its part's square; :func:`fit`
     # leaves out an order above every one that carries RESOLVED_AMPLITUDE² of it).
+    higher, higher_shares = [], []
+    for order in range(5, HIGHEST_ORDER + 1):
+        coefficients = higher_order(u, wa, order)  # [band, monomial]
+        part = order_monomials(u, order) @ coefficients.T  # [direction, band]
+        higher.append(coefficients)
+        higher_shares.append(weight @ (np.abs(part) ** 2))
     shares = np.stack([np.abs(c0) ** 2, (np.abs(c) ** 2).sum(axis=0) / 3.0,
                        2.0 / 15.0 * np.einsum("bij,bij->b", d, d.conj()).real,
                        2.0 / 35.0 * np.einsum("bijk,bijk->b", t, t.conj()).real,
-                       8.0 / 315.0 * np.einsum("bijkl,bijkl->b", q, q.conj()).real])
-    return c0, c, m, d, t, q, shares, total
+                       8.0 / 315.0 * np.einsum("bijkl,bijkl->b", q, q.conj()).real,
+                       *higher_shares])
+    return c0, c, m, d, t, q, np.concatenate(higher, axis=1), shares, total
+
+
+def order_monomials(u: np.ndarray, order: int) -> np.ndarray:
+    """float64[direction, monomial]: the monomials of ``order`` in :data:`MONOMIALS`' order."""
+    return np.column_stack([np.prod(u[:, list(m)], axis=1) for m in MONOMIALS
+                            if len(m) == order])
+
+
+def higher_order(u: np.ndarray, wa: np.ndarray, order: int) -> np.ndarray:
+    """complex or float [band, monomial]: order L of a pattern as the coefficients of its
+    monomials u^α (|α| = L, :data:`MONOMIALS`' order), the addition theorem's
+    (2L + 1)·⟨A(v)·P_L(u·v)⟩ (Abramowitz and Stegun 22.3.8 for P_L's coefficients p_k of
+    x^{L−2k}) written homogeneous of degree L in u as Σ_k p_k·(u·v)^{L−2k}·(u·u)^k: that is
+    |u|^L·P_L(u·v/|u|), a solid harmonic, so the polynomial is of order L only (no lower part
+    hides in it on the sphere). Expanding both powers by the multinomial theorem, u^α's
+    coefficient is (2L + 1)·⟨A·h_α(v)⟩ with h_α(v) = Σ_k p_k Σ_{γ: |γ| = k, 2γ ≤ α}
+    (k!/γ!)·((L − 2k)!/(α − 2γ)!)·v^{α − 2γ}. For L = 2 to 4 this is the same polynomial as
+    D, T and Q (test, to rounding); ``wa`` the pattern times the quadrature weights
+    [direction, band] (degree ≤ 2·6 + the pattern's: exact for patterns of order ≤ 83)."""
+    legendre = np.polynomial.legendre.leg2poly(np.eye(order + 1)[order])  # powers 0..L
+    rows = []
+    for alpha in (tuple(m.count(axis) for axis in range(3)) for m in MONOMIALS
+                  if len(m) == order):
+        h = np.zeros(len(u))
+        for k in range(order // 2 + 1):
+            p_k = legendre[order - 2 * k]
+            for gamma in itertools.product(*(range(a // 2 + 1) for a in alpha)):
+                if sum(gamma) != k:
+                    continue
+                beta = [a - 2 * g for a, g in zip(alpha, gamma)]
+                multinomial = (math.factorial(k) / math.prod(math.factorial(g) for g in gamma)
+                               * math.factorial(order - 2 * k)
+                               / math.prod(math.factorial(b) for b in beta))
+                h = h + p_k * multinomial * np.prod(u ** np.asarray(beta, float), axis=1)
+        rows.append(h)
+    return (2 * order + 1) * np.einsum("ad,db->ba", np.array(rows), wa)
 
 
 def truncated(c0: np.ndarray, c: np.ndarray, d: np.ndarray, t: np.ndarray, q: np.ndarray,
-              shares: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(components [band, 35], power [band]): a pattern's parts (:func:`moments`) up to each
+              higher: np.ndarray, shares: np.ndarray,
+              orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(components [band, 84], power [band]): a pattern's parts (:func:`moments`) up to each
     band's order, in :attr:`SourceFit.components`' layout, scaled to radiate the pattern's
     power; the power those orders held before the scaling."""
     c = np.where(orders[None] >= 1, c, 0.0)
     d = np.where((orders >= 2)[:, None, None], d, 0.0)
     t = np.where((orders >= 3)[:, None, None, None], t, 0.0)
     q = np.where((orders >= 4)[:, None, None, None, None], q, 0.0)
-    power = shares[0] + sum(np.where(orders >= L, shares[L], 0.0) for L in range(1, MAX_ORDER + 1))
+    higher_order_of = np.array([len(m) for m in MONOMIALS if len(m) >= 5])
+    higher = np.where(orders[:, None] >= higher_order_of[None], higher, 0.0)
+    power = shares[0] + sum(np.where(orders >= L, shares[L], 0.0)
+                            for L in range(1, HIGHEST_ORDER + 1))
     norm = np.sqrt(np.maximum(power, 1e-300))
     second = np.column_stack([d[:, i, j] * (1.0 if i == j else 2.0) for i, j in PAIRS])
     third = np.column_stack([t[:, i, j, k] * len(set(itertools.permutations((i, j, k))))
                              for i, j, k in TRIPLES])
     fourth = np.column_stack([q[(slice(None), *ix)] * len(set(itertools.permutations(ix)))
                               for ix in QUADS])
-    return np.column_stack([c0, c.T, second, third, fourth]) / norm[:, None], power
+    return np.column_stack([c0, c.T, second, third, fourth, higher]) / norm[:, None], power
 
 
 def fourth_order(u: np.ndarray, wa: np.ndarray, m: np.ndarray, c0: np.ndarray) -> np.ndarray:

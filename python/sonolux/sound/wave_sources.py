@@ -10,25 +10,26 @@ monopoles at neighbouring nodes). Here:
 - **Fit, per band.** The pattern's amplitude A_b(u) (the square root of the engine's energy
   gain towards u, normalised over the sphere; signed for the first-order family, whose pressure
   a + (1 − a)·cos θ changes sign behind the hypercardioid, supercardioid and figure-of-eight)
-  is projected on the spherical harmonics of orders 0 to 4 by a product Gauss quadrature
+  is projected on the spherical harmonics of orders 0 to 6 by a product Gauss quadrature
   (:func:`fit_directions`): c₀ = ⟨A⟩; c = 3⟨A·u⟩ (order 1, c·u);
   order 2 as uᵀDu with D = (15/2)(M − tr M·I/3), M = ⟨A·uuᵀ⟩, the addition theorem's
   5·⟨A(v)·P₂(u·v)⟩ written in Cartesian form (D symmetric and traceless); order 3 as
   T_ijk·u_i u_j u_k, the addition theorem's 7·⟨A(v)·P₃(u·v)⟩ in the same form (T symmetric and
   traceless, :func:`fit`); order 4 as Q_ijkl·u_i u_j u_k u_l, the addition theorem's
-  9·⟨A(v)·P₄(u·v)⟩ (:func:`fourth_order`). Each band keeps the orders the grid resolves there
-  (:func:`resolved_orders`); the fit is scaled to radiate the source's power, c₀² + |c|²/3 +
-  (2/15)·tr D² + (2/35)·ΣT² + (8/315)·ΣQ² = 1 (the means of the harmonics' squares; the tracer's
-  convention), and the share of the pattern's energy above the band's order is
-  reported (:attr:`SourceFit.residual`). Orders a band's pattern hardly carries are left out,
-  and the bands above the waves' hold the last wave band's fit (:func:`fit`,
-  :func:`fit_on_grid`). *Phase*: a SOFA file's measured relative phase at each band centre
-  (:func:`measured_phase`); the builtin talker's model phase (a point on a rigid sphere, Morse
-  & Ingard's series referred to the mouth) is, in the wave bands, that of a point a/2 in front
-  of the mouth (within 0.6% of the energy at 500 Hz), so its zero-phase pattern is radiated
-  from there (:func:`acoustic_centre_offset_m`); none for the dodecahedron, whose harmonics of
-  orders 1-5 vanish by its symmetry, so that a phase could only be common to every direction
-  (docs/waves-sources.md: why neither zero nor minimum phase).
+  9·⟨A(v)·P₄(u·v)⟩ (:func:`fourth_order`); orders 5 and 6 as their monomials' coefficients,
+  the same theorem in general form (``wave_moments.higher_order``). Each band keeps the orders
+  the grid resolves there (:func:`resolved_orders`); the fit is scaled to radiate the source's
+  power, c₀² + |c|²/3 + (2/15)·tr D² + (2/35)·ΣT² + (8/315)·ΣQ² + ⟨part₅²⟩ + ⟨part₆²⟩ = 1 (the
+  means of the harmonics' squares; the tracer's convention), and the share of the pattern's
+  energy above the band's order is reported (:attr:`SourceFit.residual`). Orders a band's
+  pattern hardly carries are left out, and the bands above the waves' hold the last wave band's
+  fit (:func:`fit`, :func:`fit_on_grid`). *Phase*: a SOFA file's measured relative phase at each
+  band centre (:func:`measured_phase`); the builtin talker's model phase (a point on a rigid
+  sphere, Morse & Ingard's series referred to the mouth) is, in the wave bands, that of a point
+  a/2 in front of the mouth (within 0.6% of the energy at 500 Hz), so its zero-phase pattern is
+  radiated from there (:func:`acoustic_centre_offset_m`); none for the dodecahedron, whose
+  harmonics of orders 1-5 vanish by its symmetry, so that a phase could only be common to every
+  direction (docs/waves-sources.md: why neither zero nor minimum phase).
 - **Cluster.** Every term sits at a whole number of cells from the source, x_s + m·Δx, so that
   each term's trilinear spread over the 8 nodes around it has the same fractional offset: the
   cluster is then exactly a node stencil convolved with the omni source's own spread, and its
@@ -40,18 +41,15 @@ monopoles at neighbouring nodes). Here:
   The stencils are the fourth-order centred differences (Fornberg, "Generation of finite
   difference formulas on arbitrarily spaced grids", Math. Comp. 51, 1988): ∂ ≈ (δ₋₂ − 8δ₋₁ +
   8δ₁ − δ₂)/(12Δx), ∂² ≈ (−δ₋₂ + 16δ₋₁ − 30δ₀ + 16δ₁ − δ₂)/(12Δx²), ∂³ ≈ (δ₋₃ − 8δ₋₂ +
-  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), ∂⁴ ≈ (−δ₋₃ + 12δ₋₂ − 39δ₋₁ + 56δ₀ − 39δ₁ + 12δ₂ −
-  δ₃)/(6Δx⁴), and a mixed term as the product of one-axis differences (∂ᵢ∂ⱼ, ∂ᵢ²∂ⱼ, ∂ₓ∂ᵧ∂𝓏,
-  ∂ᵢ³∂ⱼ, ∂ᵢ²∂ⱼ², ∂ᵢ²∂ⱼ∂ₖ; ``wave_stencils.py``). A term of order L in direction u radiates
-  R(kΔx·u) times the exact u^α, R = (8 sin θ − sin 2θ)/(6θ) for a first difference (1 − θ⁴/30), (30
-  − 32 cos θ + 2 cos 2θ)/(12θ²) for a second (1 − θ⁴/90), (26 sin θ − 16 sin 2θ + 2 sin 3θ)/(8θ³)
-  for a third (1 − 7θ⁴/120) and (56 − 78 cos θ + 24 cos 2θ − 2 cos 3θ)/(6θ⁴) for a fourth (1 −
-  7θ⁴/240).
+  13δ₋₁ − 13δ₁ + 8δ₂ − δ₃)/(8Δx³), ∂⁴ on −3..3, ∂⁵ and ∂⁶ on −4..4, and a mixed term as the
+  product of one-axis differences (``wave_stencils.py``, with each difference's response R(θ) in
+  closed form: 1 − θ⁴/30 for a first difference, … 1 − 13θ⁴/144 for a fifth).
 - **Signals.** A monopole fed q̇ radiates ρq̇(τ)/(4πr). A term f(t)·∂^α δ of order L radiates
   (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q, order 2 c²·(its
-  coefficient)·∫q, order 3 c³·(its coefficient)·∬q and order 4 c⁴·(its coefficient)·∭q: the
+  coefficient)·∫q, order 3 c³·(its coefficient)·∬q, order 4 c⁴·(its coefficient)·∭q, and
+  so on to order 6, c⁶·∫⁵q: the
   coefficient times the pulse integrated L − 1 times. ∫q has a DC part (a step), which a soft
-  source must not be fed (Sheaffer, van Walstijn and Fazenda, JASA 135(1), 2014): orders 2 to 4
+  source must not be fed (Sheaffer, van Walstijn and Fazenda, JASA 135(1), 2014): orders 2 to 6
   are faded out below
   the lowest band's filter (a raised sine in log frequency over the octave below where that
   band's filter starts, :func:`order2_fade`), where no band looks. The coefficients are each
@@ -59,21 +57,19 @@ monopoles at neighbouring nodes). Here:
   width of the energy bands' own crossovers in ``bands.rs``), flat beyond the outer bands,
   applied to the pulse by FFT; the pulse is delayed (:func:`pulse_delay_s`) so that the filters'
   non-causal half fits before it.
-- **Which orders, per band** (:func:`resolved_orders`): order L is radiated in a band when its
-  stencils' worst amplitude error over all directions, at the band's upper edge, is within
-  :data:`RESOLVED_AMPLITUDE` (2%, 0.17 dB); the highest such L ≤ :data:`MAX_ORDER`. With the
-  hybrid's grid (10 points per wavelength at f_max = √2 × the crossover) every wave band
-  resolves order 4 (worst 0.23% at the crossover, the third difference's; order 4's terms use
-  third differences and its own fourth errs by half as much, 7θ⁴/240). Order 4 is withheld in
-  the lowest band and where its float32 floor could reach 10⁻⁶ of a band (measured; see
-  :func:`resolved_orders`). The pattern's energy above the radiated orders is printed.
+- **Which orders, per band** (:func:`resolved_orders`): the highest L ≤ :data:`MAX_ORDER` (5)
+  whose stencils err by at most :data:`RESOLVED_AMPLITUDE` (2%) in every direction at the
+  band's upper edge (every wave band of the hybrid's grid resolves 5: 0.34% at the crossover),
+  and, above order 3, only above the lowest band and where one float32 rounding of its largest
+  signal below the band is at most 10⁻⁶ of it (measured by linearity; order 6, whose floor that
+  bound does not predict, only when asked). The log says both limits and the energy left.
 - **Direct sound.** The terms' direct sound is taken out of the responses in the core (each a
   monopole with its own signal) and the exact pattern's direct sound is added back by the bake
   (the tracer's gain towards each receiver), so the direct sound is the target's exactly and only
   the room's part carries the fit.
-- **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells on an
-  axis, 2√2 on a plane's diagonal for order 2's mixed terms, 3 on an axis and 2√3 on the cube's
-  diagonal for order 3's, √13 for order 4's ∂ᵢ³∂ⱼ). Near a wall the orders are capped to the
+- **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells for
+  order 1 up to √17 for order 5's ∂ᵢ³∂ⱼ∂ₖ and √20 for order 6's ∂ᵢ⁵∂ⱼ,
+  :meth:`SourceFit.reach_cells`). Near a wall the orders are capped to the
   highest whose cluster fits
   in the air around the source (:func:`fit_on_grid`, said in the log); a directional source
   nearer a wall than even order 1 reaches is refused before anything is traced
@@ -100,12 +96,14 @@ from sonolux.sound.wave_stencils import DIFFERENCES as DIFFERENCES
 from sonolux.sound.wave_stencils import FIRST_DIFFERENCE as FIRST_DIFFERENCE
 from sonolux.sound.wave_stencils import FOURTH_DIFFERENCE as FOURTH_DIFFERENCE
 from sonolux.sound.wave_stencils import (
+    HIGHEST_ORDER,
     MAX_ORDER,
     RESOLVED_AMPLITUDE,
     component_order,
     lowest_filter_hz,
     monomials,
     order2_fade,
+    orders_note,
     resolved_orders,
     stencil,
 )
@@ -133,10 +131,11 @@ NEGLIGIBLE = 1e-4
 class SourceFit:
     """A pattern's spherical-harmonic fit per band, orders 0 to :attr:`orders`."""
 
-    #: float64[band, 35] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
+    #: float64[band, 84] (complex128 with a measured phase): c₀; c_x, c_y, c_z; then the
     #: coefficients of u_i·u_j for the pairs :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz,
     #: 2D_yz); then of u_i·u_j·u_k for :data:`TRIPLES` (T_xxx, T_yyy, T_zzz, 3T_xxy, …,
-    #: 6T_xyz); then of u_i·u_j·u_k·u_l for :data:`QUADS` (Q_xxxx, …, 12Q_xxyz); world frame,
+    #: 6T_xyz); then of u_i·u_j·u_k·u_l for :data:`QUADS` (Q_xxxx, …, 12Q_xxyz); then orders 5
+    #: and 6's monomials' coefficients (``wave_moments.higher_order``); world frame,
     #: scaled so that the fitted pattern radiates the source's power; zero
     #: above the band's order.
     components: np.ndarray
@@ -148,6 +147,9 @@ class SourceFit:
     #: Why orders were left out that the grid resolves (a wall too near, :func:`fit_on_grid`),
     #: for the log; empty otherwise.
     note: str = ""
+    #: What the grid resolves and the float32 floor allows per wave band, the order rule's
+    #: reasons (``wave_stencils.orders_note``; set by :func:`fit_on_grid`), for the log.
+    grid_note: str = ""
     #: float64[3]: the cluster's centre from the source's position
     #: (:func:`acoustic_centre_offset_m`).
     centre_offset_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
@@ -162,10 +164,10 @@ class SourceFit:
     #: cluster of its own (:func:`terms`), instead of from the shared one: the bands
     #: :attr:`centres_differ` flags (and, held above the waves, the rows that copy such a band).
     apart: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, bool))
-    #: float64[band, 35] (complex128 with a measured phase): where :attr:`apart`, the band's
+    #: float64[band, 84] (complex128 with a measured phase): where :attr:`apart`, the band's
     #: components with its pattern referred to its own centre (same orders and power
     #: normalisation as :attr:`components`); zero elsewhere.
-    own_components: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 35)))
+    own_components: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, N_COMPONENTS)))
     #: float64[band, 3]: where :attr:`apart`, the centre its own cluster sits at, from the
     #: source's position; zero elsewhere.
     own_centres_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
@@ -187,12 +189,13 @@ class SourceFit:
         """How far from the source the cluster's terms reach, in cells: the farthest node of
         any component it uses (:func:`stencil`): 0 (omni), 2 (orders 1 and 2 along the axes),
         2√2 (order 2's mixed terms, order 3's ∂ᵢ²∂ⱼ, order 4's ∂ᵢ²∂ⱼ²), 3 (orders 3 and 4
-        along an axis), 2√3 (order 3's ∂ₓ∂ᵧ∂𝓏, order 4's ∂ᵢ²∂ⱼ∂ₖ) or √13 (order 4's ∂ᵢ³∂ⱼ)."""
+        along an axis), 2√3 (order 3's ∂ₓ∂ᵧ∂𝓏, order 4's ∂ᵢ²∂ⱼ∂ₖ), √13 (order 4's ∂ᵢ³∂ⱼ),
+        √17 (order 5's ∂ᵢ³∂ⱼ∂ₖ; its ∂⁵ along an axis reaches 4) or √20 (order 6's ∂ᵢ⁵∂ⱼ)."""
         return components_reach_cells(self.components)
 
     def clusters(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """The clusters the source is radiated by, each (its centre float64[3] from the source's
-        position, its components [band, 35] with zero rows for the bands it does not carry):
+        position, its components [band, 84] with zero rows for the bands it does not carry):
         the shared centre's for every band not :attr:`apart`, then one for each own centre
         (bands in order; rows held above the waves go with the band they copy). Without such
         bands, the one cluster is :attr:`components` itself."""
@@ -214,7 +217,7 @@ class SourceFit:
 
 
 def components_reach_cells(components: np.ndarray) -> float:
-    """How far the terms of ``components`` [band, 35] reach from their cluster's centre, in
+    """How far the terms of ``components`` [band, 84] reach from their cluster's centre, in
     cells (:meth:`SourceFit.reach_cells`)."""
     used = np.flatnonzero(np.any(components != 0.0, axis=0))
     return max((math.sqrt(sum(o * o for o in offset)) for k in used
@@ -325,11 +328,14 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         own = band_centres_m(a[:, :n_centre], u, weight, rings, FIT_AZIMUTHS, k[:n_centre])
         measured = a
         a, centre = refer_to_centre(a, u, weight, rings, FIT_AZIMUTHS, k, centre_bands)
-    c0, c, m, d, t, q, shares, total = moments(a, u, weight)
+    c0, c, m, d, t, q, higher, shares, total = moments(a, u, weight)
     carried = shares >= RESOLVED_AMPLITUDE ** 2 * np.maximum(total, 1e-300)[None]
-    highest = np.max(np.where(carried, np.arange(MAX_ORDER + 1)[:, None], 0), axis=0)
+    # The highest carried order the band may radiate: among 0-4 as before session 13, and up to
+    # the band's order above that (the dodecahedron's order 6, 0.18%, is not radiated at 5).
+    looked = np.arange(HIGHEST_ORDER + 1)[:, None] <= np.maximum(orders, 4)[None]
+    highest = np.max(np.where(carried & looked, np.arange(HIGHEST_ORDER + 1)[:, None], 0), axis=0)
     orders = np.minimum(orders, highest)
-    components, power = truncated(c0, c, d, t, q, shares, orders)
+    components, power = truncated(c0, c, d, t, q, higher, shares, orders)
     # A component the pattern lacks comes out at the lattice's quadrature error (1e-5 for a
     # cardioid on an axis): left out, it would only add terms and reach.
     components[:, np.max(np.abs(components), axis=0) < NEGLIGIBLE] = 0.0
@@ -343,8 +349,9 @@ def fit(source: Any, directivity: Any, n_bands: int, orders: np.ndarray | None =
         n_own = len(own)
         k_own = 2.0 * math.pi * np.asarray(bands_hz, float)[:n_own] / speed_of_sound_m_s
         at_own = measured[:, :n_own] * np.exp(-1j * (u @ own.T) * k_own[None])
-        c0_o, c_o, _, d_o, t_o, q_o, shares_own, total_own = moments(at_own, u, weight)
-        own_fit, power_own = truncated(c0_o, c_o, d_o, t_o, q_o, shares_own, orders[:n_own])
+        c0_o, c_o, _, d_o, t_o, q_o, h_o, shares_own, total_own = moments(at_own, u, weight)
+        own_fit, power_own = truncated(c0_o, c_o, d_o, t_o, q_o, h_o, shares_own,
+                                       orders[:n_own])
         residual_own = np.clip(1.0 - power_own / np.maximum(total_own, 1e-300), 0.0, 1.0)
         differ = centres_differ(centre, own, k_own, orders[:n_own], residual[:n_own],
                                 residual_own)
@@ -424,6 +431,9 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     spectra.append(np.where(fade > 0.0, integrated, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral, 0.0))
     spectra.append(np.where(fade > 0.0, integrated * per_integral ** 2, 0.0))
+    # Orders 5 and 6: c⁵·∫⁴q and c⁶·∫⁵q, with the same fade.
+    spectra.extend(np.where(fade > 0.0, integrated * per_integral ** (L - 2), 0.0)
+                   for L in range(5, HIGHEST_ORDER + 1))
     positions: list[np.ndarray] = []
     signals: list[np.ndarray] = []
     # One cluster per centre (SourceFit.clusters): the shared one, and one for each band
@@ -514,6 +524,7 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
     radiated from the shared centre instead (said in the note)."""
     b = np.asarray(bands_hz, float)
     orders = resolved_orders(b, spacing_m, speed_of_sound_m_s)
+    grid_note = orders_note(b, spacing_m, speed_of_sound_m_s, wave_bands)
 
     def held(f: SourceFit) -> SourceFit:
         if wave_bands is None or not 0 < wave_bands < b.size:
@@ -542,7 +553,7 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
                     "away"))
         return f
 
-    fitted = placed(orders)
+    fitted = dataclasses.replace(placed(orders), grid_note=grid_note)
     cap = int(fitted.orders.max())
     while cap > 1 and reach_m(fitted, spacing_m) >= clearance_m:
         wanted = reach_m(fitted, spacing_m)
@@ -550,7 +561,8 @@ def fit_on_grid(source: Any, directivity: Any, bands_hz: np.ndarray, spacing_m: 
         fitted = placed(np.minimum(orders, cap))
         fitted = dataclasses.replace(fitted, note=(
             f"; orders above {cap} left out: a wall {1e3 * clearance_m:.0f} mm away, and order "
-            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm" + fitted.note))
+            f"{cap + 1}'s cluster reaches {1e3 * wanted:.0f} mm" + fitted.note),
+            grid_note=grid_note)
     return fitted
 
 
@@ -562,6 +574,7 @@ def describe(label: str, source_fit: SourceFit, n_terms: int, wave_bands: int) -
             f"{'/'.join(f'0-{int(L)}' if L else '0' for L in orders)} per wave band; the pattern's "
             "energy above "
             f"them: {', '.join(f'{100 * r:.1f}%' for r in source_fit.residual[:wave_bands])}"
+            + (f"; {source_fit.grid_note}" if source_fit.grid_note else "")
             + centred(source_fit) + source_fit.note)
 
 
