@@ -46,13 +46,13 @@ monopoles at neighbouring nodes). Here:
   closed form: 1 − θ⁴/30 for a first difference, … 1 − 13θ⁴/144 for a fifth).
 - **Signals.** A monopole fed q̇ radiates ρq̇(τ)/(4πr). A term f(t)·∂^α δ of order L radiates
   (−1/c)^L·u^α·f^{(L)}(τ)·ρ/(4πr) in the far field, so order 1 is fed c·c_k·q, order 2 c²·(its
-  coefficient)·∫q, order 3 c³·(its coefficient)·∬q, order 4 c⁴·(its coefficient)·∭q, and
-  so on to order 6, c⁶·∫⁵q: the
-  coefficient times the pulse integrated L − 1 times. ∫q has a DC part (a step), which a soft
-  source must not be fed (Sheaffer, van Walstijn and Fazenda, JASA 135(1), 2014): orders 2 to 6
-  are faded out below
-  the lowest band's filter (a raised sine in log frequency over the octave below where that
-  band's filter starts, :func:`order2_fade`), where no band looks. The coefficients are each
+  coefficient)·∫q, and so on to order 6, c⁶·∫⁵q: the coefficient times the pulse integrated
+  L − 1 times. ∫q has a DC part (a step), which a soft source must not be fed (Sheaffer, van
+  Walstijn and Fazenda, JASA 135(1), 2014): orders 2 to 6 are faded out below the lowest band's
+  filter (a raised sine in log frequency over the octave below where that band's filter starts,
+  :func:`order2_fade`), where no band looks. On the grid each order's gains are pre-compensated
+  for the 7-point scheme's dispersion, which an order-L term carries L times and along its
+  group direction (``wave_dispersion``; residual stated there). The coefficients are each
   band's within the band and blend across a quarter band on either side of each band edge (the
   width of the energy bands' own crossovers in ``bands.rs``), flat beyond the outer bands,
   applied to the pulse by FFT; the pulse is delayed (:func:`pulse_delay_s`) so that the filters'
@@ -69,9 +69,8 @@ monopoles at neighbouring nodes). Here:
   the room's part carries the fit.
 - **Room around the source.** The terms reach :func:`reach_m` from the source (2 cells for
   order 1 up to √17 for order 5's ∂ᵢ³∂ⱼ∂ₖ and √20 for order 6's ∂ᵢ⁵∂ⱼ,
-  :meth:`SourceFit.reach_cells`). Near a wall the orders are capped to the
-  highest whose cluster fits
-  in the air around the source (:func:`fit_on_grid`, said in the log); a directional source
+  :meth:`SourceFit.reach_cells`). Near a wall the orders are capped to the highest whose cluster
+  fits in the air around the source (:func:`fit_on_grid`, said in the log); a directional source
   nearer a wall than even order 1 reaches is refused before anything is traced
   (:func:`check_clearance`).
 """
@@ -89,6 +88,7 @@ from scipy import fft as sfft
 from sonolux.errors import SettingError
 from sonolux.scene.directivity import FIRST_ORDER, TALKER_HEAD_RADIUS_M
 from sonolux.sound.wave_centre import band_centres_m, centres_differ, refer_to_centre
+from sonolux.sound.wave_dispersion import compensated
 from sonolux.sound.wave_moments import FIT_AZIMUTHS, FIT_RINGS, fit_directions, moments, truncated
 from sonolux.sound.wave_moments import fibonacci_directions as fibonacci_directions
 from sonolux.sound.wave_moments import fourth_order as fourth_order
@@ -135,9 +135,8 @@ class SourceFit:
     #: coefficients of u_i·u_j for the pairs :data:`PAIRS` (D_xx, D_yy, D_zz, 2D_xy, 2D_xz,
     #: 2D_yz); then of u_i·u_j·u_k for :data:`TRIPLES` (T_xxx, T_yyy, T_zzz, 3T_xxy, …,
     #: 6T_xyz); then of u_i·u_j·u_k·u_l for :data:`QUADS` (Q_xxxx, …, 12Q_xxyz); then orders 5
-    #: and 6's monomials' coefficients (``wave_moments.higher_order``); world frame,
-    #: scaled so that the fitted pattern radiates the source's power; zero
-    #: above the band's order.
+    #: and 6's monomials' coefficients (``wave_moments.higher_order``); world frame, scaled so
+    #: that the fitted pattern radiates the source's power; zero above the band's order.
     components: np.ndarray
     #: int[band]: the highest order radiated in each band.
     orders: np.ndarray
@@ -150,8 +149,7 @@ class SourceFit:
     #: What the grid resolves and the float32 floor allows per wave band, the order rule's
     #: reasons (``wave_stencils.orders_note``; set by :func:`fit_on_grid`), for the log.
     grid_note: str = ""
-    #: float64[3]: the cluster's centre from the source's position
-    #: (:func:`acoustic_centre_offset_m`).
+    #: float64[3]: the cluster's centre from the source's position (:func:`acoustic_centre_offset_m`).
     centre_offset_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
     #: float64[band, 3]: each centred band's own acoustic centre from the measured phase
     #: (``wave_centre.band_centres_m``; no rows without a measured phase), for
@@ -168,8 +166,7 @@ class SourceFit:
     #: components with its pattern referred to its own centre (same orders and power
     #: normalisation as :attr:`components`); zero elsewhere.
     own_components: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, N_COMPONENTS)))
-    #: float64[band, 3]: where :attr:`apart`, the centre its own cluster sits at, from the
-    #: source's position; zero elsewhere.
+    #: float64[band, 3]: where :attr:`apart`, its own cluster's centre from the source's; else 0.
     own_centres_m: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
@@ -404,12 +401,15 @@ def edge_blends(f_hz: np.ndarray, bands_hz: np.ndarray) -> np.ndarray:
 
 def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
           max_frequency_hz: float, spacing_m: float, sample_rate_hz: float, steps: int,
-          speed_of_sound_m_s: float) -> tuple[np.ndarray, np.ndarray, float]:
+          speed_of_sound_m_s: float,
+          courant: float | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """The cluster of a directional source at ``position_m``: (positions float64[term, 3],
     volume accelerations float64[term, step] at n/fs, pulse delay s), for
     ``engine.simulate_waves(terms=...)``. Bands are those of ``source_fit``, centred at
     ``bands_hz``. One term per node offset, its signal the sum of every component's there, in
-    a fixed order (same bits on any machine)."""
+    a fixed order (same bits on any machine). Given the grid's ``courant`` number, each order's
+    gains are pre-compensated for its dispersion (``wave_dispersion.compensated``); without, the
+    terms radiate the fit as free-field monopoles (the closed-form checks)."""
     sigma = 1.0 / (math.pi * max_frequency_hz)
     delay = pulse_delay_s(bands_hz, max_frequency_hz, source_fit)
     q0 = 4.0 * math.pi * sigma * math.exp(0.5) / AIR_DENSITY_KG_M3  # as the core's SourcePulse
@@ -444,12 +444,12 @@ def terms(position_m: np.ndarray, source_fit: SourceFit, bands_hz: np.ndarray,
     # across its edges as its coefficients would.
     for offset_m, components in source_fit.clusters():
         by_offset: dict[tuple[int, int, int], np.ndarray] = {}
-        for k in range(components.shape[1]):
-            coefficient = components[:, k]
-            if np.all(coefficient == 0.0):
-                continue
+        gains = {k: components[0, k] + np.diff(components[:, k]) @ blends
+                 for k in range(components.shape[1]) if np.any(components[:, k] != 0.0)}
+        if courant is not None:
+            gains = compensated(gains, 2.0 * np.pi * f * h / c, courant)
+        for k, gain in gains.items():
             order = component_order(k)
-            gain = coefficient[0] + np.diff(coefficient) @ blends
             signal = sfft.irfft(spectra[order] * gain, n_fft)[:steps] / h ** order
             for offset, w in stencil(k):
                 if offset in by_offset:
