@@ -115,17 +115,20 @@ def omni_and_cluster_runs(scene, src, receivers, fit, f_max=250.0, absorption=0.
     return omni, runs[0][0], runs[0][1]
 
 
-def cluster_runs(scene, src, receivers, fits, f_max=250.0, absorption=0.9):
+def cluster_runs(scene, src, receivers, fits, f_max=250.0, absorption=0.9, compensated=False):
     """:func:`omni_and_cluster_runs` of several fits with one omni run (all as long as the
-    longest pulse delay needs): (omni, [(directional, number of monopoles) per fit])."""
+    longest pulse delay needs): (omni, [(directional, number of monopoles) per fit]); the terms
+    pre-compensated for the grid's dispersion if ``compensated`` (as the bake's are)."""
     absorption = np.full((1, len(BANDS)), absorption)
     delay = max(wave_sources.pulse_delay_s(BANDS, f_max, fit) for fit in fits)
     settings = engine.WaveSettings(max_frequency_hz=f_max, duration_s=delay + 0.06)
     omni = engine.simulate_waves(scene.geometry, absorption, BANDS, src[None], receivers, settings)
     runs = []
+    courant = 343.0 / (settings.sample_rate_hz * settings.spacing_m) if compensated else None
     for fit in fits:
         cluster = wave_sources.terms(src, fit, BANDS, f_max, settings.spacing_m,
-                                     settings.sample_rate_hz, int(settings.steps), 343.0)
+                                     settings.sample_rate_hz, int(settings.steps), 343.0,
+                                     courant=courant)
         runs.append((engine.simulate_waves(scene.geometry, absorption, BANDS, src[None],
                                            receivers, settings, terms=cluster), len(cluster[0])))
     return omni, runs

@@ -45,14 +45,15 @@ def big_box():
 def far_field():
     """One omni run and two cluster runs on the 137 mm grid (to 250 Hz; the 177 Hz hybrid's,
     whose rule radiates order 5 at 125 Hz), 40 receivers at 4 m: the synthetic order-5 source
-    (:func:`harmonic`, omni at 63 Hz) and the 30° cone fitted to orders 3/5/5/5. Per run:
+    (:func:`harmonic`, omni at 63 Hz) and the 30° cone fitted to orders 3/5/5/5, their terms
+    pre-compensated for the grid's dispersion as the bake's are (``wave_dispersion``). Per run:
     (measured, expected) gains (``band_gains``: the fit's own field at 4 m, each order with its
     near-field factor), the fit, the number of monopoles."""
     scene, src = big_box()
     source, pattern = cone(30.0)
     fits = [wave_sources.fit(custom(), harmonic(5), len(BANDS), np.array([0, 5, 5, 5])),
             wave_sources.fit(source, pattern, len(BANDS), np.array([3, 5, 5, 5]))]
-    omni, runs = cluster_runs(scene, src, src + FAR_M * DIRECTIONS, fits)
+    omni, runs = cluster_runs(scene, src, src + FAR_M * DIRECTIONS, fits, compensated=True)
     return [(band_gains(omni, run, fit, DIRECTIONS, FAR_M), fit, n)
             for fit, (run, n) in zip(fits, runs)]
 
@@ -71,7 +72,21 @@ def test_the_injected_order_5_cluster_radiates_the_exact_directivity(far_field):
     assert n_terms == 281 and np.all(fit.residual < 2e-4)
     peak = 4.0 / (1.0 + 1.0 / 11.0)
     worst = np.abs(measured - expected).max(axis=0)
+    print("1 + P5, worst of the peak per band:", worst / peak)
     assert worst[1] < 0.02 * peak, worst
+
+
+def test_pre_compensated_the_order_5_source_is_within_1_percent_at_the_grid_s_f_max(far_field):
+    """The same source at 250 Hz (the grid's f_max; its band's upper edge at kΔx = 0.89, where
+    the 7-point scheme's dispersion, carried five times by an order-5 term and along its group
+    direction, is what the stencils' 2% rule does not count): 1.88% of the peak with the terms
+    of before (measured, session 13), **0.56%** pre-compensated (``wave_dispersion``: the
+    closed-form residual at the band centre, kΔx = 0.63, is 3.4% of an order-5 part's peak, 1/11
+    of this pattern's energy). Asserted: below 1% of the peak (the stencils' own error at the
+    centre, 1.3%, is what the rule allows)."""
+    (measured, expected), _, _ = far_field[0]
+    peak = 4.0 / (1.0 + 1.0 / 11.0)
+    assert np.abs(measured - expected).max(axis=0)[2] < 0.01 * peak
 
 
 def test_the_30_degree_cone_at_order_5_on_the_grid(far_field):
@@ -84,6 +99,7 @@ def test_the_30_degree_cone_at_order_5_on_the_grid(far_field):
     np.testing.assert_allclose(fit.residual[1:], 0.1683, atol=0.01)
     peak = 1.0 / math.sin(math.radians(15.0)) ** 2
     worst = np.abs(measured - expected).max(axis=0)
+    print("cone, worst of the peak per band:", worst / peak)
     assert worst[1] < 0.02 * peak, worst
 
 
@@ -153,7 +169,12 @@ def test_an_order_5_term_carries_the_scheme_s_dispersion_five_times():
     centre: 2.8% at 125 Hz, 11.5% at 250 Hz; measured 3.7-4.1% and 11.9-12.1%, the band core
     reaching above the centre) and within 1% of 1 on the diagonal (measured 0.2-1.0%).
     Tolerance: the closed form within 2% of energy (the stencils' own error, −0.2 / −2.8% along
-    the axis, and the window's). Not in the order rule (docs/waves-sources.md)."""
+    the axis, and the window's). Not in the order rule (docs/waves-sources.md).
+    **Pre-compensated** (``wave_dispersion``, the bake's terms): 1.012-1.015 / 0.967-0.970 along
+    the axis and 1.001 / 1.042-1.045 on the diagonal (the least squares over the sphere spread
+    the axis' error: far-field closed form 0.98 / 0.92 and 1.01 / 1.05; at 4 m an order-5 part
+    is not yet in its far field, and the lower-degree content the compensation adds radiates
+    with its own, weaker near field). Asserted within 5% of 1 in energy (was 12%)."""
     scene, src = big_box()
     order = np.array([wave_sources.component_order(k) for k in range(84)])
     fits, towards = [], []
@@ -165,10 +186,16 @@ def test_an_order_5_term_carries_the_scheme_s_dispersion_five_times():
         towards.append(np.array([axis, np.negative(axis)], float))
     u = np.vstack(towards)
     omni, runs = cluster_runs(scene, src, src + FAR_M * u, fits)
+    _, compensated = cluster_runs(scene, src, src + FAR_M * u, fits, compensated=True)
     theta = 2.0 * math.pi * BANDS[1:3] * (C / 2500.0) / C
-    for i, ((run, _), fit) in enumerate(zip(runs, fits)):
+    for i, ((run, _), (run_c, _), fit) in enumerate(zip(runs, compensated, fits)):
         measured, expected = band_gains(omni, run, fit, u, FAR_M)
         ratio = measured[2 * i:2 * i + 2, 1:3] / expected[2 * i:2 * i + 2, 1:3]
         closed = (1.0 + theta ** 2 / 36.0) ** 10 if i == 0 else np.ones(2)
         np.testing.assert_allclose(ratio, np.broadcast_to(closed, ratio.shape), atol=0.02,
                                    err_msg=["axis", "diagonal"][i])
+        # Pre-compensated (wave_dispersion), as the bake's terms are: see the next docstring.
+        measured, expected = band_gains(omni, run_c, fit, u, FAR_M)
+        ratio = measured[2 * i:2 * i + 2, 1:3] / expected[2 * i:2 * i + 2, 1:3]
+        print(["axis", "diagonal"][i], "pre-compensated:", ratio)
+        np.testing.assert_allclose(ratio, 1.0, atol=0.05, err_msg=["axis", "diagonal"][i])

@@ -324,7 +324,8 @@ def bake_waves(scene: Any, arrays: dict[str, np.ndarray], binning: Any, cross: C
                 memory_limit_bytes)
             cluster = wave_sources.terms(source_m, fitted, bands, cross.max_frequency_hz,
                                          longer.spacing_m, longer.sample_rate_hz,
-                                         int(longer.steps), c, courant=longer.courant)
+                                         int(longer.steps), c,
+                                         courant=c / (longer.sample_rate_hz * longer.spacing_m))
             if np.any(np.abs(scene.geometry.winding_numbers(cluster[0])) < 0.5):
                 raise SettingError(
                     f"waves: source {src.name or i + 1} ({src.directivity}) at "
