@@ -145,16 +145,18 @@ def compensated(gains: dict[int, np.ndarray], kh: np.ndarray,
     out = dict(gains)
     kh = np.asarray(kh, float)
     position = np.interp(kh, THETA_TABLE, np.arange(THETA_TABLE.size, dtype=float))
+    below = np.minimum(position.astype(int), THETA_TABLE.size - 2)  # the entry below each θ
+    above = position - below  # 0 to 1: the share of the entry above
     for order in sorted({len(MONOMIALS[k]) for k in gains} - {0}):
         present = tuple(k for k in sorted(gains) if len(MONOMIALS[k]) == order)
         everyone = [k for k, m in enumerate(MONOMIALS) if len(m) == order]
         table = compensation_table(present, order, float(courant))
         exact = np.array([gains[k] if k in gains else np.zeros_like(kh) for k in everyone])
         mapped = np.zeros((len(present), kh.size), dtype=np.result_type(exact, float))
-        for j in range(THETA_TABLE.size):
-            hat = np.clip(1.0 - np.abs(position - j), 0.0, None)
-            if np.any(hat > 0.0):
-                mapped += (table[j] @ exact) * hat
+        for j in np.unique(below):  # T(θ) between entries j and j + 1, linearly
+            at = below == j
+            mapped[:, at] = (table[j] @ exact[:, at]) * (1.0 - above[at]) + (
+                table[j + 1] @ exact[:, at]) * above[at]
         for row, k in enumerate(present):
             out[k] = mapped[row]
     return out
