@@ -6,7 +6,8 @@ so a term at node offset m radiates the grid's Green's function moved by mh. Far
 that function is, by stationary phase, a wave e^{i k_g·x}/r whose wavevector k_g(u) is the point
 of the dispersion surface sin²(ωΔt/2) = λ² Σᵢ sin²(kᵢΔx/2) (von Neumann; Trefethen, "Group
 velocity in finite difference schemes", SIAM Review 24(2), 1982; Bilbao, *Numerical Sound
-Synthesis*, Wiley 2009, §10.2) whose normal, the group velocity ∇_k ω, points towards the
+Synthesis*, Wiley 2009; Kowalczyk and van Walstijn, IEEE TASL 19(1), 2011, the standard
+rectilinear scheme) whose normal, the group velocity ∇_k ω, points towards the
 receiver u. Its gradient is ∝ (sin k_xΔx, sin k_yΔx, sin k_zΔx), so **k_g(u) is closed form up
 to one scalar**: kᵢΔx = arcsin(a·uᵢ), a from Σᵢ (1 − √(1 − a²uᵢ²))/2 = sin²(λθ/2)/λ² (θ = ωΔx/c;
 :func:`group_wavenumbers`). The moved Green's function is then G(x)·e^{−i k_g·m Δx}, so the
