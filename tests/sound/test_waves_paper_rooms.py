@@ -40,28 +40,35 @@ pytestmark = pytest.mark.usefixtures("core")
 # dense field of 18 GB at 1 ms late bins: its receivers here are every 2 m and its late bins 4 ms
 # (54 receivers off the source, like paper-medium's).
 ROOMS = {"paper-medium": {}, "paper-large": {"spacing_m": 2.0, "late_bin_s": 0.004}}
+#: The three rooms with flat surfaces on both sides; paper-small at the crossover, record and
+#: coherent span its own tests use (test_waves_paper_room.py), the others as above.
+FLAT_ROOMS = {"paper-small": {"crossover_hz": 707.0, "record_s": 3.0, "coherent_s": 0.4}, **ROOMS}
 
 _DECAYS: dict = {}
 
 
-def room_decays(name):
-    """The hybrid of the built-in room ``name`` (automatic crossover, its automatic wall model),
+def room_decays(name, scattering=None):
+    """The hybrid of the built-in room ``name`` (automatic crossover, its automatic wall model;
+    with ``scattering``, every material's scattering coefficient set to it),
     mean T30 and EDT per band over the receivers that do not hold the source, and the room's
     exact modes at its wave bands and its first ray band (T30 the fitted line; record 8 s, for
     paper-large's 3 s decays; summed coherently over the first second, which EDT needs: the
     receivers share the source's height, see ``locally_reacting_modal_decay``), computed once a
     session: (hybrid, modes, wave bands, bandwidths of the last wave band and the first ray
     band, Hz)."""
-    if name not in _DECAYS:
+    if (name, scattering) not in _DECAYS:
         from sonolux.sound.wave_spheres import ball_points
 
-        extra = ROOMS[name]
+        extra = FLAT_ROOMS[name]
         data = tomllib.loads(builtin.path(name).read_text())
         if "spacing_m" in extra:
             data["receivers"]["spacing_m"] = extra["spacing_m"]
+        if scattering is not None:
+            for material in data["materials"].values():
+                material["scattering"] = scattering
         scene = sonolux.load_scene(data)
         hybrid = bake(scene, rays=20_000, waves=True,
-                      **({"late_bin_s": extra["late_bin_s"]} if "late_bin_s" in extra else {}))
+                      **{k: extra[k] for k in ("late_bin_s", "crossover_hz") if k in extra})
         assert hybrid.settings["wall_model"] == "locally-reacting-modes"
         nb = hybrid.waves["wave_bands"]
         far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
@@ -72,13 +79,14 @@ def room_decays(name):
         modes = locally_reacting_modal_decay(
             data["geometry"][0]["size_m"], hybrid.source_positions_m[0], points,
             {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}, bands,
-            hybrid.settings["air_attenuation_per_m"][:nb + 1], fit_limits=False, record_s=8.0,
-            coherent_s=1.0)
+            hybrid.settings["air_attenuation_per_m"][:nb + 1], fit_limits=False,
+            record_s=extra.get("record_s", 8.0), coherent_s=extra.get("coherent_s", 1.0))
         h = mean_times(hybrid, far)
-        print(name, "crossover", hybrid.waves["crossover_hz"], "hybrid", h, "modes", modes)
+        print(name, scattering, "crossover", hybrid.waves["crossover_hz"], "hybrid", h,
+              "modes", modes)
         widths = [b * (2**0.5 - 2**-0.5) for b in bands[nb - 1:nb + 1]]
-        _DECAYS[name] = (h, modes, nb, widths)
-    return _DECAYS[name]
+        _DECAYS[name, scattering] = (h, modes, nb, widths)
+    return _DECAYS[name, scattering]
 
 
 @pytest.mark.slow
@@ -154,4 +162,30 @@ def test_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
                          iso_3382_2_sigma("t30_s", modes["t30_s"][nb], b_ray, 4))
     step = (h["t30_s"][nb] / h["t30_s"][nb - 1]) / (modes["t30_s"][nb] / modes["t30_s"][nb - 1])
     print(name, "T30 step against the room's", step, "tolerance", tol)
+    assert abs(step - 1) < tol
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(FLAT_ROOMS))
+def test_flat_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
+    """The strict xfails' own measurement (``test_paper_rooms_t30_step_across_the_crossover_is_
+    the_rooms``, paper-small's ``test_paper_room_t30_step_across_the_crossover_is_the_rooms``)
+    with the same surfaces on both sides of the crossover: every material's scattering
+    coefficient set to 0, so the rays' walls are the waves' flat locally reacting walls, and the
+    exact modes are the room both model. The hybrid's T30 step from its last wave band to its
+    first ray band against the room's, within three σ of both bands combined (ISO 3382-2 annex A,
+    4 points; 9.1 / 9.4 / 9.6 %).
+
+    The receivers share the talker's height (1.5 m), where the room's modes are not weighed as
+    a diffuse field weighs them: the gap's grazing mode over the absorbing floor is weaker there
+    (|ψ₀|² 0.78 of its mean at paper-large's 250 Hz, 1.18 at paper-small's 1 kHz, 2 m high), which
+    the rays carry (the grazing mode's profile, sonolux_core::sound::grazing). Measured
+    (2026-11-28, notes/s13/i18cont.md): without the profile −6.8 / +2.1 / +11.9 %; with it
+    (see the docs, docs/waves-hybrid.md "Continuity")."""
+    h, modes, nb, (b_wave, b_ray) = room_decays(name, scattering=0.0)
+    tol = 3 * math.hypot(iso_3382_2_sigma("t30_s", modes["t30_s"][nb - 1], b_wave, 4),
+                         iso_3382_2_sigma("t30_s", modes["t30_s"][nb], b_ray, 4))
+    step = (h["t30_s"][nb] / h["t30_s"][nb - 1]) / (modes["t30_s"][nb] / modes["t30_s"][nb - 1])
+    print(name, "flat: T30 step against the room's", step, "tolerance", tol)
+    assert 0.09 < tol < 0.1
     assert abs(step - 1) < tol
