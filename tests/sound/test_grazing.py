@@ -1,7 +1,7 @@
 """The rays' grazing modes of parallel surface pairs (wall model "locally-reacting-modes";
 python/sonolux/sound/grazing.py, sonolux_core::sound::grazing): the pairs a mesh has, the
 grazing mode's wavenumber against the exact rooms' independent solver, and the flat paper room's
-decay against its exact modes (docs/waves-hybrid.md, "Continuity")."""
+decay against its exact modes (docs/waves-grazing.md)."""
 
 from __future__ import annotations
 
@@ -225,7 +225,7 @@ def test_a_plane_of_several_materials_states_how_far_its_rate_may_be():
 
 
 def test_the_image_sources_keep_the_plain_locally_reacting_walls():
-    """Decided (docs/waves-hybrid.md, "The image sources keep the locally reacting walls"): an
+    """Decided (docs/waves-grazing.md, "The image sources keep the locally reacting walls"): an
     image source is one term of the image series whose coherent sum the grazing mode is, so it
     keeps its own reflections' losses; the table does not reach it. A bake of paper-small with
     image sources up to order 2 (125 and 1000 Hz): the arrivals are the same with and without

@@ -181,7 +181,7 @@ def test_flat_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
     (|ψ₀|² 0.78 of its mean at paper-large's 250 Hz, 1.18 at paper-small's 1 kHz, 2 m high), which
     the rays carry (the grazing mode's profile, sonolux_core::sound::grazing). Measured
     (2026-11-28, notes/s13/i18cont.md): without the profile −6.8 / +2.1 / +11.9 %; with it
-    (see the docs, docs/waves-hybrid.md "Continuity")."""
+    (docs/waves-grazing.md, "Where the grazing mode's energy is")."""
     h, modes, nb, (b_wave, b_ray) = room_decays(name, scattering=0.0)
     tol = 3 * math.hypot(iso_3382_2_sigma("t30_s", modes["t30_s"][nb - 1], b_wave, 4),
                          iso_3382_2_sigma("t30_s", modes["t30_s"][nb], b_ray, 4))

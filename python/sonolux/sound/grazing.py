@@ -1,5 +1,5 @@
 """The grazing modes of parallel surface pairs, for the rays (wall model
-"locally-reacting-modes"; sonolux_core::sound::grazing, docs/waves-hybrid.md "Continuity").
+"locally-reacting-modes"; sonolux_core::sound::grazing, docs/waves-grazing.md).
 
 Between two parallel locally reacting planes a distance D apart, the field across the gap is one
 of the gap's 1D modes, κ solving the boundary conditions at both planes (Morse and Ingard,

@@ -1,5 +1,5 @@
 //! Sound travelling nearly parallel to two parallel surfaces (a flat floor under a flat ceiling):
-//! the tracer's stand-in for the pair's grazing mode (docs/waves-hybrid.md, "Continuity").
+//! the tracer's stand-in for the pair's grazing mode (docs/waves-grazing.md).
 //!
 //! Why. Between two parallel locally reacting planes a distance D apart, of normalised
 //! admittances β_a and β_b, the field's dependence across the gap is one of the 1D modes
@@ -34,7 +34,7 @@
 //!
 //! Python finds the pairs (python/sonolux/sound/grazing.py: parallel planes that both cover the
 //! room's plan) and solves κ₀ per pair and band at the band's centre; this table carries the
-//! result into the segment and the bounce. Measured: docs/waves-hybrid.md.
+//! result into the segment and the bounce. Measured: docs/waves-grazing.md.
 
 use glam::DVec3;
 
