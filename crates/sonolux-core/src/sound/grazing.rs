@@ -59,6 +59,8 @@ pub struct GrazingModes {
     nodes: usize,
     /// `[pair][band][node]`: the grazing mode's energy density over its mean across the gap.
     profile: Vec<f64>,
+    /// `[pair]`: the widest of its bands' limits (a ray steeper than it is no band's mode).
+    widest: Vec<f64>,
 }
 
 impl GrazingModes {
@@ -81,7 +83,7 @@ impl GrazingModes {
             return bad("every limit must lie in [0, 1] and every rate be finite and ≥ 0".into());
         }
         let extent = offsets.iter().flatten().fold(1.0f64, |m, o| m.max(o.abs()));
-        Ok(GrazingModes { n_bands, normals, offsets: offsets.to_vec(), cos_limit, rate_per_m, tolerance_m: 1e-6 * extent, nodes: 0, profile: Vec::new() })
+        Ok(GrazingModes { n_bands, normals, offsets: offsets.to_vec(), cos_limit, rate_per_m, tolerance_m: 1e-6 * extent, nodes: 0, profile: Vec::new(), widest: Vec::new() })
     }
 
     /// The same table with each pair's and band's grazing-mode profile, `[pair][band][node]`
@@ -91,6 +93,7 @@ impl GrazingModes {
         if nodes < 2 || profile.len() != self.normals.len() * self.n_bands * nodes || profile.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
             return Err(CoreError::invalid("grazing", format!("{} profile values of {nodes} nodes for {} pairs and {} bands: at least 2 nodes, one value a pair, band and node, each finite and ≥ 0", profile.len(), self.normals.len(), self.n_bands)));
         }
+        self.widest = self.cos_limit.chunks(self.n_bands).map(|l| l.iter().fold(0.0f64, |m, &x| m.max(x))).collect();
         (self.nodes, self.profile) = (nodes, profile);
         Ok(self)
     }
@@ -133,7 +136,7 @@ impl GrazingModes {
     /// of a met pair whose table has profiles: its deposits are then [`Self::weigh`]ed.
     #[inline]
     pub fn profiled(&self, dir: DVec3, met: u32) -> bool {
-        self.nodes > 0 && met != 0 && self.normals.iter().enumerate().any(|(p, n)| p < 32 && met & (1 << p) != 0 && (0..self.n_bands).any(|b| dir.dot(*n).abs() < self.cos_limit[p * self.n_bands + b]))
+        self.nodes > 0 && met != 0 && self.normals.iter().zip(&self.widest).enumerate().any(|(p, (n, w))| p < 32 && met & (1 << p) != 0 && dir.dot(*n).abs() < *w)
     }
 
     /// A deposit `d` (per band) made at `point` by a ray along `dir` that has met the pairs in
