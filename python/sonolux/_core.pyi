@@ -86,7 +86,7 @@ class Acoustics:
         wall_model: str = "random-incidence",
         by_angle: Mapping[int, NDArray[np.float64]] | None = None,
         grazing: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-                       NDArray[np.float64]] | None = None,
+                       NDArray[np.float64], NDArray[np.float64]] | None = None,
     ) -> Acoustics: ...
     @property
     def n_bands(self) -> int: ...

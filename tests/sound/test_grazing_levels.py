@@ -73,7 +73,7 @@ def test_each_group_takes_the_pairs_of_its_own_mesh_and_bands(tmp_path):
     assert low.level.removed == 50 and high.level.removed == 0
     assert high.grazing is None
     assert low.grazing is not None
-    normals, offsets, cos_limit, rate = low.grazing
+    normals, offsets, cos_limit, rate, profile = low.grazing
     assert normals.shape == (3, 3) and cos_limit.shape == (3, 2)
     assert sorted(np.abs(offsets[:, 1] - offsets[:, 0]).round(9)) == [3.0, 6.0, 8.0]
     # A plain wall model has no table in any group.
@@ -83,6 +83,7 @@ def test_each_group_takes_the_pairs_of_its_own_mesh_and_bands(tmp_path):
         low.level, bands=slice(0, len(BANDS))))
     np.testing.assert_array_equal(full[2][:, low.level.bands], cos_limit)
     np.testing.assert_array_equal(full[3][:, low.level.bands], rate)
+    np.testing.assert_array_equal(full[4][:, low.level.bands], profile)
     assert np.all(rate > 0)
 
 

@@ -243,7 +243,8 @@ def test_paper_room_decay_continuous_across_the_crossover():
     which the test asserts would fail; their 1 kHz EDT is +28 % off the room's); the rays' 1 kHz
     EDT +3.1 % off the room's. (The modes summed incoherently gave 0.665 and 0.650: the room's
     step −2.3 %, the rays −6.6 % off it.) Session 9, the walls meeting the grid's diffuse-field
-    absorption: the hybrid's step 4.3 % from the room's. T30 is
+    absorption: the hybrid's step 4.3 % from the room's. Session 13, the grazing mode's profile in
+    the rays: +4.4 % apart, the rays' 1 kHz EDT +3.2 % off the room's. T30 is
     ``test_paper_room_t30_step_across_the_crossover_is_the_rooms`` (a strict xfail) and
     ``test_the_rays_t30_in_this_room_is_their_scattering``."""
     h, plain, modal = _paper_room_decays()
@@ -273,7 +274,10 @@ def test_paper_room_decay_continuous_across_the_crossover():
                    "described surfaces on both sides did not close it either (docs/waves-walls.md); "
                    "nor do the rays' grazing modes (wall_model 'locally-reacting-modes', the "
                    "hybrids' default since session 12: −32.3 % with the scene's scattering, "
-                   "−30.2 % without them; −6.8 % with flat walls on both sides)")
+                   "−30.2 % without them; −6.8 % with flat walls on both sides; session 13, the "
+                   "grazing mode's profile: −31.9 %, and −1.8 % with flat walls on both sides, "
+                   "test_waves_paper_rooms.py test_flat_paper_rooms_t30_step_across_the_crossover_"
+                   "is_the_rooms)")
 def test_paper_room_t30_step_across_the_crossover_is_the_rooms():
     """The hybrid's T30 step from 500 Hz (waves) to 1 kHz (rays) against the room's own step
     (its exact modes; at 1 kHz the room's decay bends, curvature 12 %, so its T30 is the fitted
@@ -281,7 +285,8 @@ def test_paper_room_t30_step_across_the_crossover_is_the_rooms():
     ``test_paper_room_decay_continuous_across_the_crossover``). Measured (2026-11-27): waves
     0.832 s at 500 Hz against the modes' 0.848 (−1.8 %); rays 0.645 s at 1 kHz against 0.923
     (−30 %). Session 12, the grazing modes the hybrid's default: waves 0.848 s, rays 0.626 s,
-    step −32.3 % against the room's."""
+    step −32.3 % against the room's. Session 13, the grazing mode's profile across the gap: rays
+    0.630 s, step −31.9 %."""
     h, _, modal = _paper_room_decays()
     tol = 3 * math.hypot(iso_3382_2_sigma("t30_s", modal["t30_s"][0], 354.0, 4),
                          iso_3382_2_sigma("t30_s", modal["t30_s"][1], 707.0, 4))

@@ -40,28 +40,35 @@ pytestmark = pytest.mark.usefixtures("core")
 # dense field of 18 GB at 1 ms late bins: its receivers here are every 2 m and its late bins 4 ms
 # (54 receivers off the source, like paper-medium's).
 ROOMS = {"paper-medium": {}, "paper-large": {"spacing_m": 2.0, "late_bin_s": 0.004}}
+#: The three rooms with flat surfaces on both sides; paper-small at the crossover, record and
+#: coherent span its own tests use (test_waves_paper_room.py), the others as above.
+FLAT_ROOMS = {"paper-small": {"crossover_hz": 707.0, "record_s": 3.0, "coherent_s": 0.4}, **ROOMS}
 
 _DECAYS: dict = {}
 
 
-def room_decays(name):
-    """The hybrid of the built-in room ``name`` (automatic crossover, its automatic wall model),
+def room_decays(name, scattering=None):
+    """The hybrid of the built-in room ``name`` (automatic crossover, its automatic wall model;
+    with ``scattering``, every material's scattering coefficient set to it),
     mean T30 and EDT per band over the receivers that do not hold the source, and the room's
     exact modes at its wave bands and its first ray band (T30 the fitted line; record 8 s, for
     paper-large's 3 s decays; summed coherently over the first second, which EDT needs: the
     receivers share the source's height, see ``locally_reacting_modal_decay``), computed once a
     session: (hybrid, modes, wave bands, bandwidths of the last wave band and the first ray
     band, Hz)."""
-    if name not in _DECAYS:
+    if (name, scattering) not in _DECAYS:
         from sonolux.sound.wave_spheres import ball_points
 
-        extra = ROOMS[name]
+        extra = FLAT_ROOMS[name]
         data = tomllib.loads(builtin.path(name).read_text())
         if "spacing_m" in extra:
             data["receivers"]["spacing_m"] = extra["spacing_m"]
+        if scattering is not None:
+            for material in data["materials"].values():
+                material["scattering"] = scattering
         scene = sonolux.load_scene(data)
         hybrid = bake(scene, rays=20_000, waves=True,
-                      **({"late_bin_s": extra["late_bin_s"]} if "late_bin_s" in extra else {}))
+                      **{k: extra[k] for k in ("late_bin_s", "crossover_hz") if k in extra})
         assert hybrid.settings["wall_model"] == "locally-reacting-modes"
         nb = hybrid.waves["wave_bands"]
         far = np.linalg.norm(hybrid.positions_m - hybrid.source_positions_m[0], axis=1) > 0.5
@@ -72,13 +79,14 @@ def room_decays(name):
         modes = locally_reacting_modal_decay(
             data["geometry"][0]["size_m"], hybrid.source_positions_m[0], points,
             {0: (walls, walls), 1: (walls, walls), 2: (floor, walls)}, bands,
-            hybrid.settings["air_attenuation_per_m"][:nb + 1], fit_limits=False, record_s=8.0,
-            coherent_s=1.0)
+            hybrid.settings["air_attenuation_per_m"][:nb + 1], fit_limits=False,
+            record_s=extra.get("record_s", 8.0), coherent_s=extra.get("coherent_s", 1.0))
         h = mean_times(hybrid, far)
-        print(name, "crossover", hybrid.waves["crossover_hz"], "hybrid", h, "modes", modes)
+        print(name, scattering, "crossover", hybrid.waves["crossover_hz"], "hybrid", h,
+              "modes", modes)
         widths = [b * (2**0.5 - 2**-0.5) for b in bands[nb - 1:nb + 1]]
-        _DECAYS[name] = (h, modes, nb, widths)
-    return _DECAYS[name]
+        _DECAYS[name, scattering] = (h, modes, nb, widths)
+    return _DECAYS[name, scattering]
 
 
 @pytest.mark.slow
@@ -96,7 +104,8 @@ def test_paper_rooms_edt_continuous_across_the_crossover(name):
     walls meeting the grid's diffuse-field absorption: paper-medium −2.2 % apart, paper-large
     +6.9 % (the waves' EDT rose to the modes'). Session 12, the rays' grazing modes the hybrid's
     default: paper-medium −3.7 % apart (rays −3.2 % off the modes), paper-large +4.1 % (rays
-    +3.0 %); without them −2.2 % (−1.7 %) and +6.9 % (+5.7 %)."""
+    +3.0 %); without them −2.2 % (−1.7 %) and +6.9 % (+5.7 %). Session 13, the grazing mode's
+    profile: −4.4 % (−3.9 %) and +2.9 % (+1.8 %)."""
     h, modes, nb, (b_wave, b_ray) = room_decays(name)
     tol = 3 * iso_3382_2_sigma("edt_s", modes["edt_s"][nb - 1], b_wave, 4)
     assert 0.13 < tol < 0.16
@@ -139,7 +148,9 @@ def test_paper_rooms_waves_follow_the_exact_modes(name):
                    "waves' walls flat by decision, session 10). The rays' grazing modes "
                    "(wall_model 'locally-reacting-modes', the hybrids' default since session 12) "
                    "do not change that: −24.5 % / −16.8 % with them, −21.9 % / −15.6 % without; "
-                   "with flat walls on both sides +2.1 % / +11.9 %")
+                   "nor their profile across the gap (session 13): −24.7 % / −17.5 %; with flat "
+                   "walls on both sides −0.8 % / +2.6 % (test_flat_paper_rooms_t30_step_across_"
+                   "the_crossover_is_the_rooms)")
 def test_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
     """The hybrid's T30 step from its last wave band to its first ray band against the room's
     (exact modes, fitted line), within three σ of both bands combined (ISO 3382-2 annex A, 4
@@ -148,10 +159,40 @@ def test_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
     paper-large 125 → 250 Hz hybrid 3.107 → 2.539 (−18.3 %), modes 3.243 → 3.029 (−6.6 %),
     −12.5 % apart. Session 9 (the waves' T30 within 1 % of the modes): −21.9 % and −15.5 % apart:
     the step is the rays' scattering, not the waves'. Session 12, the rays' grazing modes the
-    hybrid's default: −24.5 % and −16.8 % (rays 1.247 s at 500 Hz, 2.501 s at 250 Hz)."""
+    hybrid's default: −24.5 % and −16.8 % (rays 1.247 s at 500 Hz, 2.501 s at 250 Hz). Session
+    13, the grazing mode's profile across the gap: −24.7 % and −17.5 % (rays 1.243 s, 2.479 s)."""
     h, modes, nb, (b_wave, b_ray) = room_decays(name)
     tol = 3 * math.hypot(iso_3382_2_sigma("t30_s", modes["t30_s"][nb - 1], b_wave, 4),
                          iso_3382_2_sigma("t30_s", modes["t30_s"][nb], b_ray, 4))
     step = (h["t30_s"][nb] / h["t30_s"][nb - 1]) / (modes["t30_s"][nb] / modes["t30_s"][nb - 1])
     print(name, "T30 step against the room's", step, "tolerance", tol)
+    assert abs(step - 1) < tol
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(FLAT_ROOMS))
+def test_flat_paper_rooms_t30_step_across_the_crossover_is_the_rooms(name):
+    """The strict xfails' own measurement (``test_paper_rooms_t30_step_across_the_crossover_is_
+    the_rooms``, paper-small's ``test_paper_room_t30_step_across_the_crossover_is_the_rooms``)
+    with the same surfaces on both sides of the crossover: every material's scattering
+    coefficient set to 0, so the rays' walls are the waves' flat locally reacting walls, and the
+    exact modes are the room both model. The hybrid's T30 step from its last wave band to its
+    first ray band against the room's, within three σ of both bands combined (ISO 3382-2 annex A,
+    4 points; 9.1 / 9.4 / 9.6 %).
+
+    The receivers share the talker's height (1.5 m), where the room's modes are not weighed as
+    a diffuse field weighs them: the gap's grazing mode over the absorbing floor is weaker there
+    (|ψ₀|² 0.78 of its mean at paper-large's 250 Hz, 1.18 at paper-small's 1 kHz, 2 m high), which
+    the rays carry (the grazing mode's profile, sonolux_core::sound::grazing; docs/waves-grazing.md,
+    "Where the grazing mode's energy is"). What they do not carry, the interference of the modes
+    with a node across the gap at points on the source's own height (their weight there 1.4-1.7
+    where the volume's is 1: T30 6-9 % shorter), is left inside the tolerance. Measured
+    (2026-11-28, session 13, load 6-7): −1.8 / −0.8 / +2.6 % (rays 0.908 / 1.637 / 3.084 s against
+    the modes' 0.931 / 1.662 / 3.029); without the profile −6.8 / +2.1 / +11.9 %."""
+    h, modes, nb, (b_wave, b_ray) = room_decays(name, scattering=0.0)
+    tol = 3 * math.hypot(iso_3382_2_sigma("t30_s", modes["t30_s"][nb - 1], b_wave, 4),
+                         iso_3382_2_sigma("t30_s", modes["t30_s"][nb], b_ray, 4))
+    step = (h["t30_s"][nb] / h["t30_s"][nb - 1]) / (modes["t30_s"][nb] / modes["t30_s"][nb - 1])
+    print(name, "flat: T30 step against the room's", step, "tolerance", tol)
+    assert 0.09 < tol < 0.1
     assert abs(step - 1) < tol

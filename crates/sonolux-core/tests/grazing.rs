@@ -1,5 +1,6 @@
 //! The grazing modes of parallel surface pairs in the tracer (sound/grazing.rs): the same bits
-//! whatever the threads and ray ranges, in effect (a bake with them differs from one without),
+//! whatever the threads and ray ranges (with the modes' profiles across the gaps), in effect (a
+//! bake with them differs from one without),
 //! and a table of another band count refused.
 
 use glam::DVec3;
@@ -20,6 +21,10 @@ fn grazing_modes_keep_the_bits_whatever_threads_and_ranges() {
     let k = |f: f64| 2.0 * std::f64::consts::PI * f / 343.0;
     let limits: Vec<f64> = [3.0, 7.0, 5.0].iter().flat_map(|d| [125.0, 250.0].map(|f| (std::f64::consts::PI / (k(f) * d)).min(1.0))).collect();
     let table = GrazingModes::new(2, &[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0.0, 3.0], [0.0, 7.0], [0.0, 5.0]], limits, vec![0.02, 0.018, 0.002, 0.002, 0.003, 0.003]).unwrap();
+    // With the modes' profiles across each gap (5 nodes: lower by the floor, as a grazing mode
+    // over an absorbing floor; uniform across the walls' gaps).
+    let profile: Vec<f64> = (0..3).flat_map(|p| (0..2).flat_map(move |_| (0..5).map(move |i| if p == 0 { 0.7 + 0.15 * i as f64 } else { 1.0 }))).collect();
+    let table = table.with_profiles(5, profile).unwrap();
     let with = Extras { wall_model: WallModel::LocallyReacting, grazing_modes: Some(&table), ..Extras::default() };
     let set = |threads: usize, first: u64, end: u64| SoundSettings { seed: 9, first_ray: first, end_ray: end, ..common::sound_settings(5000, Estimator::Paper, threads) };
     let one = trace_sound_with(&mesh, &bvh, &ac, &src, &rc, &set(1, 0, 5000), with, |_| true).unwrap();

@@ -29,7 +29,9 @@ fn per_material(a: &PyReadonlyArray2<'_, f64>) -> (usize, Vec<f64>) {
 /// surface is described, at angles evenly spaced in cos θ from grazing (0) to normal incidence
 /// (1), at least 2 (sonolux_core::sound::scattering); both calls use it too. grazing: None, or
 /// (normals float64[pair, 3], offsets float64[pair, 2], cos_limit float64[pair, band],
-/// rate_per_m float64[pair, band]): the grazing modes of parallel surface pairs
+/// rate_per_m float64[pair, band], profile float64[pair, band, node]: the grazing mode's energy
+/// density over its mean, nodes evenly spaced from each pair's first plane to its second, at
+/// least 2): the grazing modes of parallel surface pairs
 /// (sonolux_core::sound::grazing; python/sonolux/sound/grazing.py); the tracer uses it.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct Acoustics {
@@ -39,17 +41,22 @@ pub(crate) struct Acoustics {
     grazing: Option<core::GrazingModes>,
 }
 
-/// The grazing table's four arrays (see [`Acoustics`]).
-type GrazingArrays<'py> = (PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>);
+/// The grazing table's five arrays (see [`Acoustics`]).
+type GrazingArrays<'py> = (PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, f64>, PyReadonlyArray3<'py, f64>);
 
-fn grazing_modes(n_bands: usize, (normals, offsets, cos_limit, rate): GrazingArrays<'_>) -> PyResult<core::GrazingModes> {
+fn grazing_modes(n_bands: usize, (normals, offsets, cos_limit, rate, profile): GrazingArrays<'_>) -> PyResult<core::GrazingModes> {
     let (normals, offsets) = (normals.as_array(), offsets.as_array());
     if normals.ncols() != 3 || offsets.ncols() != 2 || cos_limit.as_array().dim() != (normals.nrows(), n_bands) || rate.as_array().dim() != (normals.nrows(), n_bands) {
         return Err(invalid(format!("grazing: shapes {:?}, {:?}, {:?}, {:?}; (pairs, 3), (pairs, 2), (pairs, {n_bands}) and (pairs, {n_bands}) expected", normals.dim(), offsets.dim(), cos_limit.as_array().dim(), rate.as_array().dim())));
     }
     let n: Vec<[f64; 3]> = normals.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
     let o: Vec<[f64; 2]> = offsets.rows().into_iter().map(|r| [r[0], r[1]]).collect();
-    core::GrazingModes::new(n_bands, &n, &o, cos_limit.as_array().iter().copied().collect(), rate.as_array().iter().copied().collect()).map_err(to_py)
+    let (pairs, bands, nodes) = profile.as_array().dim();
+    if (pairs, bands) != (n.len(), n_bands) {
+        return Err(invalid(format!("grazing: profile of shape {:?}; ({}, {n_bands}, nodes) expected", (pairs, bands, nodes), n.len())));
+    }
+    let table = core::GrazingModes::new(n_bands, &n, &o, cos_limit.as_array().iter().copied().collect(), rate.as_array().iter().copied().collect()).map_err(to_py)?;
+    table.with_profiles(nodes, profile.as_array().iter().copied().collect()).map_err(to_py)
 }
 
 #[pymethods]

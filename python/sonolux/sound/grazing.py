@@ -1,5 +1,5 @@
 """The grazing modes of parallel surface pairs, for the rays (wall model
-"locally-reacting-modes"; sonolux_core::sound::grazing, docs/waves-hybrid.md "Continuity").
+"locally-reacting-modes"; sonolux_core::sound::grazing, docs/waves-grazing.md).
 
 Between two parallel locally reacting planes a distance D apart, the field across the gap is one
 of the gap's 1D modes, κ solving the boundary conditions at both planes (Morse and Ingard,
@@ -8,6 +8,14 @@ of the others (Kuttruff, *Room Acoustics*, §3.5: ε₀ = 1), where a specular r
 planes is not damped at all. The rays with |cos θ| < π/(kD) to the pair's normal stand for that
 mode (each mode of the gap holds the share π/(kD) of the diffuse field's cosines): they lose
 its energy along their path, Im κ₀²/k per metre, and nothing at the pair's planes.
+
+The mode's energy is not uniform across the gap: its density is |ψ₀(z)|², ψ₀ = cos κ₀z +
+(jkβ_a/κ₀) sin κ₀z with κ₀ complex (:func:`grazing_profile`), lower by the more absorbing plane.
+A source at z_s feeds the mode, and a receiver at z_r reads it, in proportion to |ψ₀|² there
+(the modal expansion of the Green's function, Morse and Ingard §9.4–9.5, a mode's term
+ψ(s)ψ(r)/Λ). The table carries |ψ₀|² over its mean across the gap; the tracer weighs a grazing
+ray's deposits by it where they are made, and its energy by it at its source once the ray meets
+the pair (sonolux_core::sound::grazing).
 
 Pairs are found from the mesh: along a direction, the two extreme planes form a pair when each
 alone is the whole room seen along that direction (its area is half the room's projected
@@ -133,6 +141,33 @@ def interference_length_m(k: float, spacing_m: float) -> float:
     return float(2 * np.pi / (k - np.sqrt(k * k - kappa1 * kappa1)))
 
 
+#: Nodes of a grazing mode's profile across the gap (evenly spaced, plane a to plane b). The
+#: profile's curvature is |κ₀|² ≤ (1.4/D)² at a first ray band (paper rooms); at 64 intervals a
+#: linear interpolation is off by at most (1.4/64)²/8 ≈ 6·10⁻⁵ of it there.
+PROFILE_NODES = 65
+
+
+def grazing_profile(k: float, spacing_m: float, beta_a: float, beta_b: float,
+                    nodes: int = PROFILE_NODES) -> np.ndarray:
+    """float64[nodes]: the gap's grazing mode's energy density |ψ₀(z)|² over its mean across the
+    gap, at ``nodes`` heights evenly spaced from plane a (z = 0, admittance ``beta_a``) to plane b
+    (z = D), ψ₀ = cos κ₀z + (jkβ_a/κ₀) sin κ₀z (the mode :func:`grazing_wavenumber_squared`
+    solves; Morse and Ingard 1968, §9.4). The mean is taken by Simpson's rule on 16× the nodes'
+    density (exact to 10⁻⁹ here). Rigid planes (κ₀ = 0): 1 everywhere."""
+    kappa = np.sqrt(complex(grazing_wavenumber_squared(k, spacing_m, beta_a, beta_b)))
+    if kappa == 0:
+        return np.ones(nodes)
+
+    def density(z: np.ndarray) -> np.ndarray:
+        psi = np.cos(kappa * z) + 1j * k * beta_a / kappa * np.sin(kappa * z)
+        return np.abs(psi) ** 2
+
+    fine = np.linspace(0.0, spacing_m, 16 * (nodes - 1) + 1)
+    f = density(fine)
+    mean = (f[0] + f[-1] + 4 * f[1:-1:2].sum() + 2 * f[2:-1:2].sum()) / (3 * (fine.size - 1))
+    return density(np.linspace(0.0, spacing_m, nodes)) / mean
+
+
 def _rate(k: float, spacing_m: float, beta_a: float, beta_b: float) -> float:
     """The grazing mode's energy loss per metre, Im κ₀²/k."""
     return max(grazing_wavenumber_squared(k, spacing_m, beta_a, beta_b).imag, 0.0) / k
@@ -190,9 +225,11 @@ def mixed_plane_spread(vertices_m: np.ndarray, triangles: np.ndarray, material_i
 
 def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: np.ndarray,
                 absorption: np.ndarray, centres_hz: np.ndarray, speed_of_sound_m_s: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
     """(normals float64[pair, 3], offsets float64[pair, 2], cos_limit float64[pair, band],
-    rate_per_m float64[pair, band]) for ``Acoustics(grazing=...)``, or None without pairs.
+    rate_per_m float64[pair, band], profile float64[pair, band, node]) for
+    ``Acoustics(grazing=...)``, or None without pairs. ``profile``: :func:`grazing_profile` at
+    the band's centre (1 where the band keeps its rays).
     ``absorption`` float64[material, band]: random-incidence coefficients, each turned into
     Paris' conductance as the locally reacting walls do; a band of a plane above the 0.951 a
     locally reacting wall absorbs keeps its rays as they are (limit 0)."""
@@ -206,6 +243,7 @@ def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: n
     offsets = np.array([p.offsets for p in pairs])
     cos_limit = np.zeros((len(pairs), nb))
     rate = np.zeros((len(pairs), nb))
+    profile = np.ones((len(pairs), nb, PROFILE_NODES))
     for i, p in enumerate(pairs):
         betas, high = [], np.zeros(nb, bool)
         for side in p.triangles:
@@ -219,8 +257,10 @@ def modes_table(vertices_m: np.ndarray, triangles: np.ndarray, material_index: n
                                                 float(betas[1][b]))
             cos_limit[i, b] = min(1.0, np.pi / (k[b] * p.spacing_m))
             rate[i, b] = max(kappa2.imag, 0.0) / k[b]
-    return normals, offsets, cos_limit, rate
+            profile[i, b] = grazing_profile(float(k[b]), p.spacing_m, float(betas[0][b]),
+                                            float(betas[1][b]))
+    return normals, offsets, cos_limit, rate, profile
 
 
-__all__ = ["Pair", "grazing_wavenumber_squared", "interference_length_m", "mixed_plane_spread",
-           "modes_table", "parallel_pairs"]
+__all__ = ["PROFILE_NODES", "Pair", "grazing_profile", "grazing_wavenumber_squared",
+           "interference_length_m", "mixed_plane_spread", "modes_table", "parallel_pairs"]

@@ -12,8 +12,8 @@ the angle at which sound meets it, in the tracer and in the image sources alike
   energy along their path (:mod:`sonolux.sound.grazing`; Morse and Ingard 1968, §9.4). A bake
   with waves uses it unless told otherwise (since session 12): the hybrid has the waves' walls
   on both sides of its crossover, and the rays damp the gap's grazing mode as the waves do
-  (docs/waves-hybrid.md, "Continuity"). The image sources take the locally reacting walls
-  alone (why: docs/waves-hybrid.md).
+  (docs/waves-grazing.md). The image sources take the locally reacting walls
+  alone (why: docs/waves-grazing.md).
 
 What the options say wins, then the scene's ``[settings] wall_model``, then the automatic choice.
 """
@@ -71,7 +71,7 @@ def grazing_table(scene: Any, name: str, absorption: Any, level: Any = None,
                 f"loss is taken from their area-weighted admittance (right for patches much "
                 f"smaller than the mode's interference length, {length:.3g} m at "
                 f"{centres_hz[b]:.4g} Hz); patches much larger than that would change it by "
-                f"up to {100 * spread[p, b]:.0f} % (docs/waves-hybrid.md, \"Several materials "
+                f"up to {100 * spread[p, b]:.0f} % (docs/waves-grazing.md, \"Several materials "
                 f"on a plane\")")
     return grazing.modes_table(*args)
 

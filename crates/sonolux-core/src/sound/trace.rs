@@ -76,6 +76,8 @@ struct RayState<B: Bands> {
     /// (its distance is the leg d₂ of Rindel's K) and kept for the next segment.
     next_known: bool,
     next: SurfaceHit,
+    /// The pairs of parallel planes (sound/grazing.rs) whose planes the ray has met, a bit a pair.
+    pairs_met: u32,
     /// Per band: the energy relative to `share`; the ray stops when all are below the floor.
     energy: B,
     /// When the bands scatter unlike ([`bounce::hero_sampled`]): the ray's hero band, and per
@@ -94,7 +96,7 @@ impl<B: Bands> RayState<B> {
             source: 0, index: 0, key: 0, rng: Stream::new(0, 0, 0), pos: DVec3::ZERO, dir: DVec3::X,
             share: 0.0, path: 0.0, wave_radius: 0.0, reflections: 0, segments: 0,
             free_n: 0, free_sum: 0.0, free_sq: 0.0,
-            spheres: false, specular_only: true, connected_until_s: 0.0, next_known: false, next: None,
+            spheres: false, specular_only: true, connected_until_s: 0.0, next_known: false, next: None, pairs_met: 0,
             energy: B::zeros(n_bands),
             hero: 0,
             products: B::zeros(n_bands),
@@ -296,6 +298,7 @@ fn start_ray<const NB: usize, B: Bands>(scene: &Scene, limits: &Limits<NB>, s: u
     ray.specular_only = true;
     ray.connected_until_s = 0.0;
     ray.next_known = false;
+    ray.pairs_met = 0;
     for t in &mut ray.tally {
         t.as_mut()[..nb].fill(0.0);
     }
@@ -373,6 +376,10 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
     let point = on_surface(scene, ray.pos + ray.dir * length, normal, tri);
     let material = super::leave::material(scene, tri);
     let m = material * nb;
+    if let Some(g) = scene.grazing.filter(|_| !PLAIN) {
+        // The grazing mode's coupling to the source, at the ray's first meeting with a pair.
+        g.meet(point, normal, ray.dir, ray.specular_only, scene.sources[ray.source].position, &mut ray.pairs_met, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::REWEIGHTED].as_mut()[..nb]);
+    }
     absorb_at_surface(scene, m, point, ray.dir, normal, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb], (&mut scratch.absorption[..nb], &mut scratch.kept[..nb]));
     let mut scat = &scene.acoustics.scattering[m..m + nb];
     let mut p_diffuse = scene.p_diffuse[material];
@@ -464,6 +471,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
     // Every deposit of a segment arrives from −dir: its direction bin (an atan2) is found at
     // the segment's first deposit and kept for the others.
     let mut direction = None;
+    let profiled = scene.grazing.filter(|g| !PLAIN && g.profiled(dir, ray.pairs_met));
     scene.receivers.crossings(ray.pos, dir, length, stamp, seg_id, |c| {
         // The wavefront reaches the sphere's centre at its distance from the image source,
         // not where this ray passes nearest: exact times for specular paths.
@@ -488,6 +496,9 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
             for b in 0..nb {
                 deposit[b] = e[b] * weight;
             }
+        }
+        if let Some(g) = profiled {
+            g.weigh(dir, ray.pairs_met, ray.pos + dir * c.t_nearest, &mut deposit[..nb]); // the grazing mode's profile
         }
         scene.receivers.weigh(c.receiver as usize, -dir, &mut deposit[..nb], gain);
         let cell = lay.cell(c.receiver as usize, tb, *direction.get_or_insert_with(|| lay.direction_bin(-dir)));
