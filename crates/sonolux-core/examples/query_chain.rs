@@ -9,7 +9,9 @@
 //! e.g. `examples/l-room/l-room.obj 10.8 3 1.6` (the L-room and its talker) or
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
 //! `QUERY_LANES=portable` traverses without SIMD registers; `QUERY_NODES=full|compressed` picks
-//! the tree's nodes (default: as `Bvh::build` chooses).
+//! the tree's nodes (default: as `Bvh::build` chooses); `QUERY_TREE=largest-first` builds the
+//! wide tree by the greedy collapse of sessions 1–12 (default: the SAH-optimal one), on
+//! full-precision nodes, and each round also prints the node and packet tests a query.
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -85,12 +87,29 @@ fn main() {
         Ok("compressed") => sonolux_core::bvh::Nodes::Compressed,
         _ => sonolux_core::bvh::Nodes::Auto,
     };
-    let bvh = Bvh::build_with(&mesh, nodes).unwrap();
+    let tree = std::env::var("QUERY_TREE").ok();
+    let bvh = match tree.as_deref() {
+        Some("largest-first") => Bvh::build_collapsed(&mesh, sonolux_core::bvh::Collapse::LargestFirst).unwrap(),
+        // sah:NODE:PACKET:LEAF_PACKETS, e.g. sah:1:1:4: the SAH-optimal collapse with these costs.
+        Some(t) if t.starts_with("sah:") => {
+            let v: Vec<f32> = t[4..].split(':').map(|x| x.parse().unwrap()).collect();
+            let costs = sonolux_core::bvh::TestCosts { node_test: v[0], packet_test: v[1], max_leaf_packets: v[2] as usize };
+            Bvh::build_collapsed(&mesh, sonolux_core::bvh::Collapse::SahOptimal(costs)).unwrap()
+        }
+        _ => Bvh::build_with(&mesh, nodes).unwrap(),
+    };
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),
         _ => bvh,
     };
-    let lanes = format!("{}, {} nodes", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" });
+    let lanes = format!(
+        "{}, {} nodes{}, {} nodes, {} packets",
+        bvh.simd_name(),
+        if bvh.is_compressed() { "compressed" } else { "full" },
+        tree.as_deref().map_or(String::new(), |t| format!(" ({t})")),
+        bvh.node_count(),
+        bvh.packet_count()
+    );
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };
@@ -130,6 +149,16 @@ fn main() {
             let (t, tri) = surf.nearest(p, d).map_or((u64::MAX, usize::MAX), |h| (h.0.to_bits(), h.1));
             for w in [t, tri as u64] { hash = (hash ^ w).wrapping_mul(0x0000_0100_0000_01b3); }
         }
-        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}");
+        let counts = rec.iter().filter_map(|&(p, d)| bvh.closest_hit_counted(p.as_vec3(), d.as_vec3()).map(|c| c.1));
+        let (nodes, packets, to_answer) =
+            counts.fold((0u64, 0u64, 0u64), |(a, b, c), w| (a + w.nodes as u64, b + w.packets as u64, c + w.to_answer as u64));
+        let per = |x: u64| x as f64 / n as f64;
+        let work = format!(
+            "; a query: {:.3} node tests ({:.3} on the way to the answer's leaf), {:.3} packet tests",
+            per(nodes),
+            per(to_answer),
+            per(packets)
+        );
+        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}{work}");
     }
 }

@@ -36,6 +36,7 @@ mod quantized;
 mod traverse;
 mod traverse_quantized;
 
+pub use build::{Collapse, TestCosts, WalkCounts, LEAF_PACKETS_LIMIT};
 use quantized::QNode8;
 
 use traverse::TravRay;
