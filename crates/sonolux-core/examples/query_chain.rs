@@ -9,9 +9,10 @@
 //! e.g. `examples/l-room/l-room.obj 10.8 3 1.6` (the L-room and its talker) or
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
 //! `QUERY_LANES=portable` traverses without SIMD registers; `QUERY_NODES=full|compressed` picks
-//! the tree's nodes (default: as `Bvh::build` chooses); `QUERY_TREE=largest-first` builds the
-//! wide tree by the greedy collapse of sessions 1–12 (default: the SAH-optimal one), on
-//! full-precision nodes, and each round also prints the node and packet tests a query.
+//! the tree's nodes (default: as `Bvh::build` chooses); `QUERY_TREE=largest-first` or
+//! `sah:NODE:PACKET:LEAF_PACKETS` builds the wide tree by the greedy collapse of sessions 1–12
+//! or the SAH-optimal one with these costs, on full-precision nodes. Each round also prints
+//! the node and packet tests a query.
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -89,14 +90,8 @@ fn main() {
     };
     let tree = std::env::var("QUERY_TREE").ok();
     let bvh = match tree.as_deref() {
-        Some("largest-first") => Bvh::build_collapsed(&mesh, sonolux_core::bvh::Collapse::LargestFirst).unwrap(),
-        // sah:NODE:PACKET:LEAF_PACKETS, e.g. sah:1:1:4: the SAH-optimal collapse with these costs.
-        Some(t) if t.starts_with("sah:") => {
-            let v: Vec<f32> = t[4..].split(':').map(|x| x.parse().unwrap()).collect();
-            let costs = sonolux_core::bvh::TestCosts { node_test: v[0], packet_test: v[1], max_leaf_packets: v[2] as usize };
-            Bvh::build_collapsed(&mesh, sonolux_core::bvh::Collapse::SahOptimal(costs)).unwrap()
-        }
-        _ => Bvh::build_with(&mesh, nodes).unwrap(),
+        Some(t) => Bvh::build_collapsed(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
+        None => Bvh::build_with(&mesh, nodes).unwrap(),
     };
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),

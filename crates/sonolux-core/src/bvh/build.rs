@@ -45,6 +45,27 @@ impl Collapse {
     pub const DEFAULT: Collapse = Collapse::SahOptimal(TestCosts::MEASURED);
 }
 
+/// A probe's name for a collapse: `largest-first`, `sah` (the default) or
+/// `sah:NODE:PACKET:LEAF_PACKETS` (the SAH-optimal collapse with these test costs, e.g.
+/// `sah:1:1:4`).
+impl std::str::FromStr for Collapse {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Collapse, String> {
+        let bad = || format!("a collapse is 'largest-first', 'sah' or 'sah:NODE:PACKET:LEAF_PACKETS', not {s:?}");
+        match s {
+            "largest-first" => Ok(Collapse::LargestFirst),
+            "sah" => Ok(Collapse::DEFAULT),
+            _ => {
+                let v: Vec<f32> = s.strip_prefix("sah:").ok_or_else(bad)?.split(':').map(|x| x.parse().map_err(|_| bad())).collect::<Result<_, _>>()?;
+                let [node_test, packet_test, leaf] = v[..] else { return Err(bad()) };
+                let ok = node_test > 0.0 && packet_test > 0.0 && (1.0..=LEAF_PACKETS_LIMIT as f32).contains(&leaf) && leaf.fract() == 0.0;
+                ok.then_some(Collapse::SahOptimal(TestCosts { node_test, packet_test, max_leaf_packets: leaf as usize })).ok_or_else(bad)
+            }
+        }
+    }
+}
+
 impl Bvh {
     /// [`Bvh::build_with`] on full-precision nodes, collapsed the way asked: the same hits
     /// either way (a probe of the tree's quality; `examples/query_chain.rs`).
