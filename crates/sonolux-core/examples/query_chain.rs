@@ -11,8 +11,9 @@
 //! `QUERY_LANES=portable` traverses without SIMD registers; `QUERY_NODES=full|compressed` picks
 //! the tree's nodes (default: as `Bvh::build` chooses); `QUERY_TREE=largest-first` or
 //! `sah:NODE:PACKET:LEAF_PACKETS` builds the wide tree by the greedy collapse of sessions 1–12
-//! or the SAH-optimal one with these costs, on full-precision nodes. Each round also prints
-//! the node and packet tests a query.
+//! or the SAH-optimal one with these costs, on full-precision nodes (`QUERY_SPATIAL_SPLITS=1`:
+//! over a binary tree with spatial splits). Each round also prints the node and packet tests a
+//! query.
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -89,7 +90,9 @@ fn main() {
         _ => sonolux_core::bvh::Nodes::Auto,
     };
     let tree = std::env::var("QUERY_TREE").ok();
+    let spatial = std::env::var("QUERY_SPATIAL_SPLITS").is_ok_and(|v| v == "1");
     let bvh = match tree.as_deref() {
+        Some(t) if spatial => Bvh::build_with_spatial_splits(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
         Some(t) => Bvh::build_collapsed(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
         None => Bvh::build_with(&mesh, nodes).unwrap(),
     };
@@ -101,7 +104,7 @@ fn main() {
         "{}, {} nodes{}, {} nodes, {} packets",
         bvh.simd_name(),
         if bvh.is_compressed() { "compressed" } else { "full" },
-        tree.as_deref().map_or(String::new(), |t| format!(" ({t})")),
+        tree.as_deref().map_or(String::new(), |t| format!(" ({t}{})", if spatial { ", spatial splits" } else { "" })),
         bvh.node_count(),
         bvh.packet_count()
     );

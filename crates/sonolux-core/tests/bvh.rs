@@ -381,7 +381,8 @@ fn compressed_nodes_give_the_full_precision_hits() {
 /// (`Bvh::closest_hit_counted`) gives the query's own answer; and the cost-optimal tree needs
 /// no more node tests than the greedy one on these rays (it minimises their expected number
 /// under the surface-area model; the soup's rays are the model's uniform rays, not a
-/// guarantee ray by ray, so the sum is compared, not each ray).
+/// guarantee ray by ray, so the sum is compared, not each ray). The tree over spatial splits
+/// (references clipped to slabs) gives the same hits too.
 #[test]
 fn both_collapses_give_the_same_hits_and_the_optimal_one_tests_fewer_nodes() {
     use sonolux_core::bvh::{Collapse, TestCosts};
@@ -392,9 +393,12 @@ fn both_collapses_give_the_same_hits_and_the_optimal_one_tests_fewer_nodes() {
         let greedy = Bvh::build_collapsed(&mesh, Collapse::LargestFirst).unwrap();
         let optimal = Bvh::build_collapsed(&mesh, Collapse::DEFAULT).unwrap();
         assert_eq!(optimal.fingerprint(), Bvh::build_with(&mesh, Nodes::Full).unwrap().fingerprint(), "the default is the optimal collapse");
-        let one_packet = Bvh::build_collapsed(&mesh, Collapse::SahOptimal(TestCosts { max_leaf_packets: 1, ..TestCosts::MEASURED })).unwrap();
+        let merged = Bvh::build_collapsed(&mesh, Collapse::SahOptimal(TestCosts { max_leaf_packets: 4, ..TestCosts::MEASURED })).unwrap();
         let mut nodes = [0u64; 2];
-        for (i, bvh) in [&greedy, &optimal, &one_packet].into_iter().enumerate() {
+        // Spatial splits (a probe, docs/bvh.md): references clipped to their slabs, the same hits.
+        let split = Bvh::build_with_spatial_splits(&mesh, Collapse::DEFAULT).unwrap();
+        assert!(split.packet_count() >= optimal.packet_count() / 2);
+        for (i, bvh) in [&greedy, &optimal, &merged, &split].into_iter().enumerate() {
             let (n, example) = disagreements(&mesh, bvh, &rays);
             assert_eq!(n, 0, "{n_tris} triangles, collapse {i}: {n} of {} rays differ, e.g. {example}", rays.len());
             let key = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.triangle));

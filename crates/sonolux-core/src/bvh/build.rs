@@ -24,6 +24,7 @@ use crate::geometry::Aabb;
 use crate::mesh::Mesh;
 
 mod collapse;
+mod spatial;
 mod walk_counts;
 
 pub use collapse::{TestCosts, LEAF_PACKETS_LIMIT};
@@ -72,9 +73,18 @@ impl Bvh {
     pub fn build_collapsed(mesh: &Mesh, how: Collapse) -> Result<Bvh, CoreError> {
         let mut bvh = Bvh::build_with(mesh, Nodes::Full)?;
         if how != Collapse::DEFAULT {
-            let built = build_as(mesh, how)?;
+            let built = build_as(mesh, how, false)?;
             (bvh.nodes, bvh.packets) = (built.nodes, built.packets);
         }
+        Ok(bvh)
+    }
+
+    /// [`Bvh::build_collapsed`] over a binary tree with spatial splits ([`spatial`]): a probe of
+    /// what they give (serial build), the same hits.
+    pub fn build_with_spatial_splits(mesh: &Mesh, how: Collapse) -> Result<Bvh, CoreError> {
+        let mut bvh = Bvh::build_with(mesh, Nodes::Full)?;
+        let built = build_as(mesh, how, true)?;
+        (bvh.nodes, bvh.packets) = (built.nodes, built.packets);
         Ok(bvh)
     }
 }
@@ -209,11 +219,11 @@ pub(super) fn packets(n: usize) -> f32 {
 
 /// Builds the wide BVH over the mesh's non-degenerate triangles.
 pub(crate) fn build(mesh: &Mesh) -> Result<Built, CoreError> {
-    build_as(mesh, Collapse::DEFAULT)
+    build_as(mesh, Collapse::DEFAULT, false)
 }
 
 /// [`build`], collapsed the way asked.
-fn build_as(mesh: &Mesh, how: Collapse) -> Result<Built, CoreError> {
+fn build_as(mesh: &Mesh, how: Collapse, spatial_splits: bool) -> Result<Built, CoreError> {
     let mut order: Vec<u32> = (0..mesh.triangles.len() as u32).filter(|&i| !mesh.degenerate[i as usize]).collect();
     if order.is_empty() {
         return Err(CoreError::Geometry("no triangles with a non-zero area".into()));
@@ -232,7 +242,13 @@ fn build_as(mesh: &Mesh, how: Collapse) -> Result<Built, CoreError> {
         .unzip();
     let prims = Prims { boxes, centroids };
     let extent = Extent::of(&prims, &order);
-    let root = split(&prims, &mut order, 0, extent, 0);
+    let root = if spatial_splits {
+        let refs = order.iter().map(|&id| spatial::Ref { id, bounds: prims.boxes[id as usize] }).collect();
+        order.clear();
+        spatial::build(mesh, refs, &mut order)
+    } else {
+        split(&prims, &mut order, 0, extent, 0)
+    };
 
     // Collapse and write out, depth first.
     let mut out = Built { nodes: Vec::new(), packets: Vec::new(), bounds: extent.bounds };

@@ -1,6 +1,6 @@
 //! The SAH-optimal collapse of the binary tree into 8-wide nodes: which binary nodes become
-//! wide nodes, which become leaves (one binary leaf, or a subtree of up to
-//! [`TestCosts::max_leaf_packets`] packets merged into one leaf) and which are opened into their parent's
+//! wide nodes, which become leaves (one binary leaf, or a subtree whose triangles fill at most
+//! [`TestCosts::max_leaf_packets`] packets, merged into one leaf) and which are opened into their parent's
 //! slots, chosen by dynamic programming over the binary tree to minimise the surface-area
 //! cost of the wide tree (Ylitie, Karras and Laine, "Efficient incoherent ray traversal on GPUs
 //! through compressed wide BVHs", HPG 2017, §4.1, eqs. 1–3; they build a binary tree to one
@@ -45,10 +45,11 @@ pub struct TestCosts {
 }
 
 impl TestCosts {
-    /// Measured on the sound tracer's query (docs/bvh.md, "Wide nodes by cost"): CPU ns a query
-    /// in a dependent chain, regressed on the node and packet tests a query over trees of
-    /// different leaf sizes.
-    pub const MEASURED: TestCosts = TestCosts { node_test: 1.0, packet_test: 1.0, max_leaf_packets: 4 };
+    /// Measured on the sound tracer's query (docs/bvh.md, "Wide nodes by cost"): trees that
+    /// trade node tests for as many packet tests run the dependent chain in the same time, so a
+    /// node test costs a packet test. Leaves of one packet: merged leaves (up to four packets)
+    /// showed no gain in the bake and give the walk's leaf loop a trip count that varies.
+    pub const MEASURED: TestCosts = TestCosts { node_test: 1.0, packet_test: 1.0, max_leaf_packets: 1 };
 }
 
 /// How a binary node stands for its subtree with i slots (index i − 1).
