@@ -9,7 +9,9 @@
 //! to it for the benchmark's bake (paper estimator, air off): vertices, triangles, material ids,
 //! absorption and scattering [material][band], the source, the receivers, the settings.
 //! Prints the CPU time a segment (the best of REPEATS bakes) and a hash of the field's counts and
-//! the statistics.
+//! the statistics. `MESH_TREE=largest-first|sah:NODE:PACKET:LEAF_PACKETS` builds the BVH by
+//! the greedy collapse of sessions 1–12 or the SAH-optimal one with these costs (default:
+//! `Bvh::build`'s).
 
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
@@ -45,7 +47,14 @@ fn main() {
     let (n_azimuth, n_elevation, seed) = (next() as usize, next() as usize, next() as u64);
 
     let mesh = Mesh::new(vertices, triangles, material).expect("mesh");
-    let bvh = Bvh::build(&mesh).expect("bvh");
+    // MESH_TREE=largest-first|sah|sah:NODE:PACKET:LEAF_PACKETS: how the wide tree is collapsed,
+    // to measure the default against (the same hits, so the same bits; docs/bvh.md, "Wide
+    // nodes by cost").
+    let bvh = match std::env::var("MESH_TREE") {
+        Ok(t) => Bvh::build_collapsed(&mesh, t.parse().expect("MESH_TREE")),
+        Err(_) => Bvh::build(&mesh),
+    }
+    .expect("bvh");
     let acoustics = Acoustics { n_bands: nb, absorption, scattering };
     let sources = [SoundSource { position: source, power_w, directivity: Directivity::Omni }];
     let receivers = Receivers::new(centres, radius_m);

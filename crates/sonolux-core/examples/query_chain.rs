@@ -9,7 +9,11 @@
 //! e.g. `examples/l-room/l-room.obj 10.8 3 1.6` (the L-room and its talker) or
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
 //! `QUERY_LANES=portable` traverses without SIMD registers; `QUERY_NODES=full|compressed` picks
-//! the tree's nodes (default: as `Bvh::build` chooses).
+//! the tree's nodes (default: as `Bvh::build` chooses); `QUERY_TREE=largest-first` or
+//! `sah:NODE:PACKET:LEAF_PACKETS` builds the wide tree by the greedy collapse of sessions 1–12
+//! or the SAH-optimal one with these costs, on full-precision nodes (`QUERY_SPATIAL_SPLITS=1`:
+//! over a binary tree with spatial splits). Each round also prints the node and packet tests a
+//! query.
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -85,12 +89,25 @@ fn main() {
         Ok("compressed") => sonolux_core::bvh::Nodes::Compressed,
         _ => sonolux_core::bvh::Nodes::Auto,
     };
-    let bvh = Bvh::build_with(&mesh, nodes).unwrap();
+    let tree = std::env::var("QUERY_TREE").ok();
+    let spatial = std::env::var("QUERY_SPATIAL_SPLITS").is_ok_and(|v| v == "1");
+    let bvh = match tree.as_deref() {
+        Some(t) if spatial => Bvh::build_with_spatial_splits(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
+        Some(t) => Bvh::build_collapsed(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
+        None => Bvh::build_with(&mesh, nodes).unwrap(),
+    };
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),
         _ => bvh,
     };
-    let lanes = format!("{}, {} nodes", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" });
+    let lanes = format!(
+        "{}, {} nodes{}, {} nodes, {} packets",
+        bvh.simd_name(),
+        if bvh.is_compressed() { "compressed" } else { "full" },
+        tree.as_deref().map_or(String::new(), |t| format!(" ({t}{})", if spatial { ", spatial splits" } else { "" })),
+        bvh.node_count(),
+        bvh.packet_count()
+    );
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };
@@ -130,6 +147,16 @@ fn main() {
             let (t, tri) = surf.nearest(p, d).map_or((u64::MAX, usize::MAX), |h| (h.0.to_bits(), h.1));
             for w in [t, tri as u64] { hash = (hash ^ w).wrapping_mul(0x0000_0100_0000_01b3); }
         }
-        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}");
+        let counts = rec.iter().filter_map(|&(p, d)| bvh.closest_hit_counted(p.as_vec3(), d.as_vec3()).map(|c| c.1));
+        let (nodes, packets, to_answer) =
+            counts.fold((0u64, 0u64, 0u64), |(a, b, c), w| (a + w.nodes as u64, b + w.packets as u64, c + w.to_answer as u64));
+        let per = |x: u64| x as f64 / n as f64;
+        let work = format!(
+            "; a query: {:.3} node tests ({:.3} on the way to the answer's leaf), {:.3} packet tests",
+            per(nodes),
+            per(to_answer),
+            per(packets)
+        );
+        println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}{work}");
     }
 }

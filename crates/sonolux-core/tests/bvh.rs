@@ -373,3 +373,45 @@ fn compressed_nodes_give_the_full_precision_hits() {
     }
     assert!(!Bvh::build(&small).unwrap().is_compressed());
 }
+
+/// Both collapses of the binary tree into wide nodes (docs/bvh.md, "Wide nodes by cost") give
+/// the brute force's answers on random rays and on rays at edges and vertices, so the same
+/// distance to the bit (the triangle may differ only at an exact tie, which a soup of
+/// separate triangles does not have, so here it is the same too); the counting walk
+/// (`Bvh::closest_hit_counted`) gives the query's own answer; and the cost-optimal tree needs
+/// no more node tests than the greedy one on these rays (it minimises their expected number
+/// under the surface-area model; the soup's rays are the model's uniform rays, not a
+/// guarantee ray by ray, so the sum is compared, not each ray). The tree over spatial splits
+/// (references clipped to slabs) gives the same hits too.
+#[test]
+fn both_collapses_give_the_same_hits_and_the_optimal_one_tests_fewer_nodes() {
+    use sonolux_core::bvh::{Collapse, TestCosts};
+    for (n_tris, seed) in [(1000, 61), (5000, 62)] {
+        let mesh = random_soup(n_tris, seed);
+        let mut rays = random_rays(20_000, seed);
+        rays.extend(rays_at_edges_and_vertices(&mesh, 10_000, seed));
+        let greedy = Bvh::build_collapsed(&mesh, Collapse::LargestFirst).unwrap();
+        let optimal = Bvh::build_collapsed(&mesh, Collapse::DEFAULT).unwrap();
+        assert_eq!(optimal.fingerprint(), Bvh::build_with(&mesh, Nodes::Full).unwrap().fingerprint(), "the default is the optimal collapse");
+        let merged = Bvh::build_collapsed(&mesh, Collapse::SahOptimal(TestCosts { max_leaf_packets: 4, ..TestCosts::MEASURED })).unwrap();
+        let mut nodes = [0u64; 2];
+        // Spatial splits (a probe, docs/bvh.md): references clipped to their slabs, the same hits.
+        // (On the smaller soup only: its serial build clips the soup's long triangles many times.)
+        let split = (n_tris <= 1000).then(|| Bvh::build_with_spatial_splits(&mesh, Collapse::DEFAULT).unwrap());
+        for (i, bvh) in [Some(&greedy), Some(&optimal), Some(&merged), split.as_ref()].into_iter().flatten().enumerate() {
+            let (n, example) = disagreements(&mesh, bvh, &rays);
+            assert_eq!(n, 0, "{n_tris} triangles, collapse {i}: {n} of {} rays differ, e.g. {example}", rays.len());
+            let key = |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.triangle));
+            for r in &rays {
+                let (hit, counts) = bvh.closest_hit_counted(r.origin, r.dir).unwrap();
+                assert_eq!(key(hit), key(bvh.closest_hit_from(r.origin, r.dir)), "the counting walk's answer");
+                assert!(counts.to_answer <= counts.nodes && (hit.is_none() || counts.packets >= 1));
+                if i < 2 {
+                    nodes[i] += counts.nodes as u64;
+                }
+            }
+        }
+        assert!(nodes[1] <= nodes[0], "{n_tris} triangles: optimal collapse {} node tests, greedy {}", nodes[1], nodes[0]);
+        assert!(optimal.node_count() < greedy.node_count());
+    }
+}

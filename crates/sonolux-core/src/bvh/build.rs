@@ -10,16 +10,84 @@
 //! tests (see [`NODE_COST`]). Large nodes bin in parallel and subtrees build in parallel; both merge in a
 //! fixed order, so the tree never depends on the thread count.
 //!
-//! Collapse: a wide node starts with a binary node's two children and opens the child of largest
-//! surface area until it has eight children or only leaves.
+//! Collapse ([`Collapse`]): by default the SAH-optimal choice of wide nodes and leaves
+//! ([`collapse`]); or, as before session 13, a wide node starts with a binary node's two
+//! children and opens the child of largest surface area until it has eight children or only
+//! leaves.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{Node8, Packet, LEAF};
+use super::{Bvh, Node8, Nodes, Packet, LEAF};
 use crate::error::CoreError;
 use crate::geometry::Aabb;
 use crate::mesh::Mesh;
+
+mod collapse;
+mod spatial;
+mod walk_counts;
+
+pub use collapse::{TestCosts, LEAF_PACKETS_LIMIT};
+pub use walk_counts::WalkCounts;
+
+/// How the binary tree becomes 8-wide nodes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Collapse {
+    /// The wide nodes and leaves of least surface-area cost under these test costs (Ylitie,
+    /// Karras and Laine 2017; [`collapse`]); the default with [`TestCosts::MEASURED`].
+    SahOptimal(TestCosts),
+    /// Open the child of largest area until eight (Wald, Benthin and Boulos 2008): the tree of
+    /// sessions 1–12, kept to measure against.
+    LargestFirst,
+}
+
+impl Collapse {
+    /// What [`Bvh::build`] does.
+    pub const DEFAULT: Collapse = Collapse::SahOptimal(TestCosts::MEASURED);
+}
+
+/// A probe's name for a collapse: `largest-first`, `sah` (the default) or
+/// `sah:NODE:PACKET:LEAF_PACKETS` (the SAH-optimal collapse with these test costs, e.g.
+/// `sah:1:1:4`).
+impl std::str::FromStr for Collapse {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Collapse, String> {
+        let bad = || format!("a collapse is 'largest-first', 'sah' or 'sah:NODE:PACKET:LEAF_PACKETS', not {s:?}");
+        match s {
+            "largest-first" => Ok(Collapse::LargestFirst),
+            "sah" => Ok(Collapse::DEFAULT),
+            _ => {
+                let v: Vec<f32> = s.strip_prefix("sah:").ok_or_else(bad)?.split(':').map(|x| x.parse().map_err(|_| bad())).collect::<Result<_, _>>()?;
+                let [node_test, packet_test, leaf] = v[..] else { return Err(bad()) };
+                let ok = node_test > 0.0 && packet_test > 0.0 && (1.0..=LEAF_PACKETS_LIMIT as f32).contains(&leaf) && leaf.fract() == 0.0;
+                ok.then_some(Collapse::SahOptimal(TestCosts { node_test, packet_test, max_leaf_packets: leaf as usize })).ok_or_else(bad)
+            }
+        }
+    }
+}
+
+impl Bvh {
+    /// [`Bvh::build_with`] on full-precision nodes, collapsed the way asked: the same hits
+    /// either way (a probe of the tree's quality; `examples/query_chain.rs`).
+    pub fn build_collapsed(mesh: &Mesh, how: Collapse) -> Result<Bvh, CoreError> {
+        let mut bvh = Bvh::build_with(mesh, Nodes::Full)?;
+        if how != Collapse::DEFAULT {
+            let built = build_as(mesh, how, false)?;
+            (bvh.nodes, bvh.packets) = (built.nodes, built.packets);
+        }
+        Ok(bvh)
+    }
+
+    /// [`Bvh::build_collapsed`] over a binary tree with spatial splits ([`spatial`]): a probe of
+    /// what they give (serial build), the same hits.
+    pub fn build_with_spatial_splits(mesh: &Mesh, how: Collapse) -> Result<Bvh, CoreError> {
+        let mut bvh = Bvh::build_with(mesh, Nodes::Full)?;
+        let built = build_as(mesh, how, true)?;
+        (bvh.nodes, bvh.packets) = (built.nodes, built.packets);
+        Ok(bvh)
+    }
+}
 
 /// Bins per axis.
 const BINS: usize = 32;
@@ -145,12 +213,17 @@ struct Split {
     right: (Extent, usize),
 }
 
-fn packets(n: usize) -> f32 {
+pub(super) fn packets(n: usize) -> f32 {
     n.div_ceil(LANES) as f32
 }
 
 /// Builds the wide BVH over the mesh's non-degenerate triangles.
 pub(crate) fn build(mesh: &Mesh) -> Result<Built, CoreError> {
+    build_as(mesh, Collapse::DEFAULT, false)
+}
+
+/// [`build`], collapsed the way asked.
+fn build_as(mesh: &Mesh, how: Collapse, spatial_splits: bool) -> Result<Built, CoreError> {
     let mut order: Vec<u32> = (0..mesh.triangles.len() as u32).filter(|&i| !mesh.degenerate[i as usize]).collect();
     if order.is_empty() {
         return Err(CoreError::Geometry("no triangles with a non-zero area".into()));
@@ -169,14 +242,26 @@ pub(crate) fn build(mesh: &Mesh) -> Result<Built, CoreError> {
         .unzip();
     let prims = Prims { boxes, centroids };
     let extent = Extent::of(&prims, &order);
-    let root = split(&prims, &mut order, 0, extent, 0);
+    let root = if spatial_splits {
+        let refs = order.iter().map(|&id| spatial::Ref { id, bounds: prims.boxes[id as usize] }).collect();
+        order.clear();
+        spatial::build(mesh, refs, &mut order)
+    } else {
+        split(&prims, &mut order, 0, extent, 0)
+    };
 
     // Collapse and write out, depth first.
     let mut out = Built { nodes: Vec::new(), packets: Vec::new(), bounds: extent.bounds };
     match &root {
-        Binary::Inner { .. } => {
-            emit_node(&root, &order, mesh, &mut out);
-        }
+        Binary::Inner { .. } => match how {
+            Collapse::SahOptimal(costs) => {
+                let costs = TestCosts { max_leaf_packets: costs.max_leaf_packets.clamp(1, LEAF_PACKETS_LIMIT), ..costs };
+                emit_planned(&root, &collapse::plan(&root, &costs), &order, mesh, &mut out);
+            }
+            Collapse::LargestFirst => {
+                emit_node(&root, &order, mesh, &mut out);
+            }
+        },
         // A single leaf still gets a root node, so that traversal always starts at node 0.
         Binary::Leaf { .. } => {
             out.nodes.push(empty_node());
@@ -345,6 +430,23 @@ fn emit_node(node: &Binary, order: &[u32], mesh: &Mesh, out: &mut Built) -> usiz
     for (slot, kid) in kids.iter().enumerate() {
         let r = emit(kid, order, mesh, out);
         set_slot(&mut out.nodes[index], slot, kid.bounds(), r);
+    }
+    index
+}
+
+/// Writes the wide node that stands for `node` as `plan` chose; returns its index.
+fn emit_planned(node: &Binary, plan: &collapse::Plan, order: &[u32], mesh: &Mesh, out: &mut Built) -> usize {
+    let index = out.nodes.len();
+    out.nodes.push(empty_node());
+    for (slot, s) in collapse::slots(node, plan).into_iter().enumerate() {
+        let (bounds, r) = match s {
+            collapse::Slot::Leaf(n) => {
+                let (start, end) = collapse::run(n);
+                (n.bounds(), emit_leaf(&order[start..end], mesh, out))
+            }
+            collapse::Slot::Node(n, p) => (n.bounds(), emit_planned(n, p, order, mesh, out) as u32),
+        };
+        set_slot(&mut out.nodes[index], slot, bounds, r);
     }
     index
 }

@@ -7,9 +7,9 @@
 //!   triangle packets, eight triangles each, corners laid out the same way, that the leaves
 //!   point at. A leaf is one to four packets (at most [`build::LEAF_TRIANGLES`] triangles).
 //! - Build ([`build`]): a binary tree by the binned surface-area heuristic, built in parallel,
-//!   then collapsed into 8-wide nodes by opening the largest child until eight remain (the
-//!   scheme of Wald, Benthin and Boulos, "Getting rid of packets", RT 2008, and of Embree's
-//!   BVH8). Deterministic: the same mesh gives the same tree whatever the thread count.
+//!   then collapsed into 8-wide nodes the SAH-optimal way (Ylitie, Karras and Laine, HPG 2017,
+//!   §4.1; `build/collapse.rs`). Deterministic: the same mesh gives the same tree whatever the
+//!   thread count.
 //! - Traversal ([`traverse`]): one ray against the eight boxes of a node at once, the boxes it
 //!   meets visited nearest first through a small stack whose entries remember their entry
 //!   distance (so that those beyond the nearest hit found since are dropped unvisited); a leaf's
@@ -36,6 +36,7 @@ mod quantized;
 mod traverse;
 mod traverse_quantized;
 
+pub use build::{Collapse, TestCosts, WalkCounts, LEAF_PACKETS_LIMIT};
 use quantized::QNode8;
 
 use traverse::TravRay;
