@@ -130,8 +130,8 @@ fn every_fit_is_passive() {
 /// (a test that forgot the 1/r weights would be off by v ≈ 0.5 %). Equal rates give exactly 1.
 #[test]
 fn a_band_with_an_in_band_ripple_decays_as_its_cumulants_say() {
-    let f = vec![1.0; 64];
-    let (t30, edt) = band_decay_times(&[1.0; 64], &f, 0);
+    let power = vec![1.0; 64];
+    let (t30, edt) = band_decay_times(&[1.0; 64], &power);
     assert!((t30 - 1.0).abs() < 1e-9 && (edt - 1.0).abs() < 1e-9, "{t30} {edt}");
     for depth in [0.025, 0.05, 0.075, 0.1] {
         let r: Vec<f64> = (0..64).map(|i| 1.0 + depth * (std::f64::consts::TAU * (i as f64 + 0.5) / 64.0).sin()).collect();
@@ -140,7 +140,7 @@ fn a_band_with_an_in_band_ripple_decays_as_its_cumulants_say() {
         let v = r.iter().zip(&q).map(|(r, q)| (r - m).powi(2) * q).sum::<f64>() / q.iter().sum::<f64>();
         let (x5, x35) = (5.0 / (10.0 / std::f64::consts::LN_10) / m, 35.0 / (10.0 / std::f64::consts::LN_10) / m);
         let predicted = 1.0 / (m - v * (x5 + x35) / 2.0);
-        let (t30, edt) = band_decay_times(&r, &f, 0);
+        let (t30, edt) = band_decay_times(&r, &power);
         println!("ripple ±{:.1} % of the rate: T30 {:+.3} % (expansion {:+.3} %), EDT {:+.3} % of the mean rate's", 100.0 * depth, 100.0 * (t30 - 1.0), 100.0 * (predicted - 1.0), 100.0 * (edt - 1.0));
         assert!((t30 / predicted - 1.0).abs() < 0.003, "depth {depth}: T30 {t30} for {predicted}");
         assert!(edt > 1.0 && edt < t30, "depth {depth}: EDT {edt}, T30 {t30}");
@@ -170,3 +170,4 @@ fn every_fit_keeps_its_in_band_ripple_within_half_a_jnd_of_t30() {
     }
     println!("worst band: {:.2} % (half a JND {:.1} %)", 100.0 * worst, 100.0 * HALF_JND);
 }
+

@@ -198,7 +198,7 @@ pub fn band_ripple(centres_hz: &[f64], target_normal: &[f64], scheme: Option<Dis
     let n = target_normal.len().min(centres_hz.len());
     let problem = Problem::new(&centres_hz[..n], &band_edges(centres_hz)[..n], &target_normal[..n], scheme, &|_| 1.0);
     let l: Vec<f64> = problem.planes.iter().map(|p| 10.0 * p.reflection(y.at(C64::new(0.0, std::f64::consts::TAU * p.f_eval))).norm_sqr().log10()).collect();
-    problem.band_samples.iter().zip(&problem.band_target_db).map(|(r, &t)| ripple_error(&l[r.clone()], &problem.target_db[r.clone()], t, &problem.freqs[r.clone()])).collect()
+    problem.band_samples.iter().zip(&problem.band_target_db).map(|(r, &t)| ripple_error(&l[r.clone()], &problem.target_db[r.clone()], t, &problem.freqs[r.clone()], &problem.weights[r.clone()])).collect()
 }
 
 /// A column of the dictionary: the conductance (`q` = 0) or a resonant branch of unit peak
@@ -467,7 +467,7 @@ impl Problem {
             .zip(&self.band_target_db)
             .map(|(r, &t)| {
                 let bw = w[r.clone()].iter().sum::<f64>() / r.len() as f64;
-                bw * ripple_error(&l[r.clone()], &self.target_db[r.clone()], t, &self.freqs[r.clone()])
+                bw * ripple_error(&l[r.clone()], &self.target_db[r.clone()], t, &self.freqs[r.clone()], &w[r.clone()])
             })
             .fold(0.0, f64::max);
         let band = self

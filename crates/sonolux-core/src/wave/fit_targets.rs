@@ -122,16 +122,18 @@ const EDT_RANGE_DB: (f64, f64) = (0.0, -10.0);
 const REGRESSION_POINTS: usize = 48;
 /// The spectra a band's decay is weighed with, as powers k of f per unit of log frequency
 /// (the fit's samples are equally spaced in log f): pink noise (0), white noise (1), and a
-/// source whose radiated power rises 6 dB an octave (2: a constant volume velocity's, Kuttruff,
-/// "Room Acoustics", 6th ed. 2017, §5.2 / eq. 5.?; the worst spectral tilt a band's filter sees).
+/// source whose radiated power rises 6 dB an octave (2: a point source of constant volume
+/// velocity radiates P = ρω²Q²/(8πc), Kuttruff, "Room Acoustics", ch. 1, the point source); the
+/// band's decay is taken at the worst of the three.
 const SPECTRUM_TILTS: [i32; 3] = [0, 1, 2];
 
-/// T30 and EDT of a band whose frequencies `f` decay with relative rates `rates` (each sample's
-/// energy decay constant over the band's mean one), in units of the single exponential decay's of
-/// rate 1, with the spectrum f^`tilt` per unit of log frequency.
+/// T30 and EDT of a band whose components decay with relative rates `rates` (each sample's
+/// energy decay constant over the band's mean one) and are given the powers `power` (the
+/// spectrum at each sample), in units of the single exponential decay's of rate 1.
 ///
 /// The band's decay curve. A band-filtered decay is the sum of its frequencies' decays
-/// (Kuttruff, "Room Acoustics", §3.? / §5.1: a room's decay is the sum of its modes' energies,
+/// (Kuttruff, "Room Acoustics", ch. 3 on the decay of a room's modes and ch. 5 on reverberation:
+/// a room's decay is the sum of its modes' energies,
 /// each decaying with its own damping constant; ensemble-averaged, the band's components add in
 /// energy). After the source stops, a component whose energy decays as e^{−r x} (x = 2δ̄t, δ̄
 /// the band's mean damping constant) holds in the steady state an energy ∝ w/r for the power w
@@ -143,8 +145,8 @@ const SPECTRUM_TILTS: [i32; 3] = [0, 1, 2];
 /// the weights w/r), so a ripple of variance Var(r) inside the band lengthens T30 by about
 /// Var(r)·(x₅ + x₃₅)/2 ≈ 4.6·Var(r) of itself (x₅, x₃₅ = 5 and 35 dB in nepers of energy), and
 /// EDT by about a quarter of that.
-pub fn band_decay_times(rates: &[f64], f: &[f64], tilt: i32) -> (f64, f64) {
-    let w: Vec<f64> = rates.iter().zip(f).map(|(r, x)| (x / f[0]).powi(tilt) / r.max(1e-9)).collect();
+pub fn band_decay_times(rates: &[f64], power: &[f64]) -> (f64, f64) {
+    let w: Vec<f64> = rates.iter().zip(power).map(|(r, p)| p / r.max(1e-9)).collect();
     let total: f64 = w.iter().sum();
     let level = |x: f64| 10.0 * (rates.iter().zip(&w).map(|(r, w)| w * (-r * x).exp()).sum::<f64>() / total).log10();
     // The time (in x) at which the decay reaches `db`: it falls monotonically, bisect.
@@ -187,33 +189,37 @@ pub fn band_decay_times(rates: &[f64], f: &[f64], tilt: i32) -> (f64, f64) {
     (time(T30_RANGE_DB), time(EDT_RANGE_DB))
 }
 
-/// How far an in-band ripple of a fitted wall moves its band's T30 and EDT, as a relative error
-/// (the worst of T30 and EDT and of the spectra [`SPECTRUM_TILTS`]): the band's decay times of
-/// the fitted levels `fitted_db` over those of the target curve's `target_db` at the band's
-/// sample frequencies `f`, each first divided by the decay time of its own mean rate, so that
-/// what is measured is the ripple's shape alone (the band's mean absorption is held by the
-/// band's own check). The rates are those of a room all of this wall (the worst case: the other
-/// surfaces' absorption only dilutes a wall's ripple, as in [`super::fit::HALF_JND`]'s
-/// argument), its exponent a = −ln|R|² per sample; a band asking less than the floor
+/// How far the in-band ripple of a fitted wall moves its band's T30 and EDT, as a relative error
+/// (the worst of T30 and EDT and of the spectra [`SPECTRUM_TILTS`]). The ripple is the fit's
+/// deviation from the target curve, e(f) = a_fit(f) − a_target(f) in absorption exponents
+/// (a = −ln|R|² per sample, `fitted_db`, `target_db`) over the band's (`band_target_db`), laid on
+/// a band that would otherwise decay as one exponential: rates 1 + e(f) at the band's sample
+/// frequencies `f`, given the power the waves deliver there (`delivered`, [`delivered`]: a hybrid's
+/// band above the crossover decays partly in the rays), each decay time over that of its own
+/// mean rate, so that what is measured is
+/// the ripple's shape alone (the band's mean absorption is held by the band's own check). By
+/// [`band_decay_times`]' expansion, T30 lengthens by about 4.6·Var(e): half a JND for an RMS
+/// ripple of √(0.025/4.6) = 7.4 % of the band's exponent, a sinusoid of ±10.4 %. The rates are a
+/// room's all of this wall (the worst case: other surfaces only dilute a wall's ripple, as in
+/// [`super::fit::HALF_JND`]'s argument); a band asking less than the floor
 /// ([`super::fit::ABSORPTION_FLOOR`]) is taken in a room whose other absorption makes up the
-/// floor, as the floor's own argument.
-pub(crate) fn ripple_error(fitted_db: &[f64], target_db: &[f64], band_target_db: f64, f: &[f64]) -> f64 {
+/// floor, as the floor's own argument. The target curve's own slope inside the band is the
+/// curve's, an interpolation between band values that the data do not fix, and is left out.
+pub(crate) fn ripple_error(fitted_db: &[f64], target_db: &[f64], band_target_db: f64, f: &[f64], delivered: &[f64]) -> f64 {
     let neper = std::f64::consts::LN_10 / 10.0;
-    let band_a = -band_target_db * neper;
-    let floor = super::fit::ABSORPTION_FLOOR;
-    let scale = band_a.max(floor);
-    let offset = (floor - band_a).max(0.0);
-    let rates = |db: &[f64]| db.iter().map(|l| (-l * neper + offset) / scale).collect::<Vec<f64>>();
-    let (fit, want) = (rates(fitted_db), rates(target_db));
+    let scale = (-band_target_db * neper).max(super::fit::ABSORPTION_FLOOR);
+    // Only the samples the waves deliver (a zero weight's rate may be anything).
+    let kept: Vec<usize> = (0..f.len()).filter(|&i| delivered[i] > 0.0).collect();
+    if kept.is_empty() {
+        return 0.0;
+    }
+    let rates: Vec<f64> = kept.iter().map(|&i| 1.0 + (target_db[i] - fitted_db[i]) * neper / scale).collect();
     let mut worst = 0.0f64;
     for tilt in SPECTRUM_TILTS {
-        let mean = |r: &[f64]| {
-            let w: Vec<f64> = f.iter().map(|x| (x / f[0]).powi(tilt)).collect();
-            r.iter().zip(&w).map(|(r, w)| r * w).sum::<f64>() / w.iter().sum::<f64>()
-        };
-        let ((t_fit, e_fit), (t_want, e_want)) = (band_decay_times(&fit, f, tilt), band_decay_times(&want, f, tilt));
-        let (m_fit, m_want) = (mean(&fit), mean(&want));
-        worst = worst.max(((t_fit * m_fit) / (t_want * m_want) - 1.0).abs()).max(((e_fit * m_fit) / (e_want * m_want) - 1.0).abs());
+        let w: Vec<f64> = kept.iter().map(|&i| (f[i] / f[0]).powi(tilt) * delivered[i]).collect();
+        let mean = rates.iter().zip(&w).map(|(r, w)| r * w).sum::<f64>() / w.iter().sum::<f64>();
+        let (t30, edt) = band_decay_times(&rates, &w);
+        worst = worst.max((t30 * mean - 1.0).abs()).max((edt * mean - 1.0).abs());
     }
     worst
 }
