@@ -49,7 +49,8 @@ use num_complex::Complex64 as C64;
 
 use super::admittance::{admittance_from_normal, admittance_from_random, band_edges, normal_absorption_of, paris_absorption, Admittance, Branch, Discretisation, Plane};
 pub use super::admittance::{grid_random_absorption_in_band, random_absorption_in_band};
-use super::fit_targets::{delivered, grid_normal_target, RandomTarget};
+pub use super::fit_targets::band_decay_times;
+use super::fit_targets::{delivered, grid_normal_target, ripple_error, RandomTarget};
 use super::lsq::{nnls, solve_dense};
 use super::settings::AbsorptionKind;
 use crate::error::CoreError;
@@ -73,6 +74,9 @@ pub struct MaterialFit {
     pub error_db: Vec<f64>,
     /// Whether a random-incidence coefficient was above what a locally reacting wall absorbs.
     pub clamped: bool,
+    /// The tolerance the fit held each band's in-band ripple to ([`band_ripple`]): [`HALF_JND`],
+    /// or where the full dictionary's own fit cannot meet it, that fit's ripple + half of it.
+    pub ripple_tolerance: f64,
 }
 
 /// The fit's acceptance, a tolerance on **absorption** (session 12; before, 0.15 dB per band and
@@ -166,7 +170,7 @@ pub fn fit_material(
     let weights = |f: f64| if random && scheme.is_some() { delivered(f, centres_hz, max_frequency_hz) } else { 1.0 };
     let problem = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme, &weights);
     let rigid = target.iter().all(|&a| a <= 0.0);
-    let mut admittance = if rigid { Admittance::default() } else { problem.solve() };
+    let (mut admittance, mut ripple_tolerance) = if rigid { (Admittance::default(), HALF_JND) } else { problem.solve() };
     if random && !rigid && !admittance.branches.is_empty() {
         // A reactive fit: fitted again with each band's α_st inside the Levenberg–Marquardt
         // residuals (see the module's doc); kept if its worst band is no farther.
@@ -174,16 +178,27 @@ pub fn fit_material(
         let wanted: Vec<f64> = absorption[..n_fit].iter().map(|&a| a.min(top)).collect();
         let mut refit = Problem::new(&centres_hz[..n_fit], &edges[..n_fit], &target, scheme, &weights);
         refit.random = Some(RandomTarget::new(&edges[..n_fit], wanted, scheme, &refit.band_samples, &refit.weights));
-        let candidate = refit.solve();
+        let (candidate, tolerance) = refit.solve();
         let worst = |y: &Admittance| refit.random.as_ref().map_or(0.0, |r| r.worst_of(y));
         if worst(&candidate) <= worst(&admittance) {
-            admittance = candidate;
+            (admittance, ripple_tolerance) = (candidate, tolerance);
         }
     }
     let levels = problem.band_levels(&admittance);
     let fitted_normal: Vec<f64> = levels.iter().map(|l| 1.0 - 10f64.powf(l / 10.0)).collect();
     let error_db = levels.iter().zip(&problem.band_target_db).map(|(l, t)| l - t).collect();
-    Ok(MaterialFit { admittance, n_bands_fitted: n_fit, target_normal: target, fitted_normal, error_db, clamped })
+    Ok(MaterialFit { admittance, n_bands_fitted: n_fit, target_normal: target, fitted_normal, error_db, clamped, ripple_tolerance })
+}
+
+/// Each band's error in T30 and EDT from the in-band ripple of the wall `y` against the curve
+/// a fit of `target_normal` (a [`MaterialFit`]'s, the first `target_normal.len()` bands of
+/// `centres_hz`) asks ([`ripple_error`], every sample weighted alike): what the fit's pruning
+/// holds within [`HALF_JND`] (or its fallback), for tests and logs.
+pub fn band_ripple(centres_hz: &[f64], target_normal: &[f64], scheme: Option<Discretisation>, y: &Admittance) -> Vec<f64> {
+    let n = target_normal.len().min(centres_hz.len());
+    let problem = Problem::new(&centres_hz[..n], &band_edges(centres_hz)[..n], &target_normal[..n], scheme, &|_| 1.0);
+    let l: Vec<f64> = problem.planes.iter().map(|p| 10.0 * p.reflection(y.at(C64::new(0.0, std::f64::consts::TAU * p.f_eval))).norm_sqr().log10()).collect();
+    problem.band_samples.iter().zip(&problem.band_target_db).map(|(r, &t)| ripple_error(&l[r.clone()], &problem.target_db[r.clone()], t, &problem.freqs[r.clone()], &problem.weights[r.clone()])).collect()
 }
 
 /// A column of the dictionary: the conductance (`q` = 0) or a resonant branch of unit peak
@@ -304,7 +319,7 @@ impl Problem {
     }
 
     /// NNLS on the admittance, then Levenberg–Marquardt on the levels with the columns it kept.
-    fn solve(&self) -> Admittance {
+    fn solve(&self) -> (Admittance, f64) {
         // Rows: real and imaginary parts of w·(Y − g), w = |dR/dY| / |R| = 2/((1 + g)²|R|), the
         // error in R relative to |R| (in dB, over 8.69), and over the sample's scale as the
         // Levenberg–Marquardt residuals are.
@@ -328,13 +343,14 @@ impl Problem {
         let theta = self.refine(&self.columns, theta);
         let mut kept: Vec<(Column, f64)> = self.columns.iter().cloned().zip(theta).filter(|(_, t)| *t > 0.0).collect();
         let (cols, theta): (Vec<Column>, Vec<f64>) = kept.iter().cloned().unzip();
-        let (rms0, band0) = self.errors(&cols, &theta);
-        // Every band within half a JND of T30 ([`HALF_JND`]), each sample within one (RMS): a
-        // narrow-band signal decays with its own frequency's absorption. Where the full
-        // dictionary cannot meet that, within half a tolerance more than it. A reactive
+        let (ripple0, band0) = self.errors(&cols, &theta);
+        // Every band's mean within half a JND of T30 ([`HALF_JND`]), and its in-band ripple
+        // moving the band's T30 and EDT by less than another half JND ([`ripple_error`]; before
+        // session 13, every sample within one JND RMS, which kept 2–3× the branches). Where the
+        // full dictionary cannot meet that, within half a tolerance more than it. A reactive
         // random-incidence refit is held to each band's α_st instead of its normal level (which
-        // it moves on purpose to meet α_st: the module's doc).
-        let (rms_tol, band_tol) = ((2.0 * HALF_JND).max(rms0 + HALF_JND), HALF_JND.max(band0 + 0.5 * HALF_JND));
+        // it moves on purpose to meet α_st: the module's doc), and to the same ripple.
+        let (ripple_tol, band_tol) = (HALF_JND.max(ripple0 + 0.5 * HALF_JND), HALF_JND.max(band0 + 0.5 * HALF_JND));
         let random_tol = self.random.as_ref().map_or(f64::INFINITY, |r| HALF_JND.max(r.worst(&cols, &theta)));
         'prune: loop {
             // Try the three weakest branches, and drop the first whose loss the rest can make up.
@@ -345,9 +361,9 @@ impl Problem {
                 trial.remove(w);
                 let (cols, start): (Vec<Column>, Vec<f64>) = trial.into_iter().unzip();
                 let theta = self.refine(&cols, start);
-                let (rms, band) = self.errors(&cols, &theta);
+                let (ripple, band) = self.errors(&cols, &theta);
                 let random_ok = self.random.as_ref().is_none_or(|r| r.worst(&cols, &theta) <= random_tol);
-                if rms <= rms_tol && (band <= band_tol || self.random.is_some()) && random_ok {
+                if ripple <= ripple_tol && (band <= band_tol || self.random.is_some()) && random_ok {
                     kept = cols.into_iter().zip(theta).filter(|(_, t)| *t > 0.0).collect();
                     continue 'prune;
                 }
@@ -363,7 +379,7 @@ impl Problem {
                 y.branches.push(c.branch(t));
             }
         }
-        y
+        (y, ripple_tol)
     }
 
     /// Reflected level (dB) at each sample frequency of the columns `cols` weighted `theta`, and
@@ -438,12 +454,22 @@ impl Problem {
         column.1 * (self.planes.iter().map(|p| column.0.shape(p.f_eval).norm_sqr()).sum::<f64>() / self.planes.len() as f64).sqrt()
     }
 
-    /// A fit's RMS level error over the curve's samples and its worst band error, each relative
-    /// to the level asked (its floor's, if larger): the absorption exponent's relative errors.
+    /// A fit's worst band error in the T30 and EDT its in-band ripple causes ([`ripple_error`]),
+    /// and its worst band error in mean level, relative to the level asked (its floor's, if
+    /// larger): the absorption exponent's relative error; each weighted by what the waves
+    /// deliver of the band.
     fn errors(&self, cols: &[Column], theta: &[f64]) -> (f64, f64) {
         let (l, _) = self.levels(cols, theta, false);
         let w = &self.weights;
-        let rms = (l.iter().zip(&self.target_db).zip(w).zip(&self.scale_db).map(|(((a, b), w), s)| w * ((a - b) / s).powi(2)).sum::<f64>() / w.iter().sum::<f64>()).sqrt();
+        let ripple = self
+            .band_samples
+            .iter()
+            .zip(&self.band_target_db)
+            .map(|(r, &t)| {
+                let bw = w[r.clone()].iter().sum::<f64>() / r.len() as f64;
+                bw * ripple_error(&l[r.clone()], &self.target_db[r.clone()], t, &self.freqs[r.clone()], &w[r.clone()])
+            })
+            .fold(0.0, f64::max);
         let band = self
             .band_samples
             .iter()
@@ -455,7 +481,7 @@ impl Problem {
                 bw * (10.0 * mean.log10() - t).abs() / s
             })
             .fold(0.0, f64::max);
-        (rms, band)
+        (ripple, band)
     }
 
     fn cost(&self, cols: &[Column], theta: &[f64]) -> f64 {

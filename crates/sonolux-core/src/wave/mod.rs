@@ -223,7 +223,7 @@ pub fn build_solver_with_walls(mesh: &Mesh, walls: &[Admittance], settings: &Wav
     }
     let fits = walls
         .iter()
-        .map(|y| fit::MaterialFit { admittance: y.clone(), n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false })
+        .map(|y| fit::MaterialFit { admittance: y.clone(), n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false, ripple_tolerance: 0.0 })
         .collect();
     assemble(mesh, fits, &wells::WallChoice::none(), settings, estimate, start)
 }

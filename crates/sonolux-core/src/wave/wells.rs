@@ -176,7 +176,7 @@ mod tests {
         use glam::Vec3;
         let h = 0.05;
         let grid = Grid::over(&Aabb { min: Vec3::new(0.0, 0.0, -0.1), max: Vec3::new(40.0, 40.0, 0.1) }, h).unwrap();
-        let fit = |_| MaterialFit { admittance: Admittance { conductance: 0.05, branches: Vec::new() }, n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false };
+        let fit = |_| MaterialFit { admittance: Admittance { conductance: 0.05, branches: Vec::new() }, n_bands_fitted: 0, target_normal: Vec::new(), fitted_normal: Vec::new(), error_db: Vec::new(), clamped: false, ripple_tolerance: 0.0 };
         let wells = vec![None, Some(Wells { depths_m: vec![0.01, 0.02, 0.03], patch_m: 0.5 })];
         let (walls, choice) = expand(vec![fit(0), fit(1)], &wells, 343.0, 500.0).unwrap();
         assert_eq!(walls.len(), 5);
