@@ -9,7 +9,8 @@
 //! e.g. `examples/l-room/l-room.obj 10.8 3 1.6` (the L-room and its talker) or
 //! `box:examples/l-room/l-room.obj 10.8 3 1.6` (its bounding box: the convex path).
 //! `QUERY_LANES=portable` traverses without SIMD registers; `QUERY_NODES=full|compressed` picks
-//! the tree's nodes (default: as `Bvh::build` chooses).
+//! the tree's nodes (default: as `Bvh::build` chooses); `QUERY_HULL=off` puts every triangle in
+//! the tree (default: the mesh's hull tested first when it has one, bvh/hull.rs).
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -85,12 +86,14 @@ fn main() {
         Ok("compressed") => sonolux_core::bvh::Nodes::Compressed,
         _ => sonolux_core::bvh::Nodes::Auto,
     };
-    let bvh = Bvh::build_with(&mesh, nodes).unwrap();
+    // QUERY_HULL=off: every triangle in the tree (default: the hull tested first, when the
+    // mesh has one; bvh/hull.rs).
+    let bvh = Bvh::build_hull(&mesh, nodes, std::env::var("QUERY_HULL").as_deref() != Ok("off")).unwrap();
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),
         _ => bvh,
     };
-    let lanes = format!("{}, {} nodes", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" });
+    let lanes = format!("{}, {} nodes, {} hull packets", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" }, bvh.hull_packet_count());
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };
