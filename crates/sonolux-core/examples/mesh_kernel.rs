@@ -45,8 +45,8 @@ fn main() {
     let (n_azimuth, n_elevation, seed) = (next() as usize, next() as usize, next() as u64);
 
     let mesh = Mesh::new(vertices, triangles, material).expect("mesh");
-    // MESH_HULL=off: every triangle in the tree (default: the hull tested first when the mesh
-    // has one, bvh/hull.rs); the same hits, so the same hash.
+    // MESH_HULL=off: the SAH tree alone (default: the mesh's hull at the root when it has one,
+    // bvh/hull.rs).
     let hull = std::env::var("MESH_HULL").as_deref() != Ok("off");
     let bvh = Bvh::build_hull(&mesh, sonolux_core::bvh::Nodes::Auto, hull).expect("bvh");
     let acoustics = Acoustics { n_bands: nb, absorption, scattering };
@@ -88,8 +88,9 @@ fn main() {
     }
     let segments = per_ray * rays as f64;
     println!(
-        "{path} ({} hull packets) {rays} rays {threads}T: best {best:.3} s, {:.1} ns/segment wall x threads, {:.1} ns/segment CPU, {per_ray:.1} segments a ray, hash {hash:016x}",
-        bvh.hull_packet_count(),
+        "{path} ({} nodes, {} packets) {rays} rays {threads}T: best {best:.3} s, {:.1} ns/segment wall x threads, {:.1} ns/segment CPU, {per_ray:.1} segments a ray, hash {hash:016x}",
+        bvh.node_count(),
+        bvh.packet_count(),
         best * 1e9 / segments * threads as f64,
         best_cpu * 1e9 / segments,
     );

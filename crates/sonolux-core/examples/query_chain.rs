@@ -93,7 +93,7 @@ fn main() {
         Ok("portable") => bvh.portable(),
         _ => bvh,
     };
-    let lanes = format!("{}, {} nodes, {} hull packets", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" }, bvh.hull_packet_count());
+    let lanes = format!("{}, {} nodes, {} nodes, {} packets", bvh.simd_name(), if bvh.is_compressed() { "compressed" } else { "full" }, bvh.node_count(), bvh.packet_count());
     let convex = mesh.is_closed_convex();
     let surf = Surfaces::new(&mesh, &bvh, convex, |r| r.contains(src)).exact_triangles(false);
     let mk = |k: u64| Walker { pos: src, dir: DVec3::X, rng: Stream::new(1, 0, k), n: 100 };

@@ -111,9 +111,6 @@ pub struct Bvh {
     /// The compressed nodes (the same tree, node for node), or none.
     qnodes: Vec<QNode8>,
     packets: Vec<Packet>,
-    /// The hull's packets (`hull.rs`): tested first by every query, the tree built over the
-    /// rest of the triangles. Empty for most meshes (the tree holds every triangle).
-    hull: Vec<Packet>,
     bounds: Aabb,
     simd: Simd,
 }
@@ -130,18 +127,11 @@ impl Bvh {
         Bvh::build_hull(mesh, nodes, true)
     }
 
-    /// [`Bvh::build_with`], with the mesh's hull (its largest triangles, `hull.rs`) tested first
-    /// when `hull` is true and the mesh has one, else every triangle in the tree: the same
+    /// [`Bvh::build_with`], with the mesh's hull (its large flat faces) as leaves of the root
+    /// when `hull` is true and the mesh has one (`hull.rs`), else the SAH tree alone: the same
     /// hits either way (for benchmarks and tests).
     pub fn build_hull(mesh: &Mesh, nodes: Nodes, hull: bool) -> Result<Bvh, CoreError> {
-        let hull_ids = if hull { hull::choose(mesh) } else { Vec::new() };
-        let mut built = if hull_ids.is_empty() { build::build(mesh)? } else { build::build(&hull::rest(mesh, &hull_ids))? };
-        let hull = hull::pack(mesh, &hull_ids);
-        for &i in &hull_ids {
-            for v in mesh.corners(i as usize) {
-                built.bounds.grow(v);
-            }
-        }
+        let built = if hull { hull::build(mesh)? } else { build::build(mesh)? };
         #[cfg(target_arch = "x86_64")]
         let simd = pulp::x86::V3::try_new().map_or(Simd::Portable, Simd::Avx2);
         #[cfg(not(target_arch = "x86_64"))]
@@ -155,7 +145,7 @@ impl Bvh {
             Some(q) => (Vec::new(), q),
             None => (built.nodes, Vec::new()),
         };
-        Ok(Bvh { nodes, qnodes, packets: built.packets, hull, bounds: built.bounds, simd })
+        Ok(Bvh { nodes, qnodes, packets: built.packets, bounds: built.bounds, simd })
     }
 
     /// Whether the tree is traversed on compressed nodes.
@@ -195,20 +185,14 @@ impl Bvh {
         self.nodes.len() + self.qnodes.len()
     }
 
-    /// Number of 8-triangle packets: the leaves' and the hull's.
+    /// Number of 8-triangle packets in the leaves.
     pub fn packet_count(&self) -> usize {
-        self.packets.len() + self.hull.len()
-    }
-
-    /// Number of packets in the hull, tested first by every query (0: the tree holds every
-    /// triangle).
-    pub fn hull_packet_count(&self) -> usize {
-        self.hull.len()
+        self.packets.len()
     }
 
     /// Bytes held by the nodes and the packets.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * size_of::<Node8>() + self.qnodes.len() * size_of::<QNode8>() + (self.packets.len() + self.hull.len()) * size_of::<Packet>()
+        self.nodes.len() * size_of::<Node8>() + self.qnodes.len() * size_of::<QNode8>() + self.packets.len() * size_of::<Packet>()
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -235,7 +219,7 @@ impl Bvh {
             eat(n.valid as u32);
             n.child.iter().for_each(|&c| eat(c));
         }
-        for p in self.packets.iter().chain(&self.hull) {
+        for p in &self.packets {
             p.corners.iter().flatten().for_each(|x| eat(x.to_bits()));
             p.ids.iter().for_each(|&i| eat(i));
         }
@@ -253,9 +237,9 @@ impl Bvh {
                 // One walk in each closure: a closure holding both grows past what the compiler
                 // inlines into `vectorize`'s AVX2 function, and its SIMD calls stay calls.
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &self.hull, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 } else {
-                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &self.hull, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 }
             }
             Simd::Portable => {
@@ -278,9 +262,9 @@ impl Bvh {
                 let l = lanes::Avx2(v3);
                 let (o, d, inf) = (origin, dir, f32::INFINITY);
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &self.hull, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
                 } else {
-                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &self.hull, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
                 }
             }
             Simd::Portable => {
@@ -306,9 +290,9 @@ impl Bvh {
     #[inline(always)]
     fn closest_on<L: traverse_quantized::ByteLanes>(&self, l: L, r: &TravRay<L>, t_max: f32) -> Option<Hit> {
         if self.qnodes.is_empty() {
-            traverse::closest(l, &self.nodes, &self.packets, &self.hull, r, t_max)
+            traverse::closest(l, &self.nodes, &self.packets, r, t_max)
         } else {
-            traverse::closest(l, &self.qnodes, &self.packets, &self.hull, r, t_max)
+            traverse::closest(l, &self.qnodes, &self.packets, r, t_max)
         }
     }
 
@@ -320,9 +304,9 @@ impl Bvh {
             Simd::Avx2(v3) => {
                 let l = lanes::Avx2(v3);
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, &self.hull, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 } else {
-                    v3.vectorize(|| traverse::any(l, &self.qnodes, &self.packets, &self.hull, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 }
             }
             Simd::Portable => self.any_on(lanes::Portable, ray, t_min, t_max),
@@ -332,9 +316,9 @@ impl Bvh {
     #[inline(always)]
     fn any_on<L: traverse_quantized::ByteLanes>(&self, l: L, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         if self.qnodes.is_empty() {
-            traverse::any(l, &self.nodes, &self.packets, &self.hull, &TravRay::new(l, ray, t_min), t_max)
+            traverse::any(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
         } else {
-            traverse::any(l, &self.qnodes, &self.packets, &self.hull, &TravRay::new(l, ray, t_min), t_max)
+            traverse::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
         }
     }
 

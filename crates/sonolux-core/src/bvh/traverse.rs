@@ -264,28 +264,12 @@ impl Stack {
     }
 }
 
-/// The nearest hit among the hull's packets (`hull.rs`), t in (t_min, t_max): (t, triangle),
-/// (t_max, `u32::MAX`) when none. Each packet is tested against t_max, not against the previous
-/// packet's hit, so the tests do not wait on one another; the first packet wins ties, as a walk
-/// over them in order would.
+/// Closest hit: children visited nearest entry first; stack entries whose entry distance is
+/// beyond the nearest hit found since they were pushed are dropped.
 #[inline(always)]
-fn closest_in_hull<L: Lanes>(l: L, hull: &[Packet], r: &TravRay<L>, t_max: f32) -> (f32, u32) {
-    let (mut t_best, mut triangle) = (t_max, u32::MAX);
-    for p in hull {
-        let (t, lane) = hit_packet(l, r, p, t_max);
-        let nearer = t < t_best;
-        triangle = if nearer { p.ids[lane] } else { triangle };
-        t_best = if nearer { t } else { t_best };
-    }
-    (t_best, triangle)
-}
-
-/// Closest hit: the hull's packets first, then the tree with its far end at the hull's hit;
-/// children visited nearest entry first; stack entries whose entry distance is beyond the
-/// nearest hit found since they were pushed are dropped.
-#[inline(always)]
-pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], hull: &[Packet], r: &TravRay<L>, t_max: f32) -> Option<Hit> {
-    let (mut t_best, mut triangle) = closest_in_hull(l, hull, r, t_max);
+pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> Option<Hit> {
+    let mut t_best = t_max;
+    let mut triangle = u32::MAX;
     let mut stack = Stack::new();
     let mut current = 0u32; // the root
     loop {
@@ -355,13 +339,9 @@ pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Pa
     }
 }
 
-/// Any hit: the hull's packets, then the tree's children in slot order, done at the first
-/// triangle hit.
+/// Any hit: children in slot order, done at the first triangle hit.
 #[inline(always)]
-pub(super) fn any<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], hull: &[Packet], r: &TravRay<L>, t_max: f32) -> bool {
-    if hull.iter().any(|p| hit_packet(l, r, p, t_max).0 < t_max) {
-        return true;
-    }
+pub(super) fn any<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> bool {
     let mut stack = Stack::new();
     let mut current = 0u32;
     loop {
