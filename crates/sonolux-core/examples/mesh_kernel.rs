@@ -47,8 +47,8 @@ fn main() {
     let mesh = Mesh::new(vertices, triangles, material).expect("mesh");
     // MESH_HULL=off: the SAH tree alone (default: the mesh's hull at the root when it has one,
     // bvh/hull.rs).
-    let hull = std::env::var("MESH_HULL").as_deref() != Ok("off");
-    let bvh = Bvh::build_hull(&mesh, sonolux_core::bvh::Nodes::Auto, hull).expect("bvh");
+    let shape = if std::env::var("MESH_HULL").as_deref() == Ok("off") { sonolux_core::bvh::Shape::Sah } else { sonolux_core::bvh::Shape::Auto };
+    let bvh = Bvh::build_shaped(&mesh, sonolux_core::bvh::Nodes::Auto, shape).expect("bvh");
     let acoustics = Acoustics { n_bands: nb, absorption, scattering };
     let sources = [SoundSource { position: source, power_w, directivity: Directivity::Omni }];
     let receivers = Receivers::new(centres, radius_m);

@@ -88,7 +88,8 @@ fn main() {
     };
     // QUERY_HULL=off: every triangle in the tree (default: the hull tested first, when the
     // mesh has one; bvh/hull.rs).
-    let bvh = Bvh::build_hull(&mesh, nodes, std::env::var("QUERY_HULL").as_deref() != Ok("off")).unwrap();
+    let shape = if std::env::var("QUERY_HULL").as_deref() == Ok("off") { sonolux_core::bvh::Shape::Sah } else { sonolux_core::bvh::Shape::Auto };
+    let bvh = Bvh::build_shaped(&mesh, nodes, shape).unwrap();
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),
         _ => bvh,

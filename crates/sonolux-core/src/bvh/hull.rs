@@ -46,11 +46,11 @@ struct Face {
 }
 
 /// The tree over `mesh` with its hull at the root when it has one (see the module's note), else
-/// the SAH tree of [`build::build`].
-pub(crate) fn build(mesh: &Mesh) -> Result<Built, CoreError> {
+/// the SAH tree of [`build::build`]; and the number of the root's slots the hull takes (0: none).
+pub(crate) fn build(mesh: &Mesh) -> Result<(Built, usize), CoreError> {
     let faces = hull_faces(mesh);
     if faces.is_empty() {
-        return build::build(mesh);
+        return Ok((build::build(mesh)?, 0));
     }
     let mut rest = mesh.clone();
     for f in &faces {
@@ -61,7 +61,7 @@ pub(crate) fn build(mesh: &Mesh) -> Result<Built, CoreError> {
         }
     }
     let tree = build::build(&rest)?;
-    Ok(with_hull_at_root(mesh, &faces, tree))
+    Ok((with_hull_at_root(mesh, &faces, tree), faces.len()))
 }
 
 /// The hull's faces: the mesh's coplanar groups of at most 32 triangles, the largest (by area)
