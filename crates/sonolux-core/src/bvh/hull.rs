@@ -21,6 +21,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use super::build::{self, Built};
 use super::{Node8, Packet, LEAF};
 use crate::error::CoreError;
@@ -64,19 +66,33 @@ pub(crate) fn build(mesh: &Mesh) -> Result<(Built, usize), CoreError> {
     Ok((with_hull_at_root(mesh, &faces, tree), faces.len()))
 }
 
-/// The hull's faces: the mesh's coplanar groups of at most 32 triangles, the largest (by area)
-/// first, at most eight, merged down to [`HULL_SLOTS`] by the pair whose merged box is smallest
+/// The hull's faces: coplanar groups of at most 32 triangles among the mesh's 256 largest, the
+/// largest groups (by area) first, at most eight, merged down to [`HULL_SLOTS`] by the pair whose merged box is smallest
 /// (half-area × packets, the SAH's cost); none when they hold less than [`HULL_AREA_SHARE`] of the
 /// area or leave no triangle to the rest.
 fn hull_faces(mesh: &Mesh) -> Vec<Face> {
     let live: Vec<u32> = (0..mesh.triangles.len() as u32).filter(|&i| !mesh.degenerate[i as usize]).collect();
-    let total: f64 = live.iter().map(|&i| mesh.area(i as usize)).sum();
-    // Coplanar groups: the unit normal and the plane's offset, rounded to 1e-6 (of the normal,
-    // and of the mesh's size for the offset). The grouping only shapes the tree; no answer
-    // depends on it.
+    let area: Vec<f64> = live.par_iter().with_min_len(4096).map(|&i| mesh.area(i as usize)).collect();
+    let total: f64 = area.iter().sum();
+    // Only the largest (HULL_SLOTS + 1) · 32 triangles can be in the hull; when even they hold
+    // less than the share, there is none (a large mesh is decided here, without grouping it).
+    let cap = (HULL_SLOTS + 1) * FACE_PACKETS * LANES;
+    let mut largest: Vec<usize> = (0..live.len()).collect();
+    let by_area = |a: &usize, b: &usize| area[*b].total_cmp(&area[*a]).then(a.cmp(b));
+    if largest.len() > cap {
+        largest.select_nth_unstable_by(cap, by_area);
+        largest.truncate(cap);
+    }
+    if !(largest.iter().map(|&k| area[k]).sum::<f64>() >= HULL_AREA_SHARE * total) {
+        return Vec::new();
+    }
+    // Coplanar groups among them: the unit normal and the plane's offset, rounded to 1e-6 (of
+    // the normal, and of the mesh's size for the offset). The grouping only shapes the tree; no
+    // answer depends on it.
     let size = mesh.bounds().extent().max_element().max(f32::MIN_POSITIVE) as f64;
     let mut groups: HashMap<[i64; 4], Vec<u32>> = HashMap::new();
-    for &i in &live {
+    for &k in &largest {
+        let i = live[k];
         let n = mesh.normal(i as usize).as_dvec3();
         let d = n.dot(mesh.corners(i as usize)[0].as_dvec3()) / size;
         let key = [n.x, n.y, n.z, d].map(|x| (x * 1e6).round() as i64);
