@@ -49,10 +49,12 @@ fn main() {
     let mesh = Mesh::new(vertices, triangles, material).expect("mesh");
     // MESH_TREE=largest-first|sah|sah:NODE:PACKET:LEAF_PACKETS: how the wide tree is collapsed,
     // to measure the default against (the same hits, so the same bits; docs/bvh.md, "Wide
-    // nodes by cost").
+    // nodes by cost"), on the SAH tree alone. MESH_HULL=off: the SAH tree alone (default: the
+    // mesh's hull at the root when it has one, bvh/hull.rs).
+    let shape = if std::env::var("MESH_HULL").as_deref() == Ok("off") { sonolux_core::bvh::Shape::Sah } else { sonolux_core::bvh::Shape::Auto };
     let bvh = match std::env::var("MESH_TREE") {
         Ok(t) => Bvh::build_collapsed(&mesh, t.parse().expect("MESH_TREE")),
-        Err(_) => Bvh::build(&mesh),
+        Err(_) => Bvh::build_shaped(&mesh, sonolux_core::bvh::Nodes::Auto, shape),
     }
     .expect("bvh");
     let acoustics = Acoustics { n_bands: nb, absorption, scattering };
@@ -94,7 +96,9 @@ fn main() {
     }
     let segments = per_ray * rays as f64;
     println!(
-        "{path} {rays} rays {threads}T: best {best:.3} s, {:.1} ns/segment wall x threads, {:.1} ns/segment CPU, {per_ray:.1} segments a ray, hash {hash:016x}",
+        "{path} ({} nodes, {} packets) {rays} rays {threads}T: best {best:.3} s, {:.1} ns/segment wall x threads, {:.1} ns/segment CPU, {per_ray:.1} segments a ray, hash {hash:016x}",
+        bvh.node_count(),
+        bvh.packet_count(),
         best * 1e9 / segments * threads as f64,
         best_cpu * 1e9 / segments,
     );

@@ -13,7 +13,9 @@
 //! `sah:NODE:PACKET:LEAF_PACKETS` builds the wide tree by the greedy collapse of sessions 1–12
 //! or the SAH-optimal one with these costs, on full-precision nodes (`QUERY_SPATIAL_SPLITS=1`:
 //! over a binary tree with spatial splits). Each round also prints the node and packet tests a
-//! query.
+//! query. `QUERY_HULL=off` puts every triangle in
+//! the tree (default: the mesh's hull at the root when it has one, bvh/hull.rs; the
+//! `QUERY_TREE` probes are the SAH tree alone).
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -91,10 +93,13 @@ fn main() {
     };
     let tree = std::env::var("QUERY_TREE").ok();
     let spatial = std::env::var("QUERY_SPATIAL_SPLITS").is_ok_and(|v| v == "1");
+    // QUERY_HULL=off: every triangle in the tree (default: the hull at the root, when the
+    // mesh has one; bvh/hull.rs).
+    let shape = if std::env::var("QUERY_HULL").as_deref() == Ok("off") { sonolux_core::bvh::Shape::Sah } else { sonolux_core::bvh::Shape::Auto };
     let bvh = match tree.as_deref() {
         Some(t) if spatial => Bvh::build_with_spatial_splits(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
         Some(t) => Bvh::build_collapsed(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
-        None => Bvh::build_with(&mesh, nodes).unwrap(),
+        None => Bvh::build_shaped(&mesh, nodes, shape).unwrap(),
     };
     let bvh = match std::env::var("QUERY_LANES").as_deref() {
         Ok("portable") => bvh.portable(),

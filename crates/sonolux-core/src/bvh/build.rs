@@ -18,7 +18,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{Bvh, Node8, Nodes, Packet, LEAF};
+use super::{Bvh, Node8, Nodes, Packet, Shape, LEAF};
 use crate::error::CoreError;
 use crate::geometry::Aabb;
 use crate::mesh::Mesh;
@@ -71,7 +71,7 @@ impl Bvh {
     /// [`Bvh::build_with`] on full-precision nodes, collapsed the way asked: the same hits
     /// either way (a probe of the tree's quality; `examples/query_chain.rs`).
     pub fn build_collapsed(mesh: &Mesh, how: Collapse) -> Result<Bvh, CoreError> {
-        let mut bvh = Bvh::build_with(mesh, Nodes::Full)?;
+        let mut bvh = Bvh::build_shaped(mesh, Nodes::Full, Shape::Sah)?;
         if how != Collapse::DEFAULT {
             let built = build_as(mesh, how, false)?;
             (bvh.nodes, bvh.packets) = (built.nodes, built.packets);
@@ -82,7 +82,7 @@ impl Bvh {
     /// [`Bvh::build_collapsed`] over a binary tree with spatial splits ([`spatial`]): a probe of
     /// what they give (serial build), the same hits.
     pub fn build_with_spatial_splits(mesh: &Mesh, how: Collapse) -> Result<Bvh, CoreError> {
-        let mut bvh = Bvh::build_with(mesh, Nodes::Full)?;
+        let mut bvh = Bvh::build_shaped(mesh, Nodes::Full, Shape::Sah)?;
         let built = build_as(mesh, how, true)?;
         (bvh.nodes, bvh.packets) = (built.nodes, built.packets);
         Ok(bvh)

@@ -10,6 +10,9 @@
 //!   then collapsed into 8-wide nodes the SAH-optimal way (Ylitie, Karras and Laine, HPG 2017,
 //!   §4.1; `build/collapse.rs`). Deterministic: the same mesh gives the same tree whatever the
 //!   thread count.
+//! - The hull at the root ([`hull`]): a room's large flat faces (coplanar groups of a few
+//!   triangles holding most of its area) as leaves of the root itself, the SAH tree of the rest
+//!   beside them, so that a query meets its wall after one node test.
 //! - Traversal ([`traverse`]): one ray against the eight boxes of a node at once, the boxes it
 //!   meets visited nearest first through a small stack whose entries remember their entry
 //!   distance (so that those beyond the nearest hit found since are dropped unvisited); a leaf's
@@ -31,6 +34,7 @@ use crate::geometry::{Aabb, Hit, Ray};
 use crate::mesh::Mesh;
 
 pub(crate) mod build;
+mod hull;
 pub(crate) mod lanes;
 mod quantized;
 mod traverse;
@@ -103,6 +107,16 @@ fn compresses(nodes: Nodes, node_bytes: usize) -> bool {
     }
 }
 
+/// The tree's shape at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shape {
+    /// The mesh's hull, its large flat faces (a room's walls, floor, ceiling), as leaves of the
+    /// root beside the SAH tree of the rest, when the mesh has one (`hull.rs`); else the SAH tree.
+    Auto,
+    /// The SAH tree over every triangle.
+    Sah,
+}
+
 /// The acceleration structure. Queries take `&self` and are safe to share between threads.
 #[derive(Clone, Debug)]
 pub struct Bvh {
@@ -111,6 +125,8 @@ pub struct Bvh {
     /// The compressed nodes (the same tree, node for node), or none.
     qnodes: Vec<QNode8>,
     packets: Vec<Packet>,
+    /// Slots of the root that hold the mesh's hull, its large flat faces (`hull.rs`); 0: none.
+    hull_slots: usize,
     bounds: Aabb,
     simd: Simd,
 }
@@ -124,7 +140,16 @@ impl Bvh {
 
     /// [`Bvh::build`] on the nodes asked for: the same tree, so the same hits, either way.
     pub fn build_with(mesh: &Mesh, nodes: Nodes) -> Result<Bvh, CoreError> {
-        let built = build::build(mesh)?;
+        Bvh::build_shaped(mesh, nodes, Shape::Auto)
+    }
+
+    /// [`Bvh::build_with`] in the shape asked for: the same hits either way (for benchmarks
+    /// and tests).
+    pub fn build_shaped(mesh: &Mesh, nodes: Nodes, shape: Shape) -> Result<Bvh, CoreError> {
+        let (built, hull_slots) = match shape {
+            Shape::Auto => hull::build(mesh)?,
+            Shape::Sah => (build::build(mesh)?, 0),
+        };
         #[cfg(target_arch = "x86_64")]
         let simd = pulp::x86::V3::try_new().map_or(Simd::Portable, Simd::Avx2);
         #[cfg(not(target_arch = "x86_64"))]
@@ -138,7 +163,7 @@ impl Bvh {
             Some(q) => (Vec::new(), q),
             None => (built.nodes, Vec::new()),
         };
-        Ok(Bvh { nodes, qnodes, packets: built.packets, bounds: built.bounds, simd })
+        Ok(Bvh { nodes, qnodes, packets: built.packets, hull_slots, bounds: built.bounds, simd })
     }
 
     /// Whether the tree is traversed on compressed nodes.
@@ -171,6 +196,12 @@ impl Bvh {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx2(_) => "avx2",
         }
+    }
+
+    /// How many of the root's slots hold the mesh's hull (its large flat faces as leaves,
+    /// `hull.rs`); 0 when the tree is the SAH tree alone.
+    pub fn hull_slots(&self) -> usize {
+        self.hull_slots
     }
 
     /// Number of 8-wide nodes.

@@ -102,14 +102,19 @@ impl<L: Lanes> TravRay<L> {
 
 /// Which of the node's children the ray meets within (t_min, t_max) (bit per slot), and the
 /// entry distances. The slab test of `Aabb::hit`, eight boxes at once: the same roundings, and
-/// the same widening of the exit distance that keeps it conservative.
+/// the same widening of the exit distance that keeps it conservative, applied after the clip to
+/// t_max (so to the nearest hit so far as well).
 #[inline(always)]
 fn hit_children<L: Lanes>(l: L, r: &TravRay<L>, node: &Node8, t_max: f32) -> (u32, [f32; 8]) {
     let b = &node.bounds;
     let (nx, ny, nz) = (slab(l, r, &b[r.near[0]], 0), slab(l, r, &b[r.near[1]], 1), slab(l, r, &b[r.near[2]], 2));
     let (fx, fy, fz) = (slab(l, r, &b[r.far[0]], 0), slab(l, r, &b[r.far[1]], 1), slab(l, r, &b[r.far[2]], 2));
     let enter = l.max(l.max(nx, ny), l.max(nz, r.t_min));
-    let exit = l.min(l.mul(l.min(l.min(fx, fy), fz), l.splat(BOX_EXIT_WIDEN)), l.splat(t_max));
+    // The clip to the nearest hit so far is widened with the far planes: a box's entry and a
+    // triangle's t in it are rounded apart, so a box entered a few ulps beyond the hit found
+    // may still hold a triangle whose computed t is nearer (a shared vertex or edge of two
+    // triangles of different boxes; the brute-force oracle takes the nearer).
+    let exit = l.mul(l.min(l.min(l.min(fx, fy), fz), l.splat(t_max)), l.splat(BOX_EXIT_WIDEN));
     (l.bits(l.le(enter, exit)), l.store(enter))
 }
 
@@ -329,7 +334,7 @@ pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Pa
         loop {
             match stack.pop() {
                 None => return (triangle != u32::MAX).then_some(Hit { t: t_best, triangle }),
-                Some((child, t)) if t <= t_best => {
+                Some((child, t)) if t <= t_best * BOX_EXIT_WIDEN => {
                     current = child;
                     break;
                 }

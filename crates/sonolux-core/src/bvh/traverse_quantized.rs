@@ -63,7 +63,8 @@ fn hit_children<L: ByteLanes>(l: L, r: &TravRay<L>, node: &QNode8, t_max: f32) -
     let fy = slab(l, node, far[1], 1, org[1], inv[1]);
     let fz = slab(l, node, far[2], 2, org[2], inv[2]);
     let enter = l.max(l.max(nx, ny), l.max(nz, t_min));
-    let exit = l.min(l.mul(l.min(l.min(fx, fy), fz), l.splat(BOX_EXIT_WIDEN)), l.splat(t_max));
+    // (Widened after the clip, as the full-precision test: `traverse::hit_children`.)
+    let exit = l.mul(l.min(l.min(l.min(fx, fy), fz), l.splat(t_max)), l.splat(BOX_EXIT_WIDEN));
     (l.bits(l.le(enter, exit)) & node.valid as u32, l.store(enter))
 }
 
