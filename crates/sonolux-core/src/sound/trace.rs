@@ -192,12 +192,18 @@ impl<const NB: usize> Limits<NB> {
 /// every per-ray sum is summed by the ray alone, and the field and the statistics add integers
 /// (fixed point), whose sums do not depend on order.
 pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
-    // On a mesh whose BVH runs on AVX2, the whole kernel is compiled for AVX2 too (the same
-    // IEEE operations, so the same bits), so that the query is inlined into it: no call, and
-    // no spilling of every live value around one, a segment (docs/bvh.md, "Leaving a surface").
+    // Where the BVH runs on AVX2, the whole kernel is compiled for AVX2 too (the same IEEE
+    // operations, no fused multiply-add, so the same bits): on a mesh the query is inlined into
+    // it (no call, and no spilling of every live value around one, a segment: docs/bvh.md,
+    // "Leaving a surface"); in a convex room traced through its planes the air's lanes
+    // (sound/air.rs) are inlined instead of a call through their own AVX2 dispatch twice a
+    // segment, and the band loops take four lanes (docs/convex.md, session 13).
     #[cfg(target_arch = "x86_64")]
-    if let Some(v3) = scene.bvh.avx2().filter(|_| !scene.surfaces.traces_planes()) {
-        return v3.vectorize(Kernel { scene, jobs, acc, w, v3 });
+    if let Some(v3) = scene.bvh.avx2() {
+        if scene.surfaces.traces_planes() {
+            return v3.vectorize(Kernel { scene, jobs, acc, w, q: Called });
+        }
+        return v3.vectorize(Kernel { scene, jobs, acc, w, q: Inlined(v3) });
     }
     trace_rays_by_bands(scene, jobs, acc, w, Called)
 }
@@ -206,20 +212,20 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
 /// inlined (not a closure, which the compiler may keep apart and outside the AVX2 features,
 /// leaving every SIMD operation of the inlined query a call).
 #[cfg(target_arch = "x86_64")]
-struct Kernel<'s, 'a, 'w, I> {
+struct Kernel<'s, 'a, 'w, I, Q> {
     scene: &'s Scene<'a>,
     jobs: I,
     acc: &'s Accumulator,
     w: &'w mut Worker,
-    v3: pulp::x86::V3,
+    q: Q,
 }
 
 #[cfg(target_arch = "x86_64")]
-impl<I: Iterator<Item = (usize, u64)>> pulp::NullaryFnOnce for Kernel<'_, '_, '_, I> {
+impl<I: Iterator<Item = (usize, u64)>, Q: Nearest> pulp::NullaryFnOnce for Kernel<'_, '_, '_, I, Q> {
     type Output = ();
     #[inline(always)]
     fn call(self) {
-        trace_rays_by_bands(self.scene, self.jobs, self.acc, self.w, Inlined(self.v3));
+        trace_rays_by_bands(self.scene, self.jobs, self.acc, self.w, self.q);
     }
 }
 
@@ -351,7 +357,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
 
     // Air absorption over the segment.
     if scene.air {
-        scene.air_lanes.absorb(length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
+        scene.air_lanes.absorb_inlined(length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
     }
     if let Some(g) = scene.grazing.filter(|_| !PLAIN) {
         g.attenuate(ray.dir, length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb]);
@@ -464,6 +470,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
     // Every deposit of a segment arrives from −dir: its direction bin (an atan2) is found at
     // the segment's first deposit and kept for the others.
     let mut direction = None;
+    let early_s = lay.early_s();
     scene.receivers.crossings(ray.pos, dir, length, stamp, seg_id, |c| {
         // The wavefront reaches the sphere's centre at its distance from the image source,
         // not where this ray passes nearest: exact times for specular paths.
@@ -476,7 +483,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
         if !PLAIN && time_s < ray.connected_until_s {
             return;
         }
-        let Some(tb) = lay.time_bin(time_s) else { return };
+        let Some(tb) = lay.time_bin_after(time_s, early_s) else { return };
         let weight = share * c.chord / limits.sphere_volume_m3;
         if scene.air {
             // The air's factors land in `deposit` first (all bands at once: sound/air.rs).
