@@ -84,21 +84,6 @@ impl Air {
         absorb_lanes(&self.per_m, length_m, e, absorbed)
     }
 
-    /// [`Air::absorb`] compiled into its caller, without the AVX2 dispatch: the sound kernel,
-    /// which runs under the AVX2 token where the processor has it (sound/trace.rs), gets the
-    /// lanes inlined (no call and no dispatch twice a segment); a caller compiled for the
-    /// baseline gets SSE2's pairs. The same operations, so the same bits either way.
-    #[inline(always)]
-    pub(crate) fn absorb_inlined(&self, length_m: f64, e: &mut [f64], absorbed: &mut [f64]) {
-        absorb_lanes(&self.per_m, length_m, e, absorbed)
-    }
-
-    /// [`Air::factors`] compiled into its caller, as [`Air::absorb_inlined`].
-    #[inline(always)]
-    pub(crate) fn factors_inlined(&self, distance_m: f64, out: &mut [f64]) {
-        factor_lanes(&self.per_m, distance_m, out)
-    }
-
     /// Multiplies each `values[b]` by exp(−m_b · distance_m) (a connection's or the direct
     /// sound's leg: the same bits as the free [`attenuate`]).
     #[inline]
@@ -303,9 +288,6 @@ mod tests {
                 let (mut a, mut b) = (vec![0.0; nb], vec![0.0; nb]);
                 fast.factors(d, &mut a);
                 portable.factors(d, &mut b);
-                let mut c = vec![0.0; nb];
-                fast.factors_inlined(d, &mut c);
-                assert_eq!(a, c);
                 let lone: Vec<f64> = m.iter().map(|&m| exp_lanes([-m * d; LANES])[0]).collect();
                 assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), lone.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
                 assert_eq!(a, b);
@@ -324,9 +306,6 @@ mod tests {
                 let (mut e2, mut absorbed2) = (e0.clone(), vec![0.0; nb]);
                 portable.absorb(d, &mut e2, &mut absorbed2);
                 assert_eq!((&e, &absorbed), (&e2, &absorbed2));
-                let (mut e3, mut absorbed3) = (e0.clone(), vec![0.0; nb]);
-                fast.absorb_inlined(d, &mut e3, &mut absorbed3);
-                assert_eq!((&e, &absorbed), (&e3, &absorbed3));
                 for b in 0..nb {
                     assert_eq!(e[b], e0[b] * lone[b]);
                     assert_eq!(absorbed[b], e0[b] - e[b]);

@@ -357,7 +357,7 @@ fn advance<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene, limits: 
 
     // Air absorption over the segment.
     if scene.air {
-        scene.air_lanes.absorb_inlined(length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
+        scene.air_lanes.absorb(length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_AIR].as_mut()[..nb]);
     }
     if let Some(g) = scene.grazing.filter(|_| !PLAIN) {
         g.attenuate(ray.dir, length, &mut ray.energy.as_mut()[..nb], &mut ray.tally[stats::ABSORBED_SURFACES].as_mut()[..nb]);

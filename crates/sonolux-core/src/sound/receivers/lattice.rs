@@ -74,28 +74,31 @@ impl Receivers {
         }
         let (pa, pb) = (origin + dir * t0, origin + dir * t1);
         // Most stretches are short (the segment crosses the slab at a slant): the lattice points
-        // within pad of the stretch's box are at most 2 × 2 (half of paper-large's segments reach
-        // here and test 0.7 spheres on average), tested together without a branch each.
+        // within pad of the stretch's box are at most 2 × 2, tested without the column walk's
+        // set-up and its loops of varying length (half of paper-large's segments reach here and
+        // test 0.7 spheres on average: the walk's branches cost more than its tests).
         let span = |a: f64, b: f64, p0: f64, inv: f64, n: usize| index_span((a.min(b) - pad - p0) * inv, (a.max(b) + pad - p0) * inv, n);
         let ((i0, i1), (j0, j1)) = (span(pa.x, pb.x, lat.x0, lat.inv_sx, lat.nx), span(pa.y, pb.y, lat.y0, lat.inv_sy, lat.ny));
         if i0 > i1 || j0 > j1 {
             return;
         }
         if i1 - i0 <= 1 && j1 - j0 <= 1 {
-            self.four_points(lat, (i0, i1 - i0), (j0, j1 - j0), origin, dir, length, f);
+            for (i, j) in [(i0, j0), (i0 + 1, j0), (i0, j0 + 1), (i0 + 1, j0 + 1)] {
+                let k = if i <= i1 && j <= j1 { lat.point[j * lat.nx + i] } else { u32::MAX };
+                if let Some(crossing) = (k != u32::MAX).then(|| self.chord(k, self.centres[k as usize], origin, dir, length)).flatten() {
+                    f(crossing);
+                }
+            }
             return;
         }
         let h = (dir.x * dir.x + dir.y * dir.y).sqrt();
         // Along x (columns) when the 2D direction leans to x, else along y: swap the axes.
         let x_major = dir.x.abs() >= dir.y.abs();
-        let (u0, inv_su, su, nu, v0, inv_sv, nv) =
-            if x_major { (lat.x0, lat.inv_sx, lat.sx, lat.nx, lat.y0, lat.inv_sy, lat.ny) } else { (lat.y0, lat.inv_sy, lat.sy, lat.ny, lat.x0, lat.inv_sx, lat.nx) };
+        let (u0, su, nu, v0, sv, nv) = if x_major { (lat.x0, lat.sx, lat.nx, lat.y0, lat.sy, lat.ny) } else { (lat.y0, lat.sy, lat.ny, lat.x0, lat.sx, lat.nx) };
         let (ua, ub, va) = if x_major { (pa.x, pb.x, pa.y) } else { (pa.y, pb.y, pa.x) };
         let (du, dv) = if x_major { (dir.x, dir.y) } else { (dir.y, dir.x) };
         let (lo_u, hi_u) = (ua.min(ub) - pad, ua.max(ub) + pad);
-        // Indices by products with the reciprocals, not divisions: they only choose which
-        // spheres get the exact chord test, and `pad`'s hair covers their rounding.
-        let (first, last) = index_span((lo_u - u0) * inv_su, (hi_u - u0) * inv_su, nu);
+        let (first, last) = index_span((lo_u - u0) / su, (hi_u - u0) / su, nu);
         if first > last {
             return;
         }
@@ -105,7 +108,7 @@ impl Receivers {
         for i in first..=last {
             let u = u0 + i as f64 * su;
             let v = va + slope * (u - ua);
-            let (j0, j1) = index_span((v - reach - v0) * inv_sv, (v + reach - v0) * inv_sv, nv);
+            let (j0, j1) = index_span((v - reach - v0) / sv, (v + reach - v0) / sv, nv);
             for j in j0..=j1 {
                 let cell = if x_major { j * lat.nx + i } else { i * lat.nx + j };
                 let k = lat.point[cell];
@@ -116,40 +119,6 @@ impl Receivers {
                     f(crossing);
                 }
             }
-        }
-    }
-
-    /// The lattice points (i0 + a, j0 + b), a ≤ di ≤ 1, b ≤ dj ≤ 1: their four chords computed
-    /// together, without a branch a point (whether a point exists, holds a receiver and is
-    /// crossed are as good as random), with [`Receivers::chord`]'s expressions, so the same
-    /// chords; then `f` for each crossed sphere. Measured: docs/convex.md, session 13.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn four_points(&self, lat: &Lattice, (i0, di): (usize, usize), (j0, dj): (usize, usize), origin: DVec3, dir: DVec3, length: f64, mut f: impl FnMut(Crossing)) {
-        let r2 = self.radius_m * self.radius_m;
-        let (base, row) = (j0 * lat.nx + i0, dj * lat.nx);
-        // A missing neighbour (di or dj 0) reads the point itself and is masked out.
-        let cells = [base, base + di, base + row, base + row + di];
-        let exists = [true, di != 0, dj != 0, di != 0 && dj != 0];
-        let k: [u32; 4] = std::array::from_fn(|l| lat.point[cells[l]]);
-        let held: [bool; 4] = std::array::from_fn(|l| exists[l] & (k[l] != u32::MAX));
-        let mut crossed = 0u32;
-        let mut chords = [(0.0, 0.0, 0.0); 4];
-        for l in 0..4 {
-            let centre = self.centres[if held[l] { k[l] as usize } else { 0 }];
-            let oc = centre - origin;
-            let tc = oc.dot(dir);
-            let d2 = oc.length_squared() - tc * tc;
-            let half = (r2 - d2).sqrt();
-            let (a, b) = ((tc - half).max(0.0), (tc + half).min(length));
-            crossed |= u32::from(held[l] & !(d2 >= r2) & (b > a)) << l;
-            chords[l] = (b - a, tc, d2);
-        }
-        while crossed != 0 {
-            let l = crossed.trailing_zeros() as usize;
-            crossed &= crossed - 1;
-            let (chord, t_nearest, miss2) = chords[l];
-            f(Crossing { receiver: k[l], chord, t_nearest, miss2 });
         }
     }
 }
