@@ -195,9 +195,9 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
     // Where the BVH runs on AVX2, the whole kernel is compiled for AVX2 too (the same IEEE
     // operations, no fused multiply-add, so the same bits): on a mesh the query is inlined into
     // it (no call, and no spilling of every live value around one, a segment: docs/bvh.md,
-    // "Leaving a surface"); in a convex room traced through its planes the air's lanes
-    // (sound/air.rs) are inlined instead of a call through their own AVX2 dispatch twice a
-    // segment, and the band loops take four lanes (docs/convex.md, session 13).
+    // "Leaving a surface"); in a convex room traced through its planes the planes' query, the
+    // band loops and the sphere tests compiled into it take AVX2's lanes and three-operand
+    // forms: −4 % a segment on paper-large's grid (docs/convex.md, session 13).
     #[cfg(target_arch = "x86_64")]
     if let Some(v3) = scene.bvh.avx2() {
         if scene.surfaces.traces_planes() {
