@@ -94,11 +94,14 @@ impl Receivers {
         let h = (dir.x * dir.x + dir.y * dir.y).sqrt();
         // Along x (columns) when the 2D direction leans to x, else along y: swap the axes.
         let x_major = dir.x.abs() >= dir.y.abs();
-        let (u0, su, nu, v0, sv, nv) = if x_major { (lat.x0, lat.sx, lat.nx, lat.y0, lat.sy, lat.ny) } else { (lat.y0, lat.sy, lat.ny, lat.x0, lat.sx, lat.nx) };
+        let (u0, su, inv_su, nu, v0, inv_sv, nv) =
+            if x_major { (lat.x0, lat.sx, lat.inv_sx, lat.nx, lat.y0, lat.inv_sy, lat.ny) } else { (lat.y0, lat.sy, lat.inv_sy, lat.ny, lat.x0, lat.inv_sx, lat.nx) };
         let (ua, ub, va) = if x_major { (pa.x, pb.x, pa.y) } else { (pa.y, pb.y, pa.x) };
         let (du, dv) = if x_major { (dir.x, dir.y) } else { (dir.y, dir.x) };
         let (lo_u, hi_u) = (ua.min(ub) - pad, ua.max(ub) + pad);
-        let (first, last) = index_span((lo_u - u0) / su, (hi_u - u0) / su, nu);
+        // Indices by products with the reciprocals, not divisions: they only choose which
+        // spheres get the exact chord test, and `pad`'s hair covers their rounding.
+        let (first, last) = index_span((lo_u - u0) * inv_su, (hi_u - u0) * inv_su, nu);
         if first > last {
             return;
         }
@@ -108,7 +111,7 @@ impl Receivers {
         for i in first..=last {
             let u = u0 + i as f64 * su;
             let v = va + slope * (u - ua);
-            let (j0, j1) = index_span((v - reach - v0) / sv, (v + reach - v0) / sv, nv);
+            let (j0, j1) = index_span((v - reach - v0) * inv_sv, (v + reach - v0) * inv_sv, nv);
             for j in j0..=j1 {
                 let cell = if x_major { j * lat.nx + i } else { i * lat.nx + j };
                 let k = lat.point[cell];
