@@ -13,6 +13,9 @@ use glam::DVec3;
 
 pub use super::receiver_pattern::{first_order_mean, ReceiverPattern};
 
+mod lattice;
+use lattice::{floor_plan_lattice, Lattice};
+
 /// The receiver spheres and the cell grid that finds them.
 #[derive(Clone, Debug)]
 pub struct Receivers {
@@ -30,26 +33,6 @@ pub struct Receivers {
     items: Vec<u32>,
     /// The receivers' floor-plan lattice, when they lie on one ([`floor_plan_lattice`]).
     lattice: Option<Lattice>,
-}
-
-/// Receivers on a floor-plan lattice: centres (x0 + i sx, y0 + j sy, z), i < nx, j < ny, with
-/// sx and sy at least a sphere's diameter; `point[j * nx + i]` is the receiver there, or
-/// `u32::MAX` where the lattice has no receiver (a grid clipped by a wall).
-#[derive(Clone, Debug)]
-struct Lattice {
-    x0: f64,
-    y0: f64,
-    sx: f64,
-    sy: f64,
-    nx: usize,
-    ny: usize,
-    z: f64,
-    /// How far a centre may lie off the lattice and still be taken as on it.
-    tol: f64,
-    point: Vec<u32>,
-    /// 1 / sx and 1 / sy: indices by products (they pick which spheres get the exact chord test).
-    inv_sx: f64,
-    inv_sy: f64,
 }
 
 /// A sphere crossed by a segment.
@@ -121,21 +104,7 @@ impl Receivers {
             cells.push(items.len() as u32);
         }
         let hi = lo + DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * cell;
-        // A lattice point holds one receiver: several at one point (a receiver's channels) take
-        // the cell walk, which lists every sphere of a cell (a lattice would keep only the last).
-        let lattice = lattice.and_then(|(lo, cell, dims)| {
-            let (x0, y0) = (lo.x + 0.5 * cell.x, lo.y + 0.5 * cell.y);
-            let mut point = vec![u32::MAX; dims[0] * dims[1]];
-            for (k, c) in centres.iter().enumerate() {
-                let i = (((c.x - x0) / cell.x).round() as usize).min(dims[0] - 1);
-                let j = (((c.y - y0) / cell.y).round() as usize).min(dims[1] - 1);
-                if point[j * dims[0] + i] != u32::MAX {
-                    return None;
-                }
-                point[j * dims[0] + i] = k as u32;
-            }
-            Some(Lattice { x0, y0, sx: cell.x, sy: cell.y, nx: dims[0], ny: dims[1], z: lo.z + radius_m, tol: lattice_tolerance(&centres), point, inv_sx: 1.0 / cell.x, inv_sy: 1.0 / cell.y })
-        });
+        let lattice = lattice.and_then(|(lo, cell, dims)| Lattice::new(&centres, lo, cell, dims, radius_m));
         Receivers { centres, radius_m, patterns: Vec::new(), lo, hi, cell, dims, cells, items, lattice }
     }
 
@@ -232,81 +201,6 @@ impl Receivers {
         self.walk(origin, dir, length, stamp, segment_id, f);
     }
 
-    /// [`Receivers::crossings`] on a floor-plan lattice: the stretch of the segment inside the
-    /// spheres' slab (z within r of the lattice's height) seen from above is a short 2D segment;
-    /// the spheres it can cross have their centres within r of it. Along the 2D segment's major
-    /// axis each lattice column in its reach (± r) holds those within r·h/|major| of the line's
-    /// crossing of that column (h the 2D direction's length): one row, two where spheres nearly
-    /// touch. Each such sphere is tested by its exact chord, as the cell walk tests it, so the
-    /// same spheres give the same chords; without the walk's stepping, stamps and cell lists.
-    #[inline(never)]
-    fn walk_lattice(&self, lat: &Lattice, origin: DVec3, dir: DVec3, length: f64, mut f: impl FnMut(Crossing)) {
-        let r = self.radius_m;
-        // Wider than the spheres by twice the lattice's tolerance and a hair, so that neither a
-        // centre off the lattice by its tolerance nor a rounding of the clip loses a chord.
-        let pad = r * (1.0 + 1e-9) + 2.0 * lat.tol;
-        let (mut t0, mut t1) = (0.0f64, length);
-        if dir.z != 0.0 {
-            let inv = 1.0 / dir.z;
-            let (a, b) = ((lat.z - pad - origin.z) * inv, (lat.z + pad - origin.z) * inv);
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
-        } else if (origin.z - lat.z).abs() > pad {
-            return;
-        }
-        if !(t0 <= t1) {
-            return;
-        }
-        let (pa, pb) = (origin + dir * t0, origin + dir * t1);
-        // Most stretches are short (the segment crosses the slab at a slant): the lattice points
-        // within pad of the stretch's box are at most 2 × 2, tested without the column walk's
-        // set-up and its loops of varying length (half of paper-large's segments reach here and
-        // test 0.7 spheres on average: the walk's branches cost more than its tests).
-        let span = |a: f64, b: f64, p0: f64, inv: f64, n: usize| index_span((a.min(b) - pad - p0) * inv, (a.max(b) + pad - p0) * inv, n);
-        let ((i0, i1), (j0, j1)) = (span(pa.x, pb.x, lat.x0, lat.inv_sx, lat.nx), span(pa.y, pb.y, lat.y0, lat.inv_sy, lat.ny));
-        if i0 > i1 || j0 > j1 {
-            return;
-        }
-        if i1 - i0 <= 1 && j1 - j0 <= 1 {
-            for (i, j) in [(i0, j0), (i0 + 1, j0), (i0, j0 + 1), (i0 + 1, j0 + 1)] {
-                let k = if i <= i1 && j <= j1 { lat.point[j * lat.nx + i] } else { u32::MAX };
-                if let Some(crossing) = (k != u32::MAX).then(|| self.chord(k, self.centres[k as usize], origin, dir, length)).flatten() {
-                    f(crossing);
-                }
-            }
-            return;
-        }
-        let h = (dir.x * dir.x + dir.y * dir.y).sqrt();
-        // Along x (columns) when the 2D direction leans to x, else along y: swap the axes.
-        let x_major = dir.x.abs() >= dir.y.abs();
-        let (u0, su, nu, v0, sv, nv) = if x_major { (lat.x0, lat.sx, lat.nx, lat.y0, lat.sy, lat.ny) } else { (lat.y0, lat.sy, lat.ny, lat.x0, lat.sx, lat.nx) };
-        let (ua, ub, va) = if x_major { (pa.x, pb.x, pa.y) } else { (pa.y, pb.y, pa.x) };
-        let (du, dv) = if x_major { (dir.x, dir.y) } else { (dir.y, dir.x) };
-        let (lo_u, hi_u) = (ua.min(ub) - pad, ua.max(ub) + pad);
-        let (first, last) = index_span((lo_u - u0) / su, (hi_u - u0) / su, nu);
-        if first > last {
-            return;
-        }
-        // The line's v where it crosses column u: va + slope (u − ua); the spheres' centres
-        // within pad · h / |du| of it (|du| ≥ h/√2; a vertical segment: its one point).
-        let (slope, reach) = if du != 0.0 { (dv / du, pad * h / du.abs()) } else { (0.0, pad) };
-        for i in first..=last {
-            let u = u0 + i as f64 * su;
-            let v = va + slope * (u - ua);
-            let (j0, j1) = index_span((v - reach - v0) / sv, (v + reach - v0) / sv, nv);
-            for j in j0..=j1 {
-                let cell = if x_major { j * lat.nx + i } else { i * lat.nx + j };
-                let k = lat.point[cell];
-                if k == u32::MAX {
-                    continue;
-                }
-                if let Some(crossing) = self.chord(k, self.centres[k as usize], origin, dir, length) {
-                    f(crossing);
-                }
-            }
-        }
-    }
-
     /// [`Receivers::crossings`] through the cells of the grid.
     #[inline(never)]
     fn walk(&self, origin: DVec3, dir: DVec3, length: f64, stamp: &mut [u64], segment_id: u64, mut f: impl FnMut(Crossing)) {
@@ -369,23 +263,6 @@ impl Receivers {
     }
 }
 
-/// The whole numbers k in [a, b] that index a lattice of n points (0 ≤ k < n), as (first, last);
-/// first > last when there are none (a NaN end gives none). ⌈a⌉ and ⌊b⌋ by truncation and a
-/// comparison: `ceil` and `floor` are library calls without SSE4.1.
-#[inline(always)]
-fn index_span(a: f64, b: f64, n: usize) -> (usize, usize) {
-    let top = n as f64 - 1.0;
-    if !(a <= top && b >= 0.0 && a <= b) {
-        return (1, 0);
-    }
-    let (a, b) = (a.max(0.0), b.min(top));
-    // a ≥ 0: truncation is the floor; b ≥ 0 likewise. Through i64 (n ≤ 4096): one
-    // instruction each way, where usize's conversions are a branch and several.
-    let first = a as i64 + i64::from(a > (a as i64) as f64);
-    let last = b as i64;
-    (first as usize, last as usize)
-}
-
 /// Up to this many receivers, a segment tests every sphere instead of walking the grid's cells.
 const DIRECT_TEST_MAX: usize = 8;
 
@@ -405,45 +282,6 @@ impl Receivers {
         let (a, b) = ((tc - half).max(0.0), (tc + half).min(length));
         (b > a).then_some(Crossing { receiver: k, chord: b - a, t_nearest: tc, miss2: d2 })
     }
-}
-
-/// How far (m) a point may lie off a floor-plan lattice and still count as on it: 1e-9 of the
-/// largest coordinate (at least 1e-9 m).
-fn lattice_tolerance(centres: &[DVec3]) -> f64 {
-    1e-9 * centres.iter().map(|c| c.abs().max_element()).fold(1.0, f64::max)
-}
-
-/// The search grid of receivers that lie on a regular floor-plan lattice (one height, x and y
-/// on steps of sx and sy at least a sphere's diameter, as the scene's receiver grid): cells of
-/// sx × sy × 2r centred on the lattice points, so that each sphere lies in its own cell and a
-/// segment tests one sphere per cell it crosses. None for any other set of points.
-fn floor_plan_lattice(centres: &[DVec3], radius: f64) -> Option<(DVec3, DVec3, [usize; 3])> {
-    let first = *centres.first()?;
-    let tol = lattice_tolerance(centres);
-    if centres.iter().any(|c| (c.z - first.z).abs() > tol) {
-        return None;
-    }
-    let mut axes = [(0.0, 0.0, 0usize); 2]; // (origin, step, count) of x and y
-    for (a, axis) in axes.iter_mut().enumerate() {
-        let mut v: Vec<f64> = centres.iter().map(|c| c[a]).collect();
-        v.sort_by(f64::total_cmp);
-        v.dedup_by(|x, y| (*x - *y).abs() <= tol);
-        let step = if v.len() > 1 { v[1] - v[0] } else { 2.0 * radius };
-        if !(step >= 2.0 * radius) {
-            return None;
-        }
-        let count = ((v[v.len() - 1] - v[0]) / step).round() as usize + 1;
-        if count > 4096 || v.iter().any(|x| {
-            let k = (x - v[0]) / step;
-            (k - k.round()).abs() * step > tol
-        }) {
-            return None;
-        }
-        *axis = (v[0], step, count);
-    }
-    let [(x0, sx, nx), (y0, sy, ny)] = axes;
-    let lo = DVec3::new(x0 - 0.5 * sx, y0 - 0.5 * sy, first.z - radius);
-    Some((lo, DVec3::new(sx, sy, 2.0 * radius), [nx, ny, 1]))
 }
 
 /// Mean of 1 / (4π |x − s|²) over a ball of radius r whose centre is at distance d from s.

@@ -194,12 +194,18 @@ impl<const NB: usize> Limits<NB> {
 /// every per-ray sum is summed by the ray alone, and the field and the statistics add integers
 /// (fixed point), whose sums do not depend on order.
 pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>, acc: &Accumulator, w: &mut Worker) {
-    // On a mesh whose BVH runs on AVX2, the whole kernel is compiled for AVX2 too (the same
-    // IEEE operations, so the same bits), so that the query is inlined into it: no call, and
-    // no spilling of every live value around one, a segment (docs/bvh.md, "Leaving a surface").
+    // Where the BVH runs on AVX2, the whole kernel is compiled for AVX2 too (the same IEEE
+    // operations, no fused multiply-add, so the same bits): on a mesh the query is inlined into
+    // it (no call, and no spilling of every live value around one, a segment: docs/bvh.md,
+    // "Leaving a surface"); in a convex room traced through its planes the planes' query, the
+    // band loops and the sphere tests compiled into it take AVX2's lanes and three-operand
+    // forms: −4 % a segment on paper-large's grid (docs/convex.md, session 13).
     #[cfg(target_arch = "x86_64")]
-    if let Some(v3) = scene.bvh.avx2().filter(|_| !scene.surfaces.traces_planes()) {
-        return v3.vectorize(Kernel { scene, jobs, acc, w, v3 });
+    if let Some(v3) = scene.bvh.avx2() {
+        if scene.surfaces.traces_planes() {
+            return v3.vectorize(Kernel { scene, jobs, acc, w, q: Called });
+        }
+        return v3.vectorize(Kernel { scene, jobs, acc, w, q: Inlined(v3) });
     }
     trace_rays_by_bands(scene, jobs, acc, w, Called)
 }
@@ -208,20 +214,20 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
 /// inlined (not a closure, which the compiler may keep apart and outside the AVX2 features,
 /// leaving every SIMD operation of the inlined query a call).
 #[cfg(target_arch = "x86_64")]
-struct Kernel<'s, 'a, 'w, I> {
+struct Kernel<'s, 'a, 'w, I, Q> {
     scene: &'s Scene<'a>,
     jobs: I,
     acc: &'s Accumulator,
     w: &'w mut Worker,
-    v3: pulp::x86::V3,
+    q: Q,
 }
 
 #[cfg(target_arch = "x86_64")]
-impl<I: Iterator<Item = (usize, u64)>> pulp::NullaryFnOnce for Kernel<'_, '_, '_, I> {
+impl<I: Iterator<Item = (usize, u64)>, Q: Nearest> pulp::NullaryFnOnce for Kernel<'_, '_, '_, I, Q> {
     type Output = ();
     #[inline(always)]
     fn call(self) {
-        trace_rays_by_bands(self.scene, self.jobs, self.acc, self.w, Inlined(self.v3));
+        trace_rays_by_bands(self.scene, self.jobs, self.acc, self.w, self.q);
     }
 }
 
@@ -472,6 +478,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
     // the segment's first deposit and kept for the others.
     let mut direction = None;
     let profiled = scene.grazing.filter(|g| !PLAIN && g.profiled(dir, ray.pairs_met));
+    let early_s = lay.early_s();
     scene.receivers.crossings(ray.pos, dir, length, stamp, seg_id, |c| {
         // The wavefront reaches the sphere's centre at its distance from the image source,
         // not where this ray passes nearest: exact times for specular paths.
@@ -484,7 +491,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
         if !PLAIN && time_s < ray.connected_until_s {
             return;
         }
-        let Some(tb) = lay.time_bin(time_s) else { return };
+        let Some(tb) = lay.time_bin_after(time_s, early_s) else { return };
         let weight = share * c.chord / limits.sphere_volume_m3;
         if scene.air {
             // The air's factors land in `deposit` first (all bands at once: sound/air.rs).
