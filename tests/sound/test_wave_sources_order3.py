@@ -241,12 +241,19 @@ def small_box():
 
 def rounding_floor(orders, f_max):
     """The float32 floor of a 30° cone (directional at 63 Hz) fitted to ``orders`` per band and
-    run on the grid for ``f_max`` (10 points per wavelength): the scheme is linear, so the run of
-    the whole cluster less the runs of its orders below the top and of the top order alone is
-    rounding only. Its largest share of a band's energy (63-250 Hz, 12 receivers at 2 m, ±30 ms
-    about the direct sound)."""
+    run on the grid for ``f_max`` (10 points per wavelength): its largest share of a band's
+    energy over the first three bands (:func:`rounding_shares`)."""
+    return max(rounding_shares(orders, f_max, 3))
+
+
+def rounding_shares(orders, f_max, wave_bands):
+    """The float32 floor of a 30° cone (directional at 63 Hz) fitted to ``orders`` per band on
+    the grid for ``f_max``, by linearity: the scheme is linear, so the run of the whole cluster
+    less the runs of its orders below the top and of the top order alone is rounding only. Its
+    share of each of the first ``wave_bands`` bands' energy (12 receivers at 2 m, ±30 ms about
+    the direct sound)."""
     scene, src = small_box()
-    fit = wave_sources.fit(cone(30.0)[0], cone(30.0)[1], len(BANDS), np.asarray(orders))
+    fit = wave_sources.fit(*cone(30.0), len(BANDS), np.asarray(orders))
     order = np.array([wave_sources.component_order(k) for k in range(fit.components.shape[1])])
     top = int(fit.orders.max())
     parts = [dataclasses.replace(fit, components=np.where(keep[None], fit.components, 0.0))
@@ -256,10 +263,9 @@ def rounding_floor(orders, f_max):
     e_whole, f = windowed_spectrum(runs[0][0], RADIUS_M)
     e_rounding, _ = windowed_spectrum({**runs[0][0], "pressure_pa": whole - low - high},
                                       RADIUS_M)
-    shares = [e_rounding[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
-              / e_whole[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
-              for c in BANDS[:3]]
-    return max(shares)
+    return np.array([e_rounding[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
+                     / e_whole[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
+                     for c in BANDS[:wave_bands]])
 
 
 @pytest.mark.parametrize("f_max", [

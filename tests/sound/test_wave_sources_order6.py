@@ -17,7 +17,14 @@ from scipy.special import eval_legendre
 from sonolux import engine
 from sonolux.scene.directivity import node_directions
 from sonolux.sound import wave_moments, wave_sources, wave_stencils
-from tests.sound.test_wave_sources_order2 import BANDS, FORWARD, UP, C, custom, pulse_spectrum
+from tests.sound.test_wave_sources_order2 import (
+    BANDS,
+    FORWARD,
+    UP,
+    C,
+    assert_far_field,
+    custom,
+)
 from tests.sound.test_wave_sources_order3 import cone
 
 pytestmark = pytest.mark.usefixtures("core")
@@ -243,18 +250,7 @@ def test_a_synthetic_order_5_or_6_source_is_fitted_and_its_clusters_far_field_is
     np.testing.assert_allclose(fit.amplitude(u)[:, 1], exact, atol=math.sqrt(2e-4) * exact.max())
     pos, sig, delay = wave_sources.terms(np.zeros(3), fit, BANDS, f_max, spacing, fs, steps, C)
     assert len(pos) == len({tuple(np.round(p / spacing).astype(int)) for p in pos})
-    n_fft = sfft.next_fast_len(2 * steps, real=True)
-    f = sfft.rfftfreq(n_fft, 1.0 / fs)
-    spectra = sfft.rfft(sig, n_fft, axis=1)
-    ref = pulse_spectrum(delay, f_max, fs, steps, n_fft)
-    target = fit.amplitude(u)
-    for b, centre in enumerate(BANDS[:3]):
-        i = int(np.argmin(np.abs(f - centre)))
-        k = 2 * math.pi * f[i] / C
-        far = np.exp(1j * k * (u @ pos.T)) @ spectra[:, i] / ref[i]
-        tol = (wave_sources.stencil_error(order, k * spacing) + 1e-3) * np.abs(target[:, b]).max()
-        np.testing.assert_allclose(far.real, target[:, b], rtol=0, atol=tol, err_msg=f"{centre}")
-        assert np.max(np.abs(far.imag)) < tol
+    assert_far_field(fit, pos, sig, delay, order, f_max, fs, steps, spacing)
 
 
 @pytest.mark.parametrize("order", [5, 6])

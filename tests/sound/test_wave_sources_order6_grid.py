@@ -14,9 +14,9 @@ import pytest
 import sonolux
 from sonolux import engine
 from sonolux.sound import wave_sources, wave_stencils
-from tests.sound.test_wave_sources import band_gains, cluster_runs, windowed_spectrum
+from tests.sound.test_wave_sources import band_gains, cluster_runs
 from tests.sound.test_wave_sources_order2 import BANDS, C
-from tests.sound.test_wave_sources_order3 import DIRECTIONS, RADIUS_M, cone, small_box
+from tests.sound.test_wave_sources_order3 import DIRECTIONS, cone, rounding_shares
 from tests.sound.test_wave_sources_order6 import custom, harmonic
 
 pytestmark = pytest.mark.usefixtures("core")
@@ -111,29 +111,6 @@ def test_the_30_degree_cone_at_order_5_on_the_grid(far_field):
 NOISE_FLOOR = wave_stencils.NOISE_FLOOR
 
 
-def rounding_floor(orders, f_max, wave_bands):
-    """The float32 floor of a 30° cone (directional at 63 Hz) fitted to ``orders`` per band on
-    the grid for ``f_max``, by linearity: the run of the whole cluster less the runs of its
-    orders below the top and of the top order alone is rounding only (as
-    test_wave_sources_order3.rounding_floor); its share of each of the first ``wave_bands``
-    bands' energy (the hybrid's wave bands at a crossover f_max/√2), 12 receivers at 2 m in the
-    6 m box, ±30 ms about the direct sound."""
-    scene, src = small_box()
-    fit = wave_sources.fit(*cone(30.0), len(BANDS), np.asarray(orders))
-    order = np.array([wave_sources.component_order(k) for k in range(fit.components.shape[1])])
-    top = int(fit.orders.max())
-    parts = [dataclasses.replace(fit, components=np.where(keep[None], fit.components, 0.0))
-             for keep in (order < top, order == top)]
-    _, runs = cluster_runs(scene, src, src + RADIUS_M * DIRECTIONS[:12], [fit, *parts], f_max)
-    whole, low, high = (np.asarray(run["pressure_pa"], float) for run, _ in runs)
-    e_whole, f = windowed_spectrum(runs[0][0], RADIUS_M)
-    e_rounding, _ = windowed_spectrum({**runs[0][0], "pressure_pa": whole - low - high},
-                                      RADIUS_M)
-    return np.array([e_rounding[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
-                     / e_whole[:, (f > c / math.sqrt(2)) & (f < c * math.sqrt(2))].sum()
-                     for c in BANDS[:wave_bands]])
-
-
 def test_order_5_stays_below_60_db_of_float32_floor_and_order_6_does_not():
     """On the 137 mm grid (the 177 Hz hybrid's: wave bands 63 and 125 Hz) the rule radiates
     3/5 (order 5 at 125 Hz: one float32 rounding of its largest signal 3.7·10⁻⁹ of the band),
@@ -146,8 +123,8 @@ def test_order_5_stays_below_60_db_of_float32_floor_and_order_6_does_not():
     spacing = engine.WaveSettings(max_frequency_hz=250.0, duration_s=0.1).spacing_m
     assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [3, 5, 2, 0]
     assert wave_stencils.floor_share(BANDS, 1, spacing, C, 6) < NOISE_FLOOR
-    assert np.all(rounding_floor([3, 5, 2, 0], 250.0, 2) < NOISE_FLOOR)
-    assert rounding_floor([3, 6, 2, 0], 250.0, 2).max() > NOISE_FLOOR
+    assert np.all(rounding_shares([3, 5, 2, 0], 250.0, 2) < NOISE_FLOOR)
+    assert rounding_shares([3, 6, 2, 0], 250.0, 2).max() > NOISE_FLOOR
 
 
 @pytest.mark.slow
@@ -158,8 +135,8 @@ def test_on_the_354_hz_hybrid_s_grid_the_rule_s_order_5_stays_below_60_db():
     Tolerance 10⁻⁶, the standard."""
     spacing = engine.WaveSettings(max_frequency_hz=500.0, duration_s=0.1).spacing_m
     assert list(wave_sources.resolved_orders(BANDS, spacing, C)) == [3, 4, 5, 2]
-    assert np.all(rounding_floor([3, 4, 5, 2], 500.0, 3) < NOISE_FLOOR)
-    assert rounding_floor([3, 5, 5, 2], 500.0, 3).max() > NOISE_FLOOR
+    assert np.all(rounding_shares([3, 4, 5, 2], 500.0, 3) < NOISE_FLOOR)
+    assert rounding_shares([3, 5, 5, 2], 500.0, 3).max() > NOISE_FLOOR
 
 
 @pytest.mark.slow

@@ -202,10 +202,8 @@ pub(crate) fn trace_rays(scene: &Scene, jobs: impl Iterator<Item = (usize, u64)>
     // forms: −4 % a segment on paper-large's grid (docs/convex.md, session 13).
     #[cfg(target_arch = "x86_64")]
     if let Some(v3) = scene.bvh.avx2() {
-        if scene.surfaces.traces_planes() {
-            return v3.vectorize(Kernel { scene, jobs, acc, w, q: Called });
-        }
-        return v3.vectorize(Kernel { scene, jobs, acc, w, q: Inlined(v3) });
+        let planes = scene.surfaces.traces_planes();
+        return if planes { v3.vectorize(Kernel { scene, jobs, acc, w, q: Called }) } else { v3.vectorize(Kernel { scene, jobs, acc, w, q: Inlined(v3) }) };
     }
     trace_rays_by_bands(scene, jobs, acc, w, Called)
 }
