@@ -1,6 +1,6 @@
 //! The nearest-surface query in a dependent chain, as the sound tracer asks it (each query
 //! starts where the last one hit), against several chains interleaved and against the same
-//! rays queried independently: what bounds a mesh room's segment (docs/bvh.md, "Rays in
+//! rays queried independently: what bounds a mesh room's segment (docs/bvh-measured.md, "Rays in
 //! flight"). CPU time of the thread (/proc/thread-self/schedstat), which a shared machine's
 //! load disturbs less than wall time.
 //!

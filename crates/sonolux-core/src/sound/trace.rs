@@ -40,7 +40,7 @@ impl Bands for Vec<f64> {
 
 /// A ray being traced: everything that carries from one of its segments to the next. A
 /// batch of rays reuses one (no allocation per ray). (Several rays in flight a worker were
-/// measured no faster: docs/bvh.md, "Rays in flight".)
+/// measured no faster: docs/bvh-measured.md, "Rays in flight".)
 struct RayState<B: Bands> {
     source: usize,
     index: u64,
