@@ -152,15 +152,23 @@ fn main() {
             let (t, tri) = surf.nearest(p, d).map_or((u64::MAX, usize::MAX), |h| (h.0.to_bits(), h.1));
             for w in [t, tri as u64] { hash = (hash ^ w).wrapping_mul(0x0000_0100_0000_01b3); }
         }
-        let counts = rec.iter().filter_map(|&(p, d)| bvh.closest_hit_counted(p.as_vec3(), d.as_vec3()).map(|c| c.1));
+        let counts: Vec<_> = rec.iter().filter_map(|&(p, d)| bvh.closest_hit_counted(p.as_vec3(), d.as_vec3()).map(|c| c.1)).collect();
         let (nodes, packets, to_answer) =
-            counts.fold((0u64, 0u64, 0u64), |(a, b, c), w| (a + w.nodes as u64, b + w.packets as u64, c + w.to_answer as u64));
+            counts.iter().fold((0u64, 0u64, 0u64), |(a, b, c), w| (a + w.nodes as u64, b + w.packets as u64, c + w.to_answer as u64));
         let per = |x: u64| x as f64 / n as f64;
+        // The queries by (node tests, packet tests), the most frequent first: how the work is
+        // spread (e.g. how many queries test only the root and one face of a hull).
+        let mut by_work = std::collections::BTreeMap::<(u32, u32), u64>::new();
+        counts.iter().for_each(|w| *by_work.entry((w.nodes, w.packets)).or_default() += 1);
+        let mut by_work: Vec<_> = by_work.into_iter().collect();
+        by_work.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        let spread: Vec<String> = by_work.iter().take(8).map(|((a, b), k)| format!("{a}n{b}p {:.1}%", 100.0 * *k as f64 / n as f64)).collect();
         let work = format!(
-            "; a query: {:.3} node tests ({:.3} on the way to the answer's leaf), {:.3} packet tests",
+            "; a query: {:.3} node tests ({:.3} on the way to the answer's leaf), {:.3} packet tests; queries by tests: {}",
             per(nodes),
             per(to_answer),
-            per(packets)
+            per(packets),
+            spread.join(", ")
         );
         println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}{work}");
     }
