@@ -2,8 +2,8 @@
 
 Run with ``make bench`` or ``.venv/bin/python benchmarks/sound.py``. See benchmarks/README.md.
 
-One run, about 5 minutes on 2 cores, does four things on the three rooms of the paper
-(paper-small 6 x 2.5 x 2 m, paper-medium 12 x 5 x 4 m, paper-large 24 x 10 x 8 m: walls and
+One run, about 12 minutes on 2 cores (5 with ``--budget skip``), does four things on the three
+rooms of the paper (paper-small 6 x 2.5 x 2 m, paper-medium 12 x 5 x 4 m, paper-large 24 x 10 x 8 m: walls and
 ceiling absorb 5 % of the energy, the floor 30 %, scattering 0.1 everywhere; the talker at the
 centre, 1.5 m high; receivers every metre at 1.5 m, radius 0.25 m):
 
@@ -24,8 +24,9 @@ centre, 1.5 m high; receivers every metre at 1.5 m, radius 0.25 m):
    ranges of one bake, merged) until T30 is within 2 % of the reference at every receiver and
    band at two checks in a row. The faster estimator is printed: that decides the default.
 4. The paper's own budget, 48 million rays for paper-large in about 4.8 hours, against
-   sonolux's time for 48 M rays estimated from its measured rate (48 M rays are not traced),
-   with the air off (as the peer) and on (the scene's air, what a bake of the scene does).
+   sonolux's wall time for those 48 M rays on the full grid, traced (``--budget full``, the
+   default; ``slope`` estimates it from two long bakes), with the air on (the scene's air, what
+   a bake of the scene does) and off (as the peer): sound_budget.py.
 
 Only ratios measured in one run mean anything; absolute rates depend on the machine and on
 what else runs on it. Results go to benchmarks/results/sound.json.
@@ -44,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 from common import other_cpu_use, write_json
+from sound_budget import PAPER_RAYS, describe, paper_budget
 from sound_peer import ENERGY_THRES, HIST_BIN_S, load_pra, pra_hits_per_ray, pra_room, pra_trace, shoebox_of
 
 import sonolux
@@ -59,7 +61,7 @@ PROGRESSIVE_RAYS = 100_000_000  # the nominal ray count of the progressive bakes
 GROWTH = 1.25  # each check of the accuracy search traces 25 % more rays than the last
 START_RAYS = {"paper": 40_000, "rain": 400}
 REF_SEED = 1_000_003  # the reference bake's seed: independent of the searches' rays
-PAPER_RAYS, PAPER_HOURS = 48_000_000, 4.8  # Pope & Chalmers, paper-large
+PAPER_HOURS = 4.8  # Pope & Chalmers' time for their 48 M rays of paper-large
 # Issue 15's targets: one receiver at least 5x pyroomacoustics' rays/s (sonolux on 2 threads, the
 # peer on its one), and paper-large's 48 M rays on the full grid within 3 minutes on 2 threads.
 TARGET_1RCV_RATIO = 5.0
@@ -411,6 +413,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cap-paper", type=float, default=70.0, help="accuracy search cap, paper (70 s)")
     ap.add_argument("--cap-rain", type=float, default=30.0, help="accuracy search cap, rain (30 s)")
     ap.add_argument("--accuracy-room", default="paper-medium", choices=ROOMS)
+    ap.add_argument("--budget", choices=("full", "slope", "skip"), default="full",
+                    help="48 M rays of paper-large, air on and off: traced (full, the default, "
+                         "about 7 minutes idle), from the line through two long bakes (slope), or not")
     ap.add_argument("--no-install", action="store_true", help="never pip-install the peer")
     ap.add_argument("--no-peer", action="store_true", help="skip pyroomacoustics")
     ap.add_argument("--no-accuracy", action="store_true", help="skip the time-to-accuracy part")
@@ -438,29 +443,26 @@ def main(argv: list[str] | None = None) -> int:
         largest = max(c["rays"] for c in acc["estimators"]["paper"]["checks"])
         acc["reference"]["rays_over_largest_paper_tested"] = acc["reference"]["rays"] / largest
 
-    # the paper's budget: 48 M rays in paper-large, estimated from the measured 2-thread rate
+    # the paper's budget: 48 M rays in paper-large (part 4, sound_budget.py), and the estimate
+    # from part 1's rates beside it (what this benchmark printed before it traced them)
     large = rooms["paper-large"]
-    budget = {"paper_rays": PAPER_RAYS, "paper_hours": PAPER_HOURS, "estimators": {}}
+    budget = {"paper_rays": PAPER_RAYS, "paper_hours": PAPER_HOURS, "from_rate": {}}
     for est, e in large["estimators"].items():
         t = large["setup_s"] + PAPER_RAYS / e["net_rays_per_s_2t"]
-        budget["estimators"][est] = {"seconds_48M_2t": t, "speedup": PAPER_HOURS * 3600 / t,
-                                     "target_s": TARGET_48M_S, "target_met": t < TARGET_48M_S}
+        budget["from_rate"][est] = {"seconds_48M_2t": t, "speedup": PAPER_HOURS * 3600 / t}
     t = large["setup_s"] + PAPER_RAYS / large["paper_air_on"]["net_rays_per_s_2t"]
-    budget["paper_air_on"] = {"seconds_48M_2t": t, "target_s": TARGET_48M_S, "target_met": t < TARGET_48M_S}
+    budget["from_rate"]["paper_air_on"] = {"seconds_48M_2t": t}
+    if args.budget != "skip":
+        budget["measured"] = paper_budget(scenes["paper-large"], args.budget, TARGET_48M_S)
 
     print_tables(rooms, peer)
     print()
-    for est, b in budget["estimators"].items():
+    for est, b in budget["from_rate"].items():
         t = b["seconds_48M_2t"]
-        when = f"{t / 3600:,.1f} h" if t >= 7200 else f"{t / 60:,.1f} min"
-        how = f"{b['speedup']:,.1f}x faster" if b["speedup"] >= 1 else f"{1 / b['speedup']:,.1f}x SLOWER"
-        print(f"48 M rays in paper-large, estimator {est}, 2 threads: ~{when} (estimated from the "
-              f"measured rate) vs the paper's {PAPER_HOURS} h: {how}; target (issue 15) < "
-              f"{TARGET_48M_S / 60:g} min: " + ("met" if t < TARGET_48M_S else "NOT met"))
-    t = budget["paper_air_on"]["seconds_48M_2t"]
-    print(f"48 M rays in paper-large, estimator paper, air on (as the scene bakes), 2 threads: "
-          f"~{t / 60:,.1f} min; target < {TARGET_48M_S / 60:g} min: "
-          + ("met" if t < TARGET_48M_S else "NOT met"))
+        print(f"48 M rays in paper-large, {est.replace('_', ' ')}, estimated from part 1's "
+              f"2-thread rate: ~{t / 60:,.1f} min")
+    if "measured" in budget:
+        print("\n".join(describe(budget["measured"], PAPER_HOURS)))
     if acc:
         ref = acc["reference"]
         print(f"time to T30 within {T30_TOL:.0%} of the reference ({acc['room']}, all "
@@ -500,7 +502,8 @@ def main(argv: list[str] | None = None) -> int:
                   "timed": "room.ray_tracing() only, 1 thread"} if pra else None),
         "machine": {"platform": platform.platform(), "python": platform.python_version(),
                     "cpus": os.cpu_count(), "other_cpu_use_start_end": [busy_start, busy_end]},
-        "settings": {"rate_seconds": args.rate_seconds, "peer_seconds": args.peer_seconds,
+        "settings": {"rate_seconds": args.rate_seconds, "budget": args.budget,
+                     "peer_seconds": args.peer_seconds,
                      "ref_seconds": args.ref_seconds,
                      "caps_s": {"paper": args.cap_paper, "rain": args.cap_rain},
                      "threads": list(THREAD_COUNTS), "subset": SUBSET, "energy_thres": ENERGY_THRES,
