@@ -49,14 +49,9 @@ fn main() {
     let mesh = Mesh::new(vertices, triangles, material).expect("mesh");
     // MESH_TREE=largest-first|sah|sah:NODE:PACKET:LEAF_PACKETS: how the wide tree is collapsed,
     // to measure the default against (the same hits, so the same bits; docs/bvh.md, "Wide
-    // nodes by cost"), on the SAH tree alone. MESH_HULL=off: the SAH tree alone; MESH_HULL=faces:
-    // the tessellated faces' grids at the root (bvh/faces.rs, a probe) (default: the
+    // nodes by cost"), on the SAH tree alone. MESH_HULL=off: the SAH tree alone (default: the
     // mesh's hull at the root when it has one, bvh/hull.rs).
-    let shape = match std::env::var("MESH_HULL").as_deref() {
-        Ok("off") => sonolux_core::bvh::Shape::Sah,
-        Ok("faces") => sonolux_core::bvh::Shape::Faces,
-        _ => sonolux_core::bvh::Shape::Auto,
-    };
+    let shape = if std::env::var("MESH_HULL").as_deref() == Ok("off") { sonolux_core::bvh::Shape::Sah } else { sonolux_core::bvh::Shape::Auto };
     let bvh = match std::env::var("MESH_TREE") {
         Ok(t) => Bvh::build_collapsed(&mesh, t.parse().expect("MESH_TREE")),
         Err(_) => Bvh::build_shaped(&mesh, sonolux_core::bvh::Nodes::Auto, shape),

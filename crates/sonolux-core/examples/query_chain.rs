@@ -15,8 +15,7 @@
 //! over a binary tree with spatial splits). Each round also prints the node and packet tests a
 //! query. `QUERY_HULL=off` puts every triangle in
 //! the tree (default: the mesh's hull at the root when it has one, bvh/hull.rs; the
-//! `QUERY_TREE` probes are the SAH tree alone); `QUERY_HULL=faces` puts a tessellated room's
-//! large faces at the root as grids (bvh/faces.rs, a probe).
+//! `QUERY_TREE` probes are the SAH tree alone).
 use glam::{DVec3, Vec3};
 use sonolux_core::convex::Surfaces;
 use sonolux_core::geometry::offset_origin;
@@ -96,11 +95,7 @@ fn main() {
     let spatial = std::env::var("QUERY_SPATIAL_SPLITS").is_ok_and(|v| v == "1");
     // QUERY_HULL=off: every triangle in the tree (default: the hull at the root, when the
     // mesh has one; bvh/hull.rs).
-    let shape = match std::env::var("QUERY_HULL").as_deref() {
-        Ok("off") => sonolux_core::bvh::Shape::Sah,
-        Ok("faces") => sonolux_core::bvh::Shape::Faces,
-        _ => sonolux_core::bvh::Shape::Auto,
-    };
+    let shape = if std::env::var("QUERY_HULL").as_deref() == Ok("off") { sonolux_core::bvh::Shape::Sah } else { sonolux_core::bvh::Shape::Auto };
     let bvh = match tree.as_deref() {
         Some(t) if spatial => Bvh::build_with_spatial_splits(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
         Some(t) => Bvh::build_collapsed(&mesh, t.parse().expect("QUERY_TREE")).unwrap(),
@@ -158,16 +153,14 @@ fn main() {
             for w in [t, tri as u64] { hash = (hash ^ w).wrapping_mul(0x0000_0100_0000_01b3); }
         }
         let counts = rec.iter().filter_map(|&(p, d)| bvh.closest_hit_counted(p.as_vec3(), d.as_vec3()).map(|c| c.1));
-        let (nodes, packets, to_answer, grids) = counts.fold((0u64, 0u64, 0u64, 0u64), |(a, b, c, g), w| {
-            (a + w.nodes as u64, b + w.packets as u64, c + w.to_answer as u64, g + w.grids as u64)
-        });
+        let (nodes, packets, to_answer) =
+            counts.fold((0u64, 0u64, 0u64), |(a, b, c), w| (a + w.nodes as u64, b + w.packets as u64, c + w.to_answer as u64));
         let per = |x: u64| x as f64 / n as f64;
         let work = format!(
-            "; a query: {:.3} node tests ({:.3} on the way to the answer's leaf), {:.3} packet tests, {:.3} face grid lookups",
+            "; a query: {:.3} node tests ({:.3} on the way to the answer's leaf), {:.3} packet tests",
             per(nodes),
             per(to_answer),
-            per(packets),
-            per(grids)
+            per(packets)
         );
         println!("{name} ({lanes}) round {round}: ns a query: 1 chain {one:.1}, 2 chains (queries first) {two:.1}, 2 chains (alternating) {two_b:.1}, 4 chains {four:.1}, the first chain's rays queried independently {indep:.1}; answers hash {hash:016x}{work}");
     }

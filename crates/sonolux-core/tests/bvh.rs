@@ -7,8 +7,6 @@ use sonolux_core::rng::Stream;
 use sonolux_core::sampling::uniform_sphere;
 use sonolux_core::bvh::{Nodes, Shape};
 use sonolux_core::{Bvh, Hit, Mesh, Ray};
-#[allow(dead_code)]
-mod common;
 
 /// The oracle: test every triangle.
 fn brute_force(mesh: &Mesh, ray: &Ray) -> Option<Hit> {
@@ -513,77 +511,4 @@ fn the_hull_at_the_root_gives_the_same_hits() {
         })
         .count();
     assert_eq!(leaks, 0, "rays from the talker left the closed L-room");
-}
-
-/// A tessellated closed box (k × k quads a face) turned by `turn` radians about a slanted axis
-/// (so its faces are off the axes and, rounded to f32, coplanar only within an ulp) with a soup
-/// of furniture inside.
-fn tessellated_room(k: u32, turn: f32) -> Mesh {
-    let axis = Vec3::new(1.0, 2.0, 3.0).normalize();
-    let q = glam::Quat::from_axis_angle(axis, turn);
-    let inside = common::transformed(&random_soup(200, 71), |p| p * 0.2 + Vec3::splat(1.0));
-    common::transformed(&common::merge(&[tessellated_box(k, 4.0), inside]), |p| q * p + Vec3::new(3.0, -2.0, 1.0))
-}
-
-/// Tessellated faces go to the root as grids (bvh/faces.rs, `Shape::Faces`, a probe) where faces
-/// of more than 64 triangles hold most of the area, and only there; `Shape::Auto` never.
-#[test]
-fn tessellated_faces_are_put_at_the_root_of_tessellated_rooms_only() {
-    let faces = |m: &Mesh| Bvh::build_shaped(m, Nodes::Auto, Shape::Faces).unwrap().face_grids();
-    assert_eq!(faces(&tessellated_box(9, 4.0)), 6);
-    assert_eq!(faces(&tessellated_room(12, 0.0)), 6);
-    // (Turned, rounding may split a face's plane key in two: six grids or seven.)
-    assert!((6..=7).contains(&faces(&tessellated_room(12, 0.7))));
-    for mesh in [tessellated_box(5, 4.0), l_room(), random_soup(3000, 5)] {
-        assert_eq!(faces(&mesh), 0);
-    }
-    assert_eq!(Bvh::build(&tessellated_box(9, 4.0)).unwrap().face_grids(), 0);
-}
-
-/// On tessellated rooms, axis-aligned and turned: the brute-force oracle's distance to the bit
-/// (full and compressed nodes, `occluded` included) on random rays, on rays through edges and
-/// vertices and on rays aimed a little beside them (10⁻⁷ to 10⁻² m: near a cell's border,
-/// where the grid hands over to the face's subtree); AVX2 and portable to the bit; the SAH
-/// tree's answers except at exact ties; the counting walk's; and fewer node tests than the SAH
-/// tree.
-#[test]
-fn tessellated_faces_at_the_root_give_the_same_hits() {
-    for (k, turn) in [(12, 0.0), (16, 0.7)] {
-        let room = tessellated_room(k, turn);
-        let b = room.bounds();
-        let mut rays = rays_in_box(150_000, 81, b.min - Vec3::ONE, b.max + Vec3::ONE);
-        let edges = rays_at_edges_and_vertices(&room, 150_000, 81);
-        rays.extend(edges.iter().enumerate().map(|(i, r)| {
-            let mut s = Stream::new(82, 0, i as u64);
-            let beside = uniform_sphere(s.uniform(), s.uniform()).as_vec3() * 10f32.powf(-7.0 + 5.0 * s.uniform_f32());
-            Ray::new(r.origin, r.dir + beside)
-        }));
-        rays.extend(edges);
-        for nodes in [Nodes::Full, Nodes::Compressed] {
-            let (n, example) = disagreements(&room, &Bvh::build_shaped(&room, nodes, Shape::Faces).unwrap(), &rays);
-            assert_eq!(n, 0, "tessellated room {k}, turned {turn}, {nodes:?} nodes: {n} of {} rays differ, e.g. {example}", rays.len());
-        }
-        let faces = Bvh::build_shaped(&room, Nodes::Full, Shape::Faces).unwrap();
-        let sah = Bvh::build_shaped(&room, Nodes::Full, Shape::Sah).unwrap();
-        assert!(faces.face_grids() > 0);
-        let portable = faces.clone().portable();
-        let (mut wrong, mut ties, mut nodes, mut grids) = ([0; 3], 0, [0u64; 2], 0u64);
-        for r in &rays {
-            let (x, y) = (faces.closest_hit_from(r.origin, r.dir), sah.closest_hit_from(r.origin, r.dir));
-            match (x, y) {
-                (Some(x), Some(y)) if x.t.to_bits() == y.t.to_bits() && x.triangle != y.triangle => ties += 1,
-                (x, y) => wrong[0] += usize::from(x != y),
-            }
-            wrong[1] += usize::from(faces.closest_hit(r, 0.0, f32::INFINITY) != portable.closest_hit(r, 0.0, f32::INFINITY));
-            let (hit, counts) = faces.closest_hit_counted(r.origin, r.dir).unwrap();
-            wrong[2] += usize::from(hit.map(|h| h.t.to_bits()) != x.map(|h| h.t.to_bits()));
-            (nodes[0], grids) = (nodes[0] + counts.nodes as u64, grids + counts.grids as u64);
-            nodes[1] += sah.closest_hit_counted(r.origin, r.dir).unwrap().1.nodes as u64;
-        }
-        assert_eq!(wrong, [0; 3], "of {} rays: from the SAH tree beyond exact ties ({ties} ties), AVX2 from portable, the counting walk", rays.len());
-        // (Ties come from the rays aimed at shared vertices and edges of the fine tessellation:
-        // about 2 % of all rays here.)
-        assert!(ties < rays.len() / 20, "{ties} ties");
-        assert!(grids > 0 && nodes[0] < nodes[1], "faces {} node tests ({grids} grid lookups), SAH {}", nodes[0], nodes[1]);
-    }
 }

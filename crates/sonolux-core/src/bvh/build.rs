@@ -380,7 +380,7 @@ fn partition(items: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
     }
 }
 
-pub(super) fn empty_node() -> Node8 {
+fn empty_node() -> Node8 {
     let mut bounds = [[f32::INFINITY; 8]; 6];
     for plane in [1, 3, 5] {
         bounds[plane] = [f32::NEG_INFINITY; 8];
@@ -388,7 +388,7 @@ pub(super) fn empty_node() -> Node8 {
     Node8 { bounds, child: [0; 8] }
 }
 
-pub(super) fn set_slot(node: &mut Node8, slot: usize, b: &Aabb, child: u32) {
+fn set_slot(node: &mut Node8, slot: usize, b: &Aabb, child: u32) {
     for axis in 0..3 {
         node.bounds[2 * axis][slot] = b.min[axis];
         node.bounds[2 * axis + 1][slot] = b.max[axis];
@@ -452,7 +452,7 @@ fn emit_planned(node: &Binary, plan: &collapse::Plan, order: &[u32], mesh: &Mesh
 }
 
 /// Packs a leaf's triangles eight to a packet and returns the leaf's reference.
-pub(super) fn emit_leaf(tris: &[u32], mesh: &Mesh, out: &mut Built) -> u32 {
+fn emit_leaf(tris: &[u32], mesh: &Mesh, out: &mut Built) -> u32 {
     let first = out.packets.len();
     for chunk in tris.chunks(LANES) {
         let mut p = Packet { corners: [[0.0; 8]; 9], ids: [0; 8] };

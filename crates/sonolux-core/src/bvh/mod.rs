@@ -13,8 +13,6 @@
 //! - The hull at the root ([`hull`]): a room's large flat faces (coplanar groups of a few
 //!   triangles holding most of its area) as leaves of the root itself, the SAH tree of the rest
 //!   beside them, so that a query meets its wall after one node test.
-//! - Tessellated faces at the root ([`faces`], `Shape::Faces`, a probe): a tessellated room's
-//!   large faces as root slots resolved by a 2-D grid on the face's plane.
 //! - Traversal ([`traverse`]): one ray against the eight boxes of a node at once, the boxes it
 //!   meets visited nearest first through a small stack whose entries remember their entry
 //!   distance (so that those beyond the nearest hit found since are dropped unvisited); a leaf's
@@ -36,7 +34,6 @@ use crate::geometry::{Aabb, Hit, Ray};
 use crate::mesh::Mesh;
 
 pub(crate) mod build;
-mod faces;
 mod hull;
 pub(crate) mod lanes;
 mod quantized;
@@ -118,10 +115,6 @@ pub enum Shape {
     Auto,
     /// The SAH tree over every triangle.
     Sah,
-    /// A probe, not the default: a tessellated room's large flat faces as grids at the root
-    /// (`faces.rs`) when the mesh has them, else as [`Shape::Auto`]. The same hits; measured
-    /// no faster on l-room-100k (docs/bvh-faces.md).
-    Faces,
 }
 
 /// The acceleration structure. Queries take `&self` and are safe to share between threads.
@@ -134,8 +127,6 @@ pub struct Bvh {
     packets: Vec<Packet>,
     /// Slots of the root that hold the mesh's hull, its large flat faces (`hull.rs`); 0: none.
     hull_slots: usize,
-    /// The grids of the tessellated faces at the root (`faces.rs`); none for most meshes.
-    faces: faces::Faces,
     bounds: Aabb,
     simd: Simd,
 }
@@ -155,19 +146,9 @@ impl Bvh {
     /// [`Bvh::build_with`] in the shape asked for: the same hits either way (for benchmarks
     /// and tests).
     pub fn build_shaped(mesh: &Mesh, nodes: Nodes, shape: Shape) -> Result<Bvh, CoreError> {
-        let (built, hull_slots, faces) = match shape {
-            Shape::Auto => {
-                let (built, hull_slots) = hull::build(mesh)?;
-                (built, hull_slots, faces::Faces::default())
-            }
-            Shape::Faces => match faces::build(mesh)? {
-                Some((built, faces)) => (built, 0, faces),
-                None => {
-                    let (built, hull_slots) = hull::build(mesh)?;
-                    (built, hull_slots, faces::Faces::default())
-                }
-            },
-            Shape::Sah => (build::build(mesh)?, 0, faces::Faces::default()),
+        let (built, hull_slots) = match shape {
+            Shape::Auto => hull::build(mesh)?,
+            Shape::Sah => (build::build(mesh)?, 0),
         };
         #[cfg(target_arch = "x86_64")]
         let simd = pulp::x86::V3::try_new().map_or(Simd::Portable, Simd::Avx2);
@@ -182,7 +163,7 @@ impl Bvh {
             Some(q) => (Vec::new(), q),
             None => (built.nodes, Vec::new()),
         };
-        Ok(Bvh { nodes, qnodes, packets: built.packets, hull_slots, faces, bounds: built.bounds, simd })
+        Ok(Bvh { nodes, qnodes, packets: built.packets, hull_slots, bounds: built.bounds, simd })
     }
 
     /// Whether the tree is traversed on compressed nodes.
@@ -223,11 +204,6 @@ impl Bvh {
         self.hull_slots
     }
 
-    /// How many of the root's slots hold tessellated faces resolved by a grid (`faces.rs`).
-    pub fn face_grids(&self) -> usize {
-        self.faces.len()
-    }
-
     /// Number of 8-wide nodes.
     pub fn node_count(&self) -> usize {
         self.nodes.len() + self.qnodes.len()
@@ -247,7 +223,7 @@ impl Bvh {
         self.bounds
     }
 
-    /// A 64-bit FNV-1a hash of every bit of the tree (nodes, packets, faces' grids, bounds): equal trees
+    /// A 64-bit FNV-1a hash of every bit of the tree (nodes, packets, bounds): equal trees
     /// hash equal, so tests can check that a build is deterministic.
     pub fn fingerprint(&self) -> u64 {
         let mut h = 0xcbf2_9ce4_8422_2325u64;
@@ -271,7 +247,6 @@ impl Bvh {
             p.corners.iter().flatten().for_each(|x| eat(x.to_bits()));
             p.ids.iter().for_each(|&i| eat(i));
         }
-        self.faces.words().for_each(&mut eat);
         [self.bounds.min, self.bounds.max].iter().flat_map(|v| v.to_array()).for_each(|x| eat(x.to_bits()));
         h
     }
@@ -286,9 +261,9 @@ impl Bvh {
                 // One walk in each closure: a closure holding both grows past what the compiler
                 // inlines into `vectorize`'s AVX2 function, and its SIMD calls stay calls.
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &self.faces, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 } else {
-                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &self.faces, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 }
             }
             Simd::Portable => {
@@ -311,9 +286,9 @@ impl Bvh {
                 let l = lanes::Avx2(v3);
                 let (o, d, inf) = (origin, dir, f32::INFINITY);
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &self.faces, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                    v3.vectorize(|| traverse::closest(l, &self.nodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
                 } else {
-                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &self.faces, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
+                    v3.vectorize(|| traverse::closest(l, &self.qnodes, &self.packets, &TravRay::from_origin_dir(l, o, d, 0.0), inf))
                 }
             }
             Simd::Portable => {
@@ -339,9 +314,9 @@ impl Bvh {
     #[inline(always)]
     fn closest_on<L: traverse_quantized::ByteLanes>(&self, l: L, r: &TravRay<L>, t_max: f32) -> Option<Hit> {
         if self.qnodes.is_empty() {
-            traverse::closest(l, &self.nodes, &self.packets, &self.faces, r, t_max)
+            traverse::closest(l, &self.nodes, &self.packets, r, t_max)
         } else {
-            traverse::closest(l, &self.qnodes, &self.packets, &self.faces, r, t_max)
+            traverse::closest(l, &self.qnodes, &self.packets, r, t_max)
         }
     }
 
@@ -353,9 +328,9 @@ impl Bvh {
             Simd::Avx2(v3) => {
                 let l = lanes::Avx2(v3);
                 if self.qnodes.is_empty() {
-                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, &self.faces, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::any(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 } else {
-                    v3.vectorize(|| traverse::any(l, &self.qnodes, &self.packets, &self.faces, &TravRay::new(l, ray, t_min), t_max))
+                    v3.vectorize(|| traverse::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max))
                 }
             }
             Simd::Portable => self.any_on(lanes::Portable, ray, t_min, t_max),
@@ -365,9 +340,9 @@ impl Bvh {
     #[inline(always)]
     fn any_on<L: traverse_quantized::ByteLanes>(&self, l: L, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         if self.qnodes.is_empty() {
-            traverse::any(l, &self.nodes, &self.packets, &self.faces, &TravRay::new(l, ray, t_min), t_max)
+            traverse::any(l, &self.nodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
         } else {
-            traverse::any(l, &self.qnodes, &self.packets, &self.faces, &TravRay::new(l, ray, t_min), t_max)
+            traverse::any(l, &self.qnodes, &self.packets, &TravRay::new(l, ray, t_min), t_max)
         }
     }
 

@@ -8,7 +8,6 @@
 use glam::{Vec3, Vec3A};
 
 use super::lanes::Lanes;
-use super::faces::{Faces, FACE};
 use super::{Node8, Packet, LEAF, PACKET_INDEX};
 use crate::geometry::{pick, Hit, Ray, BOX_EXIT_WIDEN};
 
@@ -35,9 +34,6 @@ pub(super) struct TravRay<L: Lanes> {
     org_k: [L::F; 3],
     shear: [L::F; 3],
     t_min: L::F,
-    /// The ray itself, for a tessellated face's grid (`faces.rs`).
-    pub(super) origin: Vec3,
-    pub(super) dir: Vec3,
 }
 
 impl<L: Lanes> TravRay<L> {
@@ -75,8 +71,6 @@ impl<L: Lanes> TravRay<L> {
             org_k: [l.permute(o, &BROADCAST[k[0]]), l.permute(o, &BROADCAST[k[1]]), l.permute(o, &BROADCAST[k[2]])],
             shear: [l.mul(l.permute(d, &BROADCAST[k[0]]), sz), l.mul(l.permute(d, &BROADCAST[k[1]]), sz), sz],
             t_min: l.splat(t_min),
-            origin,
-            dir,
         }
     }
 
@@ -102,8 +96,6 @@ impl<L: Lanes> TravRay<L> {
             },
             shear: [l.splat(ray.sx), l.splat(ray.sy), l.splat(ray.sz)],
             t_min: l.splat(t_min),
-            origin: ray.origin,
-            dir: ray.dir,
         }
     }
 }
@@ -280,18 +272,13 @@ impl Stack {
 /// Closest hit: children visited nearest entry first; stack entries whose entry distance is
 /// beyond the nearest hit found since they were pushed are dropped.
 #[inline(always)]
-pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], faces: &Faces, r: &TravRay<L>, t_max: f32) -> Option<Hit> {
+pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> Option<Hit> {
     let mut t_best = t_max;
     let mut triangle = u32::MAX;
     let mut stack = Stack::new();
     let mut current = 0u32; // the root
     loop {
         if current & LEAF == 0 {
-            if current & FACE != 0 {
-                // A tessellated face: the leaf of the cell the ray crosses, or its subtree.
-                current = faces.resolve(current, r.origin, r.dir);
-                continue;
-            }
             let node = &nodes[current as usize];
             let (mask, enter) = node.hit_children(l, r, t_best);
             match mask.count_ones() {
@@ -359,15 +346,11 @@ pub(super) fn closest<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Pa
 
 /// Any hit: children in slot order, done at the first triangle hit.
 #[inline(always)]
-pub(super) fn any<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], faces: &Faces, r: &TravRay<L>, t_max: f32) -> bool {
+pub(super) fn any<L: Lanes, N: WideNode<L>>(l: L, nodes: &[N], packets: &[Packet], r: &TravRay<L>, t_max: f32) -> bool {
     let mut stack = Stack::new();
     let mut current = 0u32;
     loop {
         if current & LEAF == 0 {
-            if current & FACE != 0 {
-                current = faces.resolve(current, r.origin, r.dir);
-                continue;
-            }
             let node = &nodes[current as usize];
             let (mut mask, _) = node.hit_children(l, r, t_max);
             if mask != 0 {

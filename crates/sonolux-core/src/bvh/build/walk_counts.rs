@@ -9,7 +9,6 @@ use glam::Vec3;
 
 use super::super::lanes::Portable;
 use super::super::traverse::{TravRay, WideNode};
-use super::super::faces::FACE;
 use super::super::{Bvh, Node8, LEAF, PACKET_INDEX};
 use crate::geometry::{intersect_triangle, Hit, Ray, BOX_EXIT_WIDEN};
 
@@ -20,8 +19,6 @@ pub struct WalkCounts {
     pub nodes: u32,
     /// 8-triangle packet tests.
     pub packets: u32,
-    /// Tessellated faces' grid lookups (`faces.rs`).
-    pub grids: u32,
     /// Node tests on the way from the root to the leaf that holds the answer (0 for a miss):
     /// the rest of `nodes` were tests of boxes the answer was not in.
     pub to_answer: u32,
@@ -43,11 +40,6 @@ impl Bvh {
         let mut stack: Vec<(u32, f32, u32)> = Vec::new();
         let (mut current, mut depth) = (0u32, 0u32);
         loop {
-            if current & LEAF == 0 && current & FACE != 0 {
-                counts.grids += 1;
-                current = self.faces.resolve(current, origin, dir);
-                continue;
-            }
             if current & LEAF == 0 {
                 let node: &Node8 = &self.nodes[current as usize];
                 counts.nodes += 1;
