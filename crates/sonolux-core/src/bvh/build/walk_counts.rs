@@ -10,7 +10,7 @@ use glam::Vec3;
 use super::super::lanes::Portable;
 use super::super::traverse::{TravRay, WideNode};
 use super::super::{Bvh, Node8, LEAF, PACKET_INDEX};
-use crate::geometry::{intersect_triangle, Hit, Ray};
+use crate::geometry::{intersect_triangle, Hit, Ray, BOX_EXIT_WIDEN};
 
 /// Work done by one closest-hit query.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -68,7 +68,8 @@ impl Bvh {
             loop {
                 match stack.pop() {
                     None => return Some(((triangle != u32::MAX).then_some(Hit { t: t_best, triangle }), counts)),
-                    Some((child, t, d)) if t <= t_best => {
+                    // (Widened as the walk's own pop: traverse::closest.)
+                    Some((child, t, d)) if t <= t_best * BOX_EXIT_WIDEN => {
                         (current, depth) = (child, d);
                         break;
                     }
