@@ -71,6 +71,11 @@ pub fn ray_bits(r: &Ray) -> String {
     format!("origin {:?} [{}] dir {:?} [{}]", r.origin, hex(r.origin), r.dir, hex(r.dir))
 }
 
+/// The ray a report of [`ray_bits`] names.
+pub fn ray_from_bits(origin: [u32; 3], dir: [u32; 3]) -> Ray {
+    Ray::new(Vec3::from_array(origin.map(f32::from_bits)), Vec3::from_array(dir.map(f32::from_bits)))
+}
+
 /// The answers of one tree to ray `i` that the oracle's (`oracle`) are checked against:
 /// `closest_hit` on (0, ∞), the tracer's `closest_hit_from`, and `occluded` on (0, t_end)
 /// with t_end 0.5, 2 or 8 (m along a unit direction: where a visibility test to a receiver
