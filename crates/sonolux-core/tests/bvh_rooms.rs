@@ -16,10 +16,13 @@ use oracle::{air_rays, assert_all_agree, edge_rays, every_tree, leaving_rays};
 use rooms::Room;
 use sonolux_core::Ray;
 
+/// A ray set: `n` rays in a room from a seed.
+type RaySet = fn(&Room, usize, u64) -> Vec<Ray>;
+
 /// The three kinds of rays, `n` of each, from `seed`, on every tree, one kind at a time.
 fn check_room(room: &Room, n: usize, seed: u64) {
     let trees = every_tree(&room.mesh);
-    let kinds: [(&str, fn(&Room, usize, u64) -> Vec<Ray>); 3] =
+    let kinds: [(&str, RaySet); 3] =
         [("air rays", air_rays), ("edge and vertex rays", edge_rays), ("rays leaving a surface", leaving_rays)];
     for (what, rays) in kinds {
         assert_all_agree(&room.mesh, &trees, &rays(room, n, seed), &format!("{} ({} triangles), {what}", room.name, room.mesh.triangles.len()));
@@ -79,9 +82,9 @@ fn real_rooms_agree_with_brute_force() {
 /// Millions of rays: 1 M of each kind in the L-room, the furnished room and a shoebox (9 M
 /// rays, each on 8 trees; RUNTIME on the 2-core development machine, loaded).
 #[test]
-#[ignore = "slow: millions of brute-force rays in real rooms (make test-all)"]
+#[ignore = "slow: millions of brute-force rays in real rooms (make test-all); fails on 1 ray of the furnished room, see spurious_hit_at_a_wall_ceiling_edge"]
 fn real_rooms_agree_with_brute_force_on_millions_of_rays() {
-    for room in [rooms::l_room(), rooms::furnished(), rooms::shoebox()] {
+    for room in [rooms::l_room(), rooms::shoebox(), rooms::furnished()] {
         check_room(&room, 1_000_000, 82);
     }
 }
@@ -154,6 +157,25 @@ fn closest_hit_from_one_ulp_beyond_a_plane() {
     let r = oracle::ray_from_bits([0x37800000, 0x4040f575, 0x404cccce], [0x3ed6b026, 0xbf3483aa, 0x3f1261ed]);
     let hit = oracle::brute_force(&room.mesh, &r);
     assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((6, 1.288269e-7)));
+    for (name, bvh) in every_tree(&room.mesh) {
+        assert_eq!(bvh.closest_hit(&r, 0.0, f32::INFINITY), hit, "{name}");
+    }
+}
+
+/// The same cause where the tracer can meet it (session 14: 1 of the 1,000,000 leaving rays of
+/// the furnished room; 0 of 1,000,000 in the L-room): a ray leaving the south wall at its edge
+/// with the ceiling, its origin inside the room one ulp below the ceiling (z = 2.7999997),
+/// going down. Brute force reports the ceiling (triangle 3) at t = 2.2e-7, a rounding artefact
+/// of the triangle test (the exact t is negative); the hull tree on full nodes culls the
+/// ceiling's flat box, which lies behind the origin, and reports the floor at t = 4.13 (the
+/// geometrically right answer). The SAH tree and the compressed nodes agree with brute force.
+#[test]
+#[ignore = "known disagreement (session 14): a spurious brute-force hit one ulp from a plane; see the comment"]
+fn spurious_hit_at_a_wall_ceiling_edge() {
+    let room = rooms::furnished();
+    let r = oracle::ray_from_bits([0x40364db8, 0x37800000, 0x40333332], [0xbf2f0155, 0x3e89dd22, 0xbf2da8cc]);
+    let hit = oracle::brute_force(&room.mesh, &r);
+    assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((3, 2.1967203e-7)));
     for (name, bvh) in every_tree(&room.mesh) {
         assert_eq!(bvh.closest_hit(&r, 0.0, f32::INFINITY), hit, "{name}");
     }

@@ -132,6 +132,16 @@ pub fn air_rays(room: &Room, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// The f32 after `x` (up) or before it: `f32::next_up` / `next_down` (Rust 1.86; the MSRV is
+/// 1.85), for finite `x`.
+fn next_f32(x: f32, up: bool) -> f32 {
+    if x == 0.0 {
+        return if up { f32::from_bits(1) } else { -f32::from_bits(1) };
+    }
+    let away_from_zero = up == (x > 0.0);
+    f32::from_bits(if away_from_zero { x.to_bits() + 1 } else { x.to_bits() - 1 })
+}
+
 /// Rays from uniform points of the room's air aimed exactly at a corner, an edge's midpoint or
 /// a point along an edge of a random triangle (where the watertight test is decided by its f64
 /// fallback and the box tests' rounding decides what is culled), and, one ray in three, at
@@ -154,7 +164,7 @@ pub fn edge_rays(room: &Room, n: usize, seed: u64) -> Vec<Ray> {
             match (i / 3) % 3 {
                 1 => {
                     let k = (s.next_u64() % 3) as usize;
-                    target[k] = if s.next_u64() % 2 == 0 { target[k].next_up() } else { target[k].next_down() };
+                    target[k] = next_f32(target[k], s.next_u64() % 2 == 0);
                     d = target - o;
                 }
                 2 => d *= 1.0 + f32::EPSILON,
