@@ -4,6 +4,7 @@ an existing, damaged or foreign checkpoint handled as documented."""
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from sonolux.sound.ranges import SoundRanges, bake
 
 pytestmark = pytest.mark.usefixtures("core")
 RAYS = 3000
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 @pytest.fixture(scope="module")
@@ -130,6 +132,20 @@ def test_a_part_keeps_its_counts_and_merges(small, whole):
     b, _ = bake_ranges(work, range_rays=600)
     assert b.counts is not None and b.settings["ray_range"] == [1200, RAYS]
     assert np.array_equal(a.merge(b).energy, whole.energy)
+
+
+@pytest.mark.parametrize("estimator", ["paper", "rain", "nee"])
+def test_a_mesh_room_has_the_bits_of_one_bake_on_two_threads_and_in_parts(estimator):
+    """The example L-room (652 triangles traced through the BVH, its hull at the root; the
+    other tests here bake paper-small, a shoebox traced through its planes): one bake on one
+    thread, and the same rays on two threads in two parts merged, the same bits."""
+    scene = sonolux.load_scene(EXAMPLES / "l-room" / "l-room.toml")
+    on = lambda n: replace(scene, settings=replace(scene.settings, threads=n))  # noqa: E731
+    one = bake_whole(on(1), rays=RAYS, estimator=estimator)
+    parts = [bake(on(2), rays=RAYS, estimator=estimator, ray_range=r, checkpoint=None, client=None)
+             for r in ((0, 1100), (1100, RAYS))]
+    assert np.array_equal(parts[0].merge(parts[1]).energy, one.energy)
+    assert one.stats["segments"] > 10 * RAYS
 
 
 def test_sonolux_bake_is_the_plain_bake_without_client_or_checkpoint(small, whole):

@@ -8,21 +8,10 @@ use sonolux_core::sampling::uniform_sphere;
 use sonolux_core::bvh::{Nodes, Shape};
 use sonolux_core::{Bvh, Hit, Mesh, Ray};
 
-/// The oracle: test every triangle.
-fn brute_force(mesh: &Mesh, ray: &Ray) -> Option<Hit> {
-    let mut best: Option<Hit> = None;
-    for i in 0..mesh.triangles.len() {
-        if mesh.degenerate[i] {
-            continue;
-        }
-        let [a, b, c] = mesh.corners(i);
-        let t_max = best.map_or(f32::INFINITY, |h| h.t);
-        if let Some(t) = intersect_triangle(ray, a, b, c, 0.0, t_max) {
-            best = Some(Hit { t, triangle: i as u32 });
-        }
-    }
-    best
-}
+mod oracle;
+mod rooms;
+
+use oracle::brute_force;
 
 fn random_point(s: &mut Stream, scale: f32) -> Vec3 {
     Vec3::new(s.uniform_f32(), s.uniform_f32(), s.uniform_f32()) * scale
@@ -416,24 +405,6 @@ fn both_collapses_give_the_same_hits_and_the_optimal_one_tests_fewer_nodes() {
     }
 }
 
-/// The example L-room (`examples/l-room/l-room.obj`: walls, floor and ceiling of 28 triangles,
-/// tables, chairs and a cabinet), read from its OBJ file's `v` and `f` lines.
-fn l_room() -> Mesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/l-room/l-room.obj");
-    let text = std::fs::read_to_string(path).expect("examples/l-room/l-room.obj");
-    let (mut v, mut t) = (Vec::new(), Vec::new());
-    for line in text.lines() {
-        let mut w = line.split_whitespace();
-        match w.next() {
-            Some("v") => v.push(Vec3::from_array(std::array::from_fn(|_| w.next().unwrap().parse().unwrap()))),
-            Some("f") => t.push(std::array::from_fn(|_| w.next().unwrap().parse::<u32>().unwrap() - 1)),
-            _ => {}
-        }
-    }
-    let n = t.len();
-    Mesh::new(v, t, vec![0; n]).unwrap()
-}
-
 /// Rays from uniform points of the L-room's box in uniform directions (some start outside the
 /// room, in its notch or in furniture: all the better).
 fn rays_in_box(n: usize, seed: u64, lo: Vec3, hi: Vec3) -> Vec<Ray> {
@@ -452,7 +423,7 @@ fn rays_in_box(n: usize, seed: u64, lo: Vec3, hi: Vec3) -> Vec<Ray> {
 /// than 32 triangles), not a soup.
 #[test]
 fn the_hull_is_put_at_the_root_of_rooms_only() {
-    let room = l_room();
+    let room = rooms::l_room().mesh;
     assert_eq!(Bvh::build(&room).unwrap().hull_slots(), 7);
     assert_eq!(Bvh::build_shaped(&room, Nodes::Auto, Shape::Sah).unwrap().hull_slots(), 0);
     let shoebox = tessellated_box(1, 4.0);
@@ -470,7 +441,7 @@ fn the_hull_is_put_at_the_root_of_rooms_only() {
 /// the closed room no ray escapes.
 #[test]
 fn the_hull_at_the_root_gives_the_same_hits() {
-    let room = l_room();
+    let room = rooms::l_room().mesh;
     let b = room.bounds();
     let mut rays = rays_in_box(300_000, 61, b.min - Vec3::ONE, b.max + Vec3::ONE);
     rays.extend(rays_at_edges_and_vertices(&room, 200_000, 61));
@@ -488,6 +459,7 @@ fn the_hull_at_the_root_gives_the_same_hits() {
         intersect_triangle(r, a, b, c, 0.0, f32::INFINITY).map(f32::to_bits) == Some(t.to_bits())
     };
     let (mut ties, mut wrong) = (0, 0);
+    let portable = hull.clone().portable();
     for r in &rays {
         match (hull.closest_hit_from(r.origin, r.dir), sah.closest_hit_from(r.origin, r.dir)) {
             (Some(x), Some(y)) if x.t.to_bits() == y.t.to_bits() && x.triangle != y.triangle => {
@@ -496,7 +468,6 @@ fn the_hull_at_the_root_gives_the_same_hits() {
             }
             (x, y) => wrong += usize::from(x != y),
         }
-        let portable = hull.clone().portable();
         wrong += usize::from(hull.closest_hit(r, 0.0, f32::INFINITY) != portable.closest_hit(r, 0.0, f32::INFINITY));
     }
     assert_eq!(wrong, 0, "{wrong} of {} rays differ beyond exact ties ({ties} ties)", rays.len());
