@@ -82,7 +82,7 @@ fn real_rooms_agree_with_brute_force() {
 /// Millions of rays: 1 M of each kind in the L-room, the furnished room and a shoebox (9 M
 /// rays, each on 8 trees; RUNTIME on the 2-core development machine, loaded).
 #[test]
-#[ignore = "slow: millions of brute-force rays in real rooms (make test-all); fails on 1 ray of the furnished room, see spurious_hit_at_a_wall_ceiling_edge"]
+#[ignore = "slow: millions of brute-force rays in real rooms (make test-all); fails on 1 edge ray of the shoebox and 1 leaving ray of the furnished room, see the marked tests below"]
 fn real_rooms_agree_with_brute_force_on_millions_of_rays() {
     for room in [rooms::l_room(), rooms::shoebox(), rooms::furnished()] {
         check_room(&room, 1_000_000, 82);
@@ -176,6 +176,26 @@ fn spurious_hit_at_a_wall_ceiling_edge() {
     let r = oracle::ray_from_bits([0x40364db8, 0x37800000, 0x40333332], [0xbf2f0155, 0x3e89dd22, 0xbf2da8cc]);
     let hit = oracle::brute_force(&room.mesh, &r);
     assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((3, 2.1967203e-7)));
+    for (name, bvh) in every_tree(&room.mesh) {
+        assert_eq!(bvh.closest_hit(&r, 0.0, f32::INFINITY), hit, "{name}");
+    }
+}
+
+/// A disagreement at a shared edge, found last (session 14: 1 of the 1,000,000 edge rays of the
+/// paper-large shoebox, 24 × 10 × 8 m), left failing and marked: a ray from the air aimed
+/// exactly at the midpoint (24, 5, 0) of the edge between the east wall and the floor. Brute
+/// force: the east wall (triangle 7) at t = 0.9999992; the trees (seen on the SAH tree, full
+/// and compressed, AVX2 and portable): the floor (triangle 0) at t = 0.9999994. The triangle
+/// test's t is ~13 ulps off the exact 1 here (its absolute error grows with the wall's extent,
+/// metres, over the ray's length, 0.71), more than the 1 + 2γ₃ by which the walk widens its
+/// clip to the nearest hit, so the wall's box, entered at ≈ 1, is culled after the floor's hit.
+#[test]
+#[ignore = "known disagreement (session 14): a shared edge of a large room, the triangle test's t error beyond the clip's widening; see the comment"]
+fn shared_edge_of_a_large_room() {
+    let room = rooms::shoebox();
+    let r = oracle::ray_from_bits([0x41bc69cc, 0x40b11b01, 0x3e05c620], [0x3ee58d02, 0xbf08d809, 0xbe05c621]);
+    let hit = oracle::brute_force(&room.mesh, &r);
+    assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((7, 0.9999992)));
     for (name, bvh) in every_tree(&room.mesh) {
         assert_eq!(bvh.closest_hit(&r, 0.0, f32::INFINITY), hit, "{name}");
     }
