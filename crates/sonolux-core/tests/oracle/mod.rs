@@ -82,13 +82,41 @@ pub fn ray_from_bits(origin: [u32; 3], dir: [u32; 3]) -> Ray {
 /// ends); whether they are right, and what they are (formatted only when asked). (A range
 /// that ends within the triangle test's own rounding of a hit is not asked here: there the
 /// box test and the triangle test can decide differently, `tests/bvh_rooms.rs`,
-/// `occluded_at_a_hit_within_its_rounding`.)
+/// `known_disagreement_occluded_at_a_hit_within_its_rounding`.)
 fn answers(mesh: &Mesh, bvh: &Bvh, r: &Ray, i: usize, oracle: Option<Hit>) -> (bool, impl Fn() -> String) {
     let t_end = [0.5f32, 2.0, 8.0][i % 3];
     let (a, b) = (bvh.closest_hit(r, 0.0, f32::INFINITY), bvh.closest_hit_from(r.origin, r.dir));
     let seen = bvh.occluded(r, 0.0, t_end);
-    let ok = same_as_oracle(mesh, r, a, oracle) && same_as_oracle(mesh, r, b, oracle) && seen == oracle.is_some_and(|h| h.t < t_end);
+    let agree = same_as_oracle(mesh, r, a, oracle) && same_as_oracle(mesh, r, b, oracle) && seen == oracle.is_some_and(|h| h.t < t_end);
+    // The one known class of disagreement (tests/bvh_rooms.rs, `known_disagreement_*`): hits
+    // within the triangle test's own rounding (`origin_rounding_m`), which the exact box tests
+    // can cull where brute force, which has no boxes, keeps them: a hit that near the origin,
+    // or the tree's answer a real hit of the ray that near the oracle's (at a shared edge:
+    // which is nearer is not decided at that precision).
+    let bound = |h: Hit| origin_rounding_m(mesh, r, h.triangle);
+    let near = |h: Option<Hit>| h.is_some_and(|h| h.t < bound(h));
+    let close = |x: Option<Hit>| match (x, oracle) {
+        (Some(x), Some(o)) => {
+            let [p, q, s] = mesh.corners(x.triangle as usize);
+            (x.t - o.t).abs() <= bound(x) + bound(o) && intersect_triangle(r, p, q, s, 0.0, f32::INFINITY) == Some(x.t)
+        }
+        _ => false,
+    };
+    let rounding = near(oracle) || near(a) || near(b) || (close(a) && close(b) && seen == oracle.is_some_and(|h| h.t < t_end));
+    let ok = agree || rounding;
     (ok, move || format!("closest_hit {a:?}, closest_hit_from {b:?}, occluded to {t_end} {seen}"))
+}
+
+/// A bound of the watertight test's absolute error in t for `triangle` (Woop, Benthin and Wald
+/// 2013): its t is a difference of the corners' coordinates relative to the origin, sheared
+/// along the ray's dominant axis k; each is rounded a few times by at most ε/2 of a value up to
+/// 2R (R: the corners' largest coordinate distance from the origin), so t's error is a few
+/// ε·R/|d_k|. 8 ε·R/|d_k| is taken: a stated bound of the form of pbrt's conservative δt
+/// (Pharr, Jakob and Humphreys, *Physically Based Rendering* 3rd ed. §3.9.6); the three
+/// disagreements found lie within it (`known_disagreement_*` assert so).
+pub fn origin_rounding_m(mesh: &Mesh, r: &Ray, triangle: u32) -> f32 {
+    let reach = mesh.corners(triangle as usize).iter().map(|p| (*p - r.origin).abs().max_element()).fold(0.0f32, f32::max);
+    8.0 * f32::EPSILON * reach / r.dir.abs().max_element()
 }
 
 /// For each tree with a ray whose answers differ from the oracle's: (tree, how many rays,
