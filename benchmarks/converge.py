@@ -290,7 +290,7 @@ def print_table(results: dict) -> None:
     for name, row in results["scenes"].items():
         print(f"{name}:")
         for key, r in row.items():
-            if key == "summary":
+            if key in ("summary", "seeds"):  # (the seeds are the table below)
                 continue
             label = key.replace("_inside_auto", " (inside auto)")
             if r.get("same_as"):
