@@ -342,7 +342,9 @@ impl Receivers {
 /// SoundSettings`). `keep_counts` also returns the exact fixed-point counts, for merging ray
 /// ranges; `max_field_bytes` is the largest field the caller accepts; `first_receiver` is the
 /// index of the first receiver in the whole bake when it is traced in tiles of receivers;
-/// `only_source` traces that source alone (a field per source).
+/// `only_source` traces that source alone (a field per source); `tail_from_s` (one a receiver
+/// and band, receiver-major; inf: not watched) and `tail_keep` ask for the largest per-ray late
+/// contributions (sonolux_core::sound::tail), returned as `tail`.
 #[pyclass(module = "sonolux._core", frozen)]
 pub(crate) struct SoundSettings {
     inner: core::SoundSettings,
@@ -351,6 +353,7 @@ pub(crate) struct SoundSettings {
     nee_receivers: u32,
     /// The field's fixed-point quantum, when several runs must share one (None: the run's own).
     quantum: Option<f64>,
+    tail: Option<core::TailSettings>,
 }
 
 #[pymethods]
@@ -360,7 +363,7 @@ impl SoundSettings {
         *, rays, first_ray, end_ray, seed, threads, estimator, speed_of_sound_m_s, air_attenuation_per_m,
         energy_drop_db, max_time_s, sample_rate_hz, early_s, late_bin_s, azimuth_bands, elevation_bands,
         max_field_bytes, keep_counts = false, first_receiver = 0, only_source = None, nee_receivers = 8,
-        quantum = None
+        quantum = None, tail_from_s = None, tail_keep = 0
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -385,6 +388,8 @@ impl SoundSettings {
         only_source: Option<usize>,
         nee_receivers: u32,
         quantum: Option<f64>,
+        tail_from_s: Option<Vec<f64>>,
+        tail_keep: usize,
     ) -> PyResult<Self> {
         if let Some(q) = quantum {
             if !(q > 0.0 && q.is_finite()) {
@@ -421,7 +426,8 @@ impl SoundSettings {
             // Never more than this machine has: the core allocates what this allows.
             max_field_bytes: max_field_bytes.min(crate::available_memory_bytes()),
         };
-        Ok(SoundSettings { inner, keep_counts, nee_receivers, quantum })
+        let tail = tail_from_s.map(|from_s| core::TailSettings { from_s, keep: tail_keep });
+        Ok(SoundSettings { inner, keep_counts, nee_receivers, quantum, tail })
     }
 }
 
@@ -488,6 +494,7 @@ pub(crate) fn trace_sound<'py>(
             quantum: settings.quantum,
             scattering_by_angle: acoustics.by_angle(),
             grazing_modes: acoustics.grazing(),
+            tail: settings.tail.as_ref(),
         };
         let res = core::trace_sound_with(&geometry.mesh, &geometry.bvh, &acoustics.inner, &sources, &receivers.inner, set, extras, |p| {
             crate::report_progress(&progress, p, &mut interrupted)
@@ -534,6 +541,17 @@ pub(crate) fn trace_sound<'py>(
     let escapes: Vec<(u32, u64, [f64; 3], [f64; 3])> = st.escapes.iter().map(|e| (e.source, e.ray, e.from, e.dir)).collect();
     s.set_item("escapes", escapes)?;
     out.set_item("stats", s)?;
+    if let Some(t) = &res.tail {
+        let keep = t.kept.iter().map(Vec::len).max().unwrap_or(0);
+        let mut values = vec![0.0; t.kept.len() * keep];
+        for (i, list) in t.kept.iter().enumerate() {
+            values[i * keep..i * keep + list.len()].iter_mut().zip(list).for_each(|(v, c)| *v = c.value);
+        }
+        let d = PyDict::new(py);
+        d.set_item("values", values.into_pyarray(py).reshape([t.kept.len(), keep])?)?;
+        d.set_item("contributing", t.contributing.clone().into_pyarray(py))?;
+        out.set_item("tail", d)?;
+    }
     Ok(out)
 }
 

@@ -19,6 +19,7 @@ import numpy as np
 from sonolux.analysis.decay import CURVATURE_LIMIT_PERCENT, XI_LIMIT_PERMILLE, c80, decay_times
 from sonolux.analysis.params import onsets_s
 from sonolux.sound.reach import UNREACHED, Reach
+from sonolux.sound.tail import reliable_below, tail_record
 
 #: Independent ray groups of the delete-a-group jackknife (:mod:`sonolux.sound.rounds`): an SE
 #: estimate has GROUPS − 1 degrees of freedom. More groups estimate it better, but each is one
@@ -80,6 +81,27 @@ class Errors:
     #: change between its values at the two, over t(0.975, G − 1). None: not known.
     onset_s: np.ndarray | None = None
     supported_onset_s: np.ndarray | None = None
+    #: float64[receiver, band]: Pareto k̂ of the last round's per-ray contributions to the energy
+    #: after T30's range (:mod:`sonolux.sound.tail`; NaN: too few to fit), and the rays it was
+    #: fitted from. Where k̂ reaches :func:`sonolux.sound.tail.reliable_below` the late mean is
+    #: carried by rare rays the jackknife cannot see: reported (record, round line, info), not
+    #: waited for — waiting stalled paper-medium and the L-room (docs/progressive.md, "The late
+    #: tail's diagnostic"). None: not watched.
+    tail_k: np.ndarray | None = None
+    tail_rays: int = 0
+
+    def heavy_tail(self, name: str) -> np.ndarray:
+        """bool[receiver, band]: T30 entries whose late decay rests on a heavy tail (k̂ at or
+        above the reliable bound), not near a source nor left out (reported)."""
+        shape = self.value[name].shape
+        if name != "t30" or self.tail_k is None:
+            return np.zeros(shape, bool)
+        with np.errstate(invalid="ignore"):
+            heavy = self.tail_k >= reliable_below(self.tail_rays)
+        out = heavy & ~np.isnan(self.value[name])
+        if self.excluded is not None and name in self.excluded:
+            out = out & ~self.excluded[name]
+        return out
 
     def _unreached(self, name: str) -> np.ndarray:
         """bool[receiver, band]: the entries of unreached receivers (undefined: no energy)."""
@@ -148,11 +170,14 @@ class Errors:
             near = (0 if self.excluded is None or name not in self.excluded
                     else int((self.excluded[name] & ~np.isnan(self.relative(name))).sum()))
             at = self.at_limit(name)
+            heavy = self.heavy_tail(name)
             entry: dict[str, Any] = {"undefined": int((self.waiting(name) & ~at).sum()),
                                      "onset_uncertain": self.onset_uncertain().tolist(),
                                      "near_source": near, "left_out": self.left_out(name),
                                      "at_limit": self._where(name, at),
                                      "unit": "relative" if JND[name][1] == "relative" else "dB"}
+            if name == "t30" and self.tail_k is not None:
+                entry["tail"] = tail_record(self.tail_k, heavy, self.tail_rays)
             if ok.any():
                 worst = np.unravel_index(np.argmax(np.where(ok, rel, -1.0)), rel.shape)
                 entry.update(max=float(rel[worst]), median=float(np.median(rel[ok])),

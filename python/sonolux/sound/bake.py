@@ -158,7 +158,8 @@ def auto_rays(scene: Scene, options: SoundOptions, arrays: dict[str, np.ndarray]
 
 def bake(scene: Scene, options: SoundOptions | None = None, *,
          progress: bool | Callable[[int, int, float], bool] = False,
-         log: Callable[[str], None] | None = None, **overrides: Any) -> SoundField:
+         log: Callable[[str], None] | None = None, tail: tuple[np.ndarray, int] | None = None,
+         **overrides: Any) -> SoundField:
     """Traces the scene's sound sources into a sound field over its receivers.
 
     ``options`` (or keyword overrides such as ``rays=100_000``, ``estimator="paper"``) set the
@@ -232,6 +233,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
     levels = sound_levels.plan(scene, arrays, log, wall_model)
+    if tail is not None and levels is None and len(runs) == 1:  # (sound/tail.py; tiles: none)
+        base = dict(base, tail_from_s=np.ravel(tail[0]).tolist(), tail_keep=int(tail[1]))
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
         """A level's bands: its sources' directivities, early settings and air."""
@@ -261,7 +264,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
                        keep_counts=options.ray_range is not None,
                        reduce=(*reduction(options, scene.settings.sample_rate_hz), groups))
     seconds = time.perf_counter() - started
-    stats = dict(out["stats"])
+    stats = dict(out["stats"], **({"tail": out["tail"]} if "tail" in out else {}))
     stats.update(seconds=seconds, rays_per_second=stats["rays"] / seconds if seconds > 0 else None,
                  segments_per_second=stats["segments"] / seconds if seconds > 0 else None,
                  mean_free_path_theory_m=4 * scene.volume_m3 / scene.area_m2,

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from sonolux.sound.field import SoundField
+from sonolux.sound.tail import describe as describe_tail
 
 #: Share of rays that may escape before a bake warns of a leak.
 LEAK_WARNING_SHARE = 0.001
@@ -118,8 +119,9 @@ def progressive_line(p: dict[str, Any]) -> str:
     unreached = "".join(f"; no energy reached receiver {u.get('label', u['receiver'])} at ("
                         + ", ".join(f"{v:g}" for v in u["position_m"]) + ") m (left out)"
                         for u in p.get("unreached", []))
+    late = describe_tail(p["errors"].get("t30", {}).get("tail"))
     return (f"  accuracy    {ended} in {len(p['rounds'])} rounds; standard error at the worst "
-            f"receiver and band: {', '.join(errors)}{unreached}")
+            f"receiver and band: {', '.join(errors)}{unreached}" + (f"; {late}" if late else ""))
 
 
 def _file_bytes_per_receiver(field: SoundField) -> int | None:

@@ -81,6 +81,8 @@ from sonolux.sound.options import SoundOptions
 from sonolux.sound.ranges import SoundRanges, SoundSum, field_of_sum
 from sonolux.sound.reach import SEALED_OR_COUPLED, reach
 from sonolux.sound.rounds import RoundSum, RoundWork, omni_bins
+from sonolux.sound.tail import describe as describe_tail
+from sonolux.sound.tail import first_round_settings, round_k, round_settings, watch_of
 from sonolux.sound.waves import with_scene
 
 #: A round's rays are whole blocks of GROUPS × BLOCK_RAYS. Equal to the core's DIRECT_BLOCK_RAYS
@@ -148,18 +150,33 @@ def first_round_rays(scene: Scene, options: SoundOptions, ceiling: int,
     return min(ceiling, _blocks(first_rays or max(rule / 8, GROUPS * FIRST_GROUP_RAYS)))
 
 
-def round_errors(scene: Scene, state: RoundSum) -> Errors:
+def round_errors(scene: Scene, state: RoundSum, target: tuple[int, int] | None = None) -> Errors:
     """The jackknife errors of a progressive bake's rays so far (near-source rule applied,
-    receivers no energy reached found: :mod:`sonolux.sound.reach`)."""
+    receivers no energy reached found: :mod:`sonolux.sound.reach`; with the round ``target``,
+    the heavy-tail diagnostic of its late contributions: :mod:`sonolux.sound.tail`)."""
     assert state.total is not None and state.groups is not None
     t = state.total.template
     errors = near_source(jackknife(state.groups.sum(axis=0, dtype=np.uint64), state.groups,
                                    *omni_bins(t, state.total.counts), slowest_decay_s(t)),
                          scene.receivers.positions_m, np.asarray(t.source_positions_m),
                          scene.volume_m3, scene.settings.speed_of_sound_m_s)
+    k = round_k(state.tail, target) if target is not None else None
     return replace(errors, reach=reach(state.groups, int(state.total.stats.get("surface_hits", 0)),
                                        scene.receivers.count, scene.receivers.radius_m,
-                                       scene.area_m2))
+                                       scene.area_m2),
+                   tail_k=k, tail_rays=0 if target is None else target[1] - target[0])
+
+
+def watched(scene: Scene, state: RoundSum, start: int, end: int
+            ) -> tuple[np.ndarray, int] | None:
+    """What the round ``start..end`` watches of its rays' late contributions (from the rays
+    before it: :func:`sonolux.sound.tail.round_settings`; the first round, from the room's
+    Eyring decay: :func:`sonolux.sound.tail.first_round_settings`)."""
+    if state.total is None or state.groups is None:
+        return first_round_settings(scene, end - start)
+    omni = state.groups.sum(axis=0, dtype=np.uint64).astype(np.float64)
+    return round_settings(omni, omni_bins(state.total.template, state.total.counts), start, end,
+                          scene.settings.threads)
 
 
 def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy | None = None, *,
@@ -221,7 +238,9 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
     while True:
         pilot_round = first_round and pilot is not None
         if not pilot_round:  # (else the pilot is this round, traced)
-            work = RoundWork(inner, start, target, GROUPS, state)
+            watch = (stopped.watch if first_round and stopped is not None
+                     else watched(scene, state, start, target))
+            work = RoundWork(inner, start, target, GROUPS, state, watch)
             state, _ = bake_ranges(work, client=client, checkpoint=side,
                                    resume=resume or not first_round,
                                    restart=restart and first_round,
@@ -230,7 +249,7 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
                                    log=log if first_round else None)
         first_round = False
         assert state.total is not None
-        errors = round_errors(scene, state)
+        errors = round_errors(scene, state, (start, target))
         worst = errors.worst_over_target(accuracy.fraction_of_jnd)
         elapsed = spent + time.perf_counter() - started
         # Rays a second of this round (the time since the last round, or the chosen pilot's own)
@@ -255,7 +274,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, accuracy: Accuracy |
             target = min(target, max(start + GROUPS * BLOCK_RAYS,
                                      _blocks(rate * accuracy.max_seconds, down=True)))
         if side is not None:  # the next round starts from here if the bake is killed now
-            Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state), state, [])
+            Checkpointing(side).save(RoundWork(inner, start, target, GROUPS, state,
+                                               watched(scene, state, start, target)), state, [])
     unreached = unreached_record(errors, scene)
     if log:
         log(f"progressive bake: {STOPPED[stop]} after {target:,} rays in {len(state.rounds)} "
@@ -326,6 +346,7 @@ class Stopped:
     target: tuple[int, int] | None = None
     rounds: list[dict[str, Any]] = default_of(default_factory=list)
     choice: dict[str, Any] | None = None
+    watch: tuple[np.ndarray, int] | None = None
 
 
 def _where_it_stopped(side: Path) -> Stopped:
@@ -337,7 +358,7 @@ def _where_it_stopped(side: Path) -> Stopped:
         choice = meta.get("choice")
         return Stopped((int(meta["target"][0]), int(meta["target"][1])), list(meta["rounds"]),
                        dict(choice) if isinstance(choice, dict) and "chosen" in choice
-                       else None)
+                       else None, watch_of(meta.get("watch")))
     except (checkpoints.CheckpointError, KeyError, TypeError, ValueError, OSError):
         return Stopped()
 
@@ -412,6 +433,9 @@ def _describe(errors: Errors, fraction: float) -> str:
                      + ", ".join(f"#{r} ({errors.onset_s[r] * 1e3:.1f} ms; "
                                  f"{errors.supported_onset_s[r] * 1e3:.1f} ms in every group)"
                                  for r in uncertain) + ": counted in their errors")
+    tail = describe_tail(errors.summary()["t30"].get("tail"))
+    if tail:
+        parts.append(tail)
     near = max(s.get("near_source", 0) for s in errors.summary().values())
     if near:
         parts.append(f"decay times of {near} receiver-bands nearer a source than ISO 3382's "
@@ -493,11 +517,12 @@ def choose(scene: Scene, options: SoundOptions, accuracy: Accuracy, *,
             options.nee_receivers)
         started = time.perf_counter()
         state, _ = bake_ranges(RoundWork(SoundRanges(scene, replace(trial, rays=ceiling)), 0,
-                                         rays, GROUPS, RoundSum()))
+                                         rays, GROUPS, RoundSum(),
+                                         first_round_settings(scene, rays)))
         seconds = time.perf_counter() - started
         assert state.total is not None
         stats = state.total.stats
-        q = projection(round_errors(scene, state), accuracy.fraction_of_jnd)
+        q = projection(round_errors(scene, state, (0, rays)), accuracy.fraction_of_jnd)
         work = counted_work(stats)
         measured[name] = {
             "rays": rays, "seconds": seconds, "work": work, "projection": q,

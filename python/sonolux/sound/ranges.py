@@ -118,16 +118,17 @@ class SoundRanges:
         return ranges.loaded_scene(self.scene, self.stamp["scene"], threads)
 
     def trace(self, first: int, end: int, threads: int | None = None,
-              progress: ranges.Progress | None = None) -> SoundSum:
+              progress: ranges.Progress | None = None, tail: Any = None) -> SoundSum:
         # The rays alone; the waves are added once, to the whole field (finish). The rays keep
-        # the wall model the hybrid chose (the waves' wall: sound/walls.py).
+        # the wall model the hybrid chose (the waves' wall: sound/walls.py). ``tail``: the late
+        # contributions a progressive round watches (sound/tail.py), in the stats as "tail".
         scene = self.loaded_scene(threads)
         options = replace(self.options, ray_range=(first, end),
                           max_field_bytes=self.max_field_bytes,
                           memory_bytes=getattr(self, "memory_bytes", None), waves=False,
                           crossover_hz=None,
                           wall_model=walls.resolve(scene, self.options)[0])
-        return SoundSum.of(bake_whole(scene, options, progress=progress))
+        return SoundSum.of(bake_whole(scene, options, progress=progress, tail=tail))
 
     def add(self, total: SoundSum | None, part: SoundSum) -> SoundSum:
         return part if total is None else total.add(part)

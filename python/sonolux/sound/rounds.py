@@ -22,6 +22,7 @@ from sonolux.checkpoint import fingerprint
 from sonolux.memory import check_memory
 from sonolux.sound.compact import CompactArray
 from sonolux.sound.ranges import SoundRanges, SoundSum, decode_sum, encode_sum
+from sonolux.sound.tail import TailSum, of_core, watch_record
 
 Range = tuple[int, int]
 
@@ -32,33 +33,40 @@ class RoundSum:
     ``groups`` (uint64[group, receiver, band, time], direction-summed; None before the first
     ray), ``rounds`` (what each finished round reached, for the record) and ``choice`` (the
     automatic estimator's record, :func:`sonolux.sound.progressive.choose`: kept in the
-    checkpoint so that a resumed bake continues with it and traces no pilot again)."""
+    checkpoint so that a resumed bake continues with it and traces no pilot again), ``tail``
+    the largest late contributions of the round's rays so far (:mod:`sonolux.sound.tail`; None
+    where the round is not watched)."""
 
     total: SoundSum | None = None
     groups: np.ndarray | None = None
     rounds: list[dict[str, Any]] = field(default_factory=list)
     choice: dict[str, Any] | None = None
+    tail: TailSum | None = None
 
 
 @dataclass
 class RoundPart:
-    """What one traced range adds: its counts and, per group it touched, its omni counts."""
+    """What one traced range adds: its counts, per group it touched its omni counts, and the
+    largest late contributions of its rays (when watched)."""
 
     total: SoundSum
     by_group: dict[int, np.ndarray]
+    tail: TailSum | None = None
 
 
 class RoundWork:
     """Rays ``start..end`` of the bake ``inner`` (a SoundRanges of ``nominal`` rays), added to
-    ``carry`` (the rounds before; a fresh RoundSum for the first)."""
+    ``carry`` (the rounds before; a fresh RoundSum for the first). ``tail``: (from_s
+    float64[receiver, band], kept per entry) of the late contributions the core keeps
+    (:func:`sonolux.sound.tail.round_settings`), or None."""
 
     unit = "rays"
 
     def __init__(self, inner: SoundRanges, start: int, end: int, groups: int,
-                 carry: RoundSum) -> None:
+                 carry: RoundSum, tail: tuple[np.ndarray, int] | None = None) -> None:
         if (end - start) % groups:
             raise ValueError("a round must split into equal groups")
-        self.inner, self.groups, self.carry = inner, groups, carry
+        self.inner, self.groups, self.carry, self.tail = inner, groups, carry, tail
         self.kind, self.name = inner.kind, f"{inner.name}, round {len(carry.rounds) + 1}"
         self.total = inner.total
         self.target: Range = (start, end)
@@ -87,14 +95,19 @@ class RoundWork:
               progress: ranges.Progress | None = None) -> RoundPart:
         total: SoundSum | None = None
         by_group: dict[int, np.ndarray] = {}
+        tail: TailSum | None = None
         for a, b in self.cuts(first, end):
-            part = self.inner.trace(a, b, threads, _offset(progress, a - first))
+            part = self.inner.trace(a, b, threads, _offset(progress, a - first), tail=self.tail)
+            late = part.stats.pop("tail", None)
+            if late is not None and self.tail is not None:
+                t = of_core(late, self.tail[0].shape, self.target)
+                tail = t if tail is None else tail.add(t)
             omni = omni_counts(part.counts)
             g = self.group_of(a)
             by_group[g] = omni if g not in by_group else by_group[g] + omni
             total = part if total is None else total.add(part)
         assert total is not None
-        return RoundPart(total, by_group)
+        return RoundPart(total, by_group, tail)
 
     def add(self, total: RoundSum | None, part: RoundPart) -> RoundSum:
         out = self.carry if total is None else total
@@ -105,6 +118,9 @@ class RoundWork:
                              f"{self.groups} groups of {omni.nbytes:,} bytes")
                 out.groups = np.zeros((self.groups, *omni.shape), np.uint64)
             out.groups[g] += omni
+        if part.tail is not None:
+            fresh = out.tail is None or out.tail.target != self.target
+            out.tail = part.tail if fresh or out.tail is None else out.tail.add(part.tail)
         return out
 
     def encode(self, total: RoundSum) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -114,14 +130,26 @@ class RoundWork:
                                              "choice": total.choice}}
         if total.groups is not None:
             arrays = dict(arrays, groups=total.groups)
+        if self.tail is not None:  # what this round watches: a resumed round watches it too
+            meta["progressive"]["watch"] = watch_record(self.tail)
+        if total.tail is not None:
+            meta["progressive"]["tail_target"] = list(total.tail.target)
+            arrays = dict(arrays, tail_values=total.tail.values,
+                          tail_contributing=total.tail.contributing)
         return meta, arrays
 
     def decode(self, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> RoundSum:
-        inner = {k: v for k, v in arrays.items() if k != "groups"}
+        inner = {k: v for k, v in arrays.items() if k != "groups" and not k.startswith("tail_")}
         total = decode_sum(meta["sum"], inner) if meta["sum"] else None
         groups = np.array(arrays["groups"], np.uint64) if "groups" in arrays else None
         progressive = meta["progressive"]
-        return RoundSum(total, groups, list(progressive["rounds"]), progressive.get("choice"))
+        tail = None
+        if "tail_values" in arrays and "tail_target" in progressive:
+            start, end = progressive["tail_target"]
+            tail = TailSum((int(start), int(end)), np.array(arrays["tail_values"], np.float64),
+                           np.array(arrays["tail_contributing"], np.uint64))
+        return RoundSum(total, groups, list(progressive["rounds"]), progressive.get("choice"),
+                        tail)
 
     def finish(self, total: RoundSum | None, done: list[Range]) -> RoundSum:
         del done

@@ -59,6 +59,8 @@ def trace_tiles(scene: Scene, *, geometry_args: tuple[Any, Any, Any, Any], runs:
         positions, scene.receivers.radius_m, patterns)))
     # With levels, SOFA channels take each band group's own gains (per-level receivers).
     banded = None if levels is None else banded_patterns(scene)
+    if memory.tiles > 1:  # a progressive round's late tail is watched untiled only (tail.py)
+        base = {k: v for k, v in base.items() if not k.startswith("tail_")}
     for k, lo in enumerate(range(0, n, size)):
         hi = min(lo + size, n)
         receivers = engine.Receivers(np.ascontiguousarray(positions[lo:hi]),

@@ -30,6 +30,7 @@ pub mod stats;
 mod leave;
 mod nearest;
 mod settings;
+pub mod tail;
 mod trace;
 
 use std::sync::Arc;
@@ -50,6 +51,7 @@ pub use reflectance::{WallModel, Walls};
 pub use scattering::ScatteringByAngle;
 pub use settings::{field_bytes_per_cell, SoundSettings, FIELD_BYTES_PER_CELL, MAX_THREADS};
 pub use stats::SoundStats;
+pub use tail::{Tail, TailSettings};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Estimator {
@@ -157,6 +159,8 @@ pub struct SoundResult {
     pub field: Accumulator,
     pub stats: SoundStats,
     pub cancelled: bool,
+    /// The largest per-ray late contributions, when [`Extras::tail`] asked for them.
+    pub tail: Option<Tail>,
 }
 
 impl SoundResult {
@@ -315,6 +319,9 @@ pub struct Extras<'a> {
     /// both planes of a pair loses that pair's grazing mode's energy along its path instead of
     /// its own absorption at their hits. None: off.
     pub grazing_modes: Option<&'a GrazingModes>,
+    /// A progressive bake's heavy-tail diagnostic ([`tail`]): the largest per-ray late
+    /// contributions of each receiver and band. None: off (the tracer tests one `Option`).
+    pub tail: Option<&'a TailSettings>,
 }
 
 /// The fixed-point quantum (J/m² a count) of a bake of these sources into these receivers: set
@@ -443,13 +450,18 @@ pub fn trace_sound_with(
     };
     let n = settings.end_ray - settings.first_ray;
     let traced_sources = if settings.only_source.is_some() { 1 } else { sources.len() };
+    if let Some(t) = extras.tail {
+        if t.from_s.len() != receivers.len() * nb || t.keep == 0 || t.from_s.iter().any(|s| s.is_nan()) {
+            return Err(CoreError::invalid("tail", format!("{} start times (one a receiver and band, not NaN) and at least one kept value expected; got {} and {}", receivers.len() * nb, t.from_s.len(), t.keep)));
+        }
+    }
     let huge = field::huge_pages_pay(n * traced_sources as u64, receivers.len(), layout.cells() * field::band_stride(nb));
     let field = Accumulator::for_bands(layout.cells(), nb, quantum, huge);
     let (workers, cancelled) = run_chunks(
         n,
         chunk_size(settings.estimator, receivers.len()),
         settings.threads,
-        || trace::Worker::new(nb, receivers.len()),
+        || trace::Worker::new(nb, receivers.len()).watching(extras.tail, nb),
         |worker, range| {
             // The chunk's rays, source by source, one after another (trace::trace_rays).
             let traced = (0..sources.len()).filter(|&s| settings.only_source.is_none_or(|k| k == s));
@@ -465,5 +477,6 @@ pub fn trace_sound_with(
     }
     // (The rains' exact direct sound is deposited by the rays, a share a block: direct::direct_share.)
     stats.finish();
-    Ok(SoundResult { layout, field, stats, cancelled })
+    let tail = extras.tail.map(|t| tail::merged(workers.into_iter().filter_map(|w| w.scratch.tail), t.from_s.len(), t.keep));
+    Ok(SoundResult { layout, field, stats, cancelled, tail })
 }

@@ -18,9 +18,8 @@ use crate::sampling::{cosine_hemisphere, Frame};
 /// A ray that reflects this often is stopped whatever its energy (a guard, not a setting).
 const MAX_REFLECTIONS: u64 = 1_000_000;
 
-/// A ray's values per band: an array for the band counts the kernel is compiled for (held in
-/// the ray itself, its length known to the compiler: no pointer to follow, no bounds check),
-/// a `Vec` for any other count.
+/// A ray's values per band: an array for the band counts the kernel is compiled for (held in the ray
+/// itself, its length known to the compiler: no pointer to follow, no bounds check), a `Vec` for any other.
 trait Bands: AsRef<[f64]> + AsMut<[f64]> {
     fn zeros(n_bands: usize) -> Self;
 }
@@ -38,9 +37,8 @@ impl Bands for Vec<f64> {
     }
 }
 
-/// A ray being traced: everything that carries from one of its segments to the next. A
-/// batch of rays reuses one (no allocation per ray). (Several rays in flight a worker were
-/// measured no faster: docs/bvh-measured.md, "Rays in flight".)
+/// A ray being traced: everything that carries from one of its segments to the next. A batch of rays
+/// reuses one (no allocation per ray; several in flight a worker measured no faster: docs/bvh-measured.md).
 struct RayState<B: Bands> {
     source: usize,
     index: u64,
@@ -105,9 +103,8 @@ impl<B: Bands> RayState<B> {
     }
 }
 
-/// A worker's scratch, shared by its rays (one segment is traced at a time): one value a band
-/// or a receiver, sized once.
-struct Scratch {
+/// A worker's scratch, shared by its rays (one segment is traced at a time), sized once.
+pub(super) struct Scratch {
     /// One entry a receiver, for [`super::Receivers::crossings`].
     stamp: Vec<u64>,
     /// Per band: a deposit being built, and a receiver pattern's gains.
@@ -118,10 +115,10 @@ struct Scratch {
     scattering: Vec<f64>,
     /// Per band: a described surface's scattering at the angle a ray meets it (scattering.rs).
     by_angle: Vec<f64>,
-    /// Per band: a surface's absorption at the angle a ray meets it (locally reacting walls),
-    /// and 1 − that.
+    /// Per band: a surface's absorption at the angle a ray meets it (locally reacting walls), and 1 − that.
     absorption: Vec<f64>,
     kept: Vec<f64>,
+    pub(super) tail: Option<super::tail::RayTail>, // a progressive bake's late contributions (tail.rs)
 }
 
 /// What one worker thread owns while it traces: its statistics, its batch of deposits and its
@@ -129,7 +126,7 @@ struct Scratch {
 pub(crate) struct Worker {
     pub stats: SoundStats,
     pub deposits: Deposits,
-    scratch: Scratch,
+    pub(super) scratch: Scratch,
 }
 
 impl Worker {
@@ -146,6 +143,7 @@ impl Worker {
                 by_angle: vec![0.0; n_bands],
                 absorption: vec![0.0; n_bands],
                 kept: vec![0.0; n_bands],
+                tail: None,
             },
         }
     }
@@ -272,6 +270,7 @@ fn trace_rays_for<const NB: usize, B: Bands, const PLAIN: bool, Q: Nearest>(scen
             }
         }
         finish_ray(&ray, &limits, st);
+        if let Some(t) = &mut scratch.tail { t.end_ray(s, index) } // tail.rs: off unless asked for
     }
 }
 
@@ -468,7 +467,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
     let lay = &scene.layout;
     let nb = limits.nb();
     let (e, dir, share) = (&ray.energy.as_ref()[..nb], ray.dir, ray.share);
-    let Scratch { stamp, deposit, gain, .. } = scratch;
+    let Scratch { stamp, deposit, gain, tail, .. } = scratch;
     let deposit = &mut deposit[..nb];
     let seg_id = st.segments;
     let mut deposits = 0u64;
@@ -509,6 +508,7 @@ fn deposit_crossings<const NB: usize, B: Bands, const PLAIN: bool>(scene: &Scene
         let cell = lay.cell(c.receiver as usize, tb, *direction.get_or_insert_with(|| lay.direction_bin(-dir)));
         let u = keyed_uniform_of_ray(ray.key, set.first_receiver + c.receiver as u64, 2 * ray.segments);
         acc.deposit(buf, cell, &deposit[..nb], u);
+        if let Some(t) = tail.as_mut() { t.deposit(c.receiver, time_s, &deposit[..nb]) }
         deposits += 1;
     });
     st.deposits += deposits;
