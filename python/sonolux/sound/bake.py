@@ -233,7 +233,8 @@ def bake(scene: Scene, options: SoundOptions | None = None, *,
     if scene.early is not None:
         early = early_sound.early_settings(scene, scene.early, arrays["air"], log)
     levels = sound_levels.plan(scene, arrays, log, wall_model)
-    if tail is not None and levels is None and len(runs) == 1:  # (sound/tail.py; tiles: none)
+    if tail is not None and levels is None and len(runs) == 1 and \
+            np.shape(tail[0]) == (scene.receivers.count, acoustics.n_bands):  # sound/tail.py
         base = dict(base, tail_from_s=np.ravel(tail[0]).tolist(), tail_keep=int(tail[1]))
 
     def parts(b: slice) -> tuple[Any, Any, Any]:
