@@ -42,6 +42,7 @@ def test_a_lognormal_tail_looks_heavier_the_wider_it_is():
 
 def test_too_few_contributions_give_no_fit_and_zeros_count_as_draws():
     assert np.isnan(tail.pareto_k(np.array([3.0, 2.0, 1.0]), 10_000))
+    assert np.isnan(tail.pareto_ks(np.zeros((1, 2, 0)), 10_000)).all()  # no late energy at all
     # 40 positive draws among 10,000: the threshold is 0 and the fit uses all 40.
     top = np.sort(np.random.default_rng(1).pareto(2.0, 40) + 1.0)[::-1]
     assert np.isfinite(tail.pareto_k(top, 10_000))

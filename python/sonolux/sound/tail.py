@@ -126,6 +126,8 @@ def pareto_k(largest: np.ndarray, rays: int) -> float:
 
 def pareto_ks(largest: np.ndarray, rays: int) -> np.ndarray:
     """:func:`pareto_k` of every entry: ``largest`` float64[receiver, band, kept]."""
+    if largest.shape[-1] == 0:  # no ray had late energy anywhere: nothing to fit
+        return np.full(largest.shape[:-1], np.nan)
     flat = largest.reshape(-1, largest.shape[-1])
     return np.array([pareto_k(row, rays) for row in flat]).reshape(largest.shape[:-1])
 
