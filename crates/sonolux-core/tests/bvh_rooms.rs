@@ -129,7 +129,6 @@ fn the_327k_benchmark_meshes_agree_with_brute_force() {
 /// rounding (an absolute bound of t's error, as pbrt's robust triangle test computes, Pharr,
 /// Jakob & Humphreys, *Physically Based Rendering* 3rd ed. §3.9.6) would cost every node test.
 #[test]
-#[test]
 fn known_disagreement_occluded_at_a_hit_within_its_rounding() {
     let room = rooms::l_room();
     let r = oracle::ray_from_bits([0x408e5a76, 0x37800000, 0x404ccccc], [0xbf34efd5, 0x3f1d63d6, 0x3eb32dbe]);
@@ -151,7 +150,6 @@ fn known_disagreement_occluded_at_a_hit_within_its_rounding() {
 /// the origin and is culled, so they report none (the compressed trees' boxes, rounded outward,
 /// contain the origin and report the hit).
 #[test]
-#[test]
 fn known_disagreement_closest_hit_from_one_ulp_beyond_a_plane() {
     let room = rooms::l_room();
     let r = oracle::ray_from_bits([0x37800000, 0x4040f575, 0x404cccce], [0x3ed6b026, 0xbf3483aa, 0x3f1261ed]);
@@ -169,7 +167,6 @@ fn known_disagreement_closest_hit_from_one_ulp_beyond_a_plane() {
 /// of the triangle test (the exact t is negative); the hull tree on full nodes culls the
 /// ceiling's flat box, which lies behind the origin, and reports the floor at t = 4.13 (the
 /// geometrically right answer). The SAH tree and the compressed nodes agree with brute force.
-#[test]
 #[test]
 fn known_disagreement_spurious_hit_at_a_wall_ceiling_edge() {
     let room = rooms::furnished();
@@ -205,7 +202,6 @@ fn assert_known((all, wrong): (Vec<String>, Vec<String>), expected: impl Fn(&str
 /// test's t is ~13 ulps off the exact 1 here (its absolute error grows with the wall's extent,
 /// metres, over the ray's length, 0.71), more than the 1 + 2γ₃ by which the walk widens its
 /// clip to the nearest hit, so the wall's box, entered at ≈ 1, is culled after the floor's hit.
-#[test]
 #[test]
 fn known_disagreement_shared_edge_of_a_large_room() {
     let room = rooms::shoebox();
