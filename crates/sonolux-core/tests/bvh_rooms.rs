@@ -151,13 +151,8 @@ fn known_disagreement_occluded_at_a_hit_within_its_rounding() {
 /// contain the origin and report the hit).
 #[test]
 fn known_disagreement_closest_hit_from_one_ulp_beyond_a_plane() {
-    let room = rooms::l_room();
     let r = oracle::ray_from_bits([0x37800000, 0x4040f575, 0x404cccce], [0x3ed6b026, 0xbf3483aa, 0x3f1261ed]);
-    let hit = oracle::brute_force(&room.mesh, &r);
-    assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((6, 1.288269e-7)));
-    assert!(1.288269e-7 < oracle::origin_rounding_m(&room.mesh, &r, 6));
-    let wrong = trees_where(&room.mesh, |bvh| bvh.closest_hit(&r, 0.0, f32::INFINITY) != hit);
-    assert_known(wrong, |name| name.contains("Full nodes"));
+    assert_known_hit_near_origin(&rooms::l_room(), &r, (6, 1.288269e-7), |name| name.contains("Full nodes"));
 }
 
 /// The same cause where the tracer can meet it (session 14: 1 of the 1,000,000 leaving rays of
@@ -169,13 +164,17 @@ fn known_disagreement_closest_hit_from_one_ulp_beyond_a_plane() {
 /// geometrically right answer). The SAH tree and the compressed nodes agree with brute force.
 #[test]
 fn known_disagreement_spurious_hit_at_a_wall_ceiling_edge() {
-    let room = rooms::furnished();
     let r = oracle::ray_from_bits([0x40364db8, 0x37800000, 0x40333332], [0xbf2f0155, 0x3e89dd22, 0xbf2da8cc]);
-    let hit = oracle::brute_force(&room.mesh, &r);
-    assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((3, 2.1967203e-7)));
-    assert!(2.1967203e-7 < oracle::origin_rounding_m(&room.mesh, &r, 3));
-    let wrong = trees_where(&room.mesh, |bvh| bvh.closest_hit(&r, 0.0, f32::INFINITY) != hit);
-    assert_known(wrong, |name| name.starts_with("built") && name.contains("Full nodes"));
+    assert_known_hit_near_origin(&rooms::furnished(), &r, (3, 2.1967203e-7), |name| name.starts_with("built") && name.contains("Full nodes"));
+}
+
+/// Brute force's closest hit of `r` is `(triangle, t)`, within the triangle test's rounding of
+/// the origin, and exactly the trees `expected` names answer otherwise.
+fn assert_known_hit_near_origin(room: &Room, r: &Ray, (triangle, t): (u32, f32), expected: impl Fn(&str) -> bool) {
+    let hit = oracle::brute_force(&room.mesh, r);
+    assert_eq!(hit.map(|h| (h.triangle, h.t)), Some((triangle, t)));
+    assert!(t < oracle::origin_rounding_m(&room.mesh, r, triangle));
+    assert_known(trees_where(&room.mesh, |bvh| bvh.closest_hit(r, 0.0, f32::INFINITY) != hit), expected);
 }
 
 /// The names of every tree of `mesh` (`oracle::every_tree`), and of those on which `differs` holds.
